@@ -1,0 +1,240 @@
+"""`drake-tooluse`: the command line. Every command takes `--json` for scripts."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO_DIR = Path(__file__).resolve().parent.parent
+DIAGRAMS_DIR = REPO_DIR / "diagrams"
+DEFAULT_SCENARIO = DIAGRAMS_DIR / "push.yaml"
+
+
+class UsageError(ValueError):
+    """Bad input at the command line."""
+
+
+def _tool_length(args) -> float | None:
+    from drake_tooluse.scenario import check_tool_length
+
+    if args.no_tool:
+        if args.tool_length is not None:
+            raise UsageError("give either --tool-length or --no-tool, not both")
+        return None
+    if args.tool_length is None:
+        raise UsageError("give --tool-length L (m, in (0, 0.60]) or --no-tool")
+    return check_tool_length(args.tool_length, "--tool-length")
+
+
+def _add_tool_args(p) -> None:
+    p.add_argument("--tool-length", type=float, metavar="L",
+                   help="tool length in m, in (0, 0.60]")
+    p.add_argument("--no-tool", action="store_true", help="the tip frame is the gripper frame")
+
+
+def _pose_dict(X) -> dict:
+    from pydrake.math import RollPitchYaw
+
+    return {"position_m": X.translation().tolist(),
+            "quaternion_wxyz": X.rotation().ToQuaternion().wxyz().tolist(),
+            "rpy_rad": RollPitchYaw(X.rotation()).vector().tolist()}
+
+
+def cmd_fk(args) -> dict:
+    from drake_tooluse.ik import ToolTipIK
+
+    length = _tool_length(args)
+    ik = ToolTipIK(length, library_size=1)
+    q = ik.check_q(args.q, "--q")
+    return {"tool_length_m": length, "q": q.tolist(), "tip": _pose_dict(ik.fk(q)),
+            "gripper": _pose_dict(ik.fk_gripper(q))}
+
+
+def _target_pose(args):
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    from drake_tooluse.validation import check_finite_vector, check_unit_quaternion
+
+    p = check_finite_vector(args.position, 3, "--position")
+    if args.quaternion is not None:
+        if args.rpy is not None:
+            raise UsageError("give either --rpy or --quaternion, not both")
+        return RigidTransform(Quaternion(check_unit_quaternion(args.quaternion, "--quaternion")),
+                              p)
+    rpy = check_finite_vector(args.rpy if args.rpy is not None else [np.pi, 0.0, np.pi / 2], 3,
+                              "--rpy")
+    return RigidTransform(RollPitchYaw(rpy), p)
+
+
+def cmd_ik(args) -> dict:
+    from drake_tooluse.ik import ToolTipIK
+
+    length = _tool_length(args)
+    X = _target_pose(args)
+    ik = ToolTipIK(length)
+    seed = None if args.seed_q is None else ik.check_q(args.seed_q, "--seed-q")
+    result = ik.solve(X, seed)
+    out = {"tool_length_m": length, "target": _pose_dict(X)}
+    out.update(result.as_dict())
+    return out
+
+
+def _parse_waypoint(text: str):
+    from pydrake.math import RigidTransform, RollPitchYaw
+
+    from drake_tooluse.scene import TOOL_DOWN_RPY
+
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise UsageError(f"waypoint {text!r} is not 'x,y,z' or 'x,y,z,roll,pitch,yaw' "
+                         "(m, rad)") from None
+    if len(values) not in (3, 6) or not np.all(np.isfinite(values)):
+        raise UsageError(f"waypoint {text!r} needs 3 (x,y,z m) or 6 (x,y,z m, roll,pitch,yaw "
+                         "rad) finite numbers")
+    rpy = values[3:] if len(values) == 6 else TOOL_DOWN_RPY
+    return RigidTransform(RollPitchYaw(rpy), values[:3])
+
+
+def _scenario(args):
+    from drake_tooluse.scenario import load_scenario, with_tool_length
+
+    scenario = load_scenario(args.scenario)
+    if args.tool_length is not None:
+        scenario = with_tool_length(scenario, args.tool_length)
+    return scenario
+
+
+def cmd_simulate(args) -> dict:
+    from drake_tooluse.simulation import simulate_waypoints
+
+    scenario = _scenario(args)
+    waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
+    start = time.perf_counter()
+    run = simulate_waypoints(scenario, waypoints, move_time=args.move_time, dwell=args.dwell,
+                             believed_tool_length=args.believed_tool_length, record=args.record)
+    errors = [r.position_error for r in run.results]
+    return {"scenario": str(args.scenario), "tool_length_m": scenario.tool.length,
+            "believed_tool_length_m": args.believed_tool_length or scenario.tool.length,
+            "waypoints": [r.as_dict() for r in run.results],
+            "max_position_error_m": max(errors), "mean_position_error_m": float(np.mean(errors)),
+            "sim_time_s": run.sim_time, "wall_time_s": time.perf_counter() - start,
+            "recording": str(run.recording) if run.recording else None}
+
+
+def cmd_generate_models(args) -> dict:
+    from drake_tooluse.baxter_model import baxter_urdf, write_models
+
+    target = REPO_DIR / "models" / "baxter" / "baxter.urdf"
+    if args.check:
+        current = target.is_file() and target.read_text() == baxter_urdf()
+        if not current:
+            raise UsageError(f"{target} is out of date; run `drake-tooluse generate-models`")
+        return {"current": True, "path": str(target)}
+    return {"written": str(write_models(REPO_DIR / "models"))}
+
+
+def cmd_render_diagrams(args) -> dict:
+    from drake_tooluse.diagrams import render_all
+
+    return render_all(DIAGRAMS_DIR, check=args.check)
+
+
+def _print_human(name: str, out: dict) -> None:
+    if name == "fk":
+        t = out["tip"]
+        print(f"tool tip in world: position {np.round(t['position_m'], 5).tolist()} m, "
+              f"quaternion wxyz {np.round(t['quaternion_wxyz'], 5).tolist()}, "
+              f"rpy {np.round(t['rpy_rad'], 5).tolist()} rad")
+    elif name == "ik":
+        print(f"success {out['success']}  q {np.round(out['q'], 5).tolist()} rad")
+        print(f"tip error {out['position_error_m'] * 1e3:.4g} mm, "
+              f"{out['orientation_error_rad']:.3g} rad; solve {out['solve_time_s'] * 1e3:.2f} ms"
+              f" ({out['attempts']} attempt(s))")
+    elif name == "simulate":
+        for i, w in enumerate(out["waypoints"]):
+            print(f"waypoint {i}: target {np.round(w['target_m'], 4).tolist()} m, "
+                  f"tip error {w['position_error_m'] * 1e3:.3f} mm, "
+                  f"{w['orientation_error_rad']:.2e} rad, IK ok {w['ik_success']}")
+        print(f"max tip error {out['max_position_error_m'] * 1e3:.3f} mm; "
+              f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
+        if out["recording"]:
+            print(f"recording: {out['recording']}")
+    else:
+        print(json.dumps(out, indent=2))
+
+
+COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
+            "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams}
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="drake-tooluse", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("fk", help="tool-tip pose in the world at given right-arm joint angles")
+    _add_tool_args(p)
+    p.add_argument("--q", type=float, nargs="+", required=True, metavar="RAD",
+                   help="7 right-arm joint angles s0 s1 e0 e1 w0 w1 w2 (rad)")
+
+    p = sub.add_parser("ik", help="joint angles that put the tool tip at a pose")
+    _add_tool_args(p)
+    p.add_argument("--position", type=float, nargs="+", required=True, metavar="M",
+                   help="tip position x y z in the world (Baxter base) frame, m")
+    p.add_argument("--rpy", type=float, nargs="+", metavar="RAD",
+                   help="tip orientation roll pitch yaw, rad (default: tool pointing down)")
+    p.add_argument("--quaternion", type=float, nargs="+", metavar="Q",
+                   help="tip orientation as a quaternion w x y z (instead of --rpy)")
+    p.add_argument("--seed-q", type=float, nargs="+", metavar="RAD",
+                   help="warm start: 7 joint angles (rad)")
+
+    p = sub.add_parser("simulate", help="move the tool tip through waypoints in the dynamic "
+                                        "simulation with the IK in the loop")
+    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="scenario YAML")
+    p.add_argument("--tool-length", type=float, metavar="L",
+                   help="override the scenario's true tool length (m)")
+    p.add_argument("--believed-tool-length", type=float, metavar="L",
+                   help="tool length the robot model believes (m); default the true one")
+    p.add_argument("--tip-waypoints", nargs="+", required=True, metavar="X,Y,Z[,R,P,Y]",
+                   help="tip waypoints in m (and rad); the tool points down if no rpy")
+    p.add_argument("--move-time", type=float, default=1.0, help="s per move (default 1.0)")
+    p.add_argument("--dwell", type=float, default=1.5, help="s held at each waypoint (1.5)")
+    p.add_argument("--record", type=Path, metavar="HTML",
+                   help="write a Meshcat recording (standalone HTML)")
+
+    p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
+    p.add_argument("--check", action="store_true", help="only check it is current")
+
+    p = sub.add_parser("render-diagrams", help="render each diagram's block diagram to "
+                                               "diagrams/*.dot and .svg")
+    p.add_argument("--check", action="store_true", help="only check the .dot files are current")
+
+    for p in sub.choices.values():
+        p.add_argument("--json", action="store_true", help="print JSON")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = make_parser().parse_args(argv)
+    try:
+        out = COMMANDS[args.command](args)
+    except (ValueError, FileNotFoundError) as e:
+        if getattr(args, "json", False):
+            print(json.dumps({"error": str(e)}))
+        print(f"drake-tooluse {args.command}: error: {e}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(out, indent=2))
+    else:
+        _print_human(args.command, out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,187 @@
+"""Typed scenario: everything that defines a world, loaded from YAML with `yaml_load_typed`.
+
+A typo in a YAML key is an error that names the key (Drake's typed loader), and every value is
+range-checked by `validate_scenario` where it enters, with an error naming the value and the
+allowed range.
+
+Frames and units: the world frame W is Baxter's `base` frame (x forward, y left, z up); SI units.
+"""
+
+# No `from __future__ import annotations`: Drake's YAML loader reads the field types.
+import dataclasses as dc
+import math
+from pathlib import Path
+
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+
+from drake_tooluse.validation import (
+    check_finite_vector,
+    check_in_range,
+    check_one_of,
+    check_positive,
+)
+
+TOOL_LENGTH_RANGE = (0.0, 0.60)  # exclusive lower bound, inclusive upper bound (m)
+TOOL_RADIUS_RANGE = (0.002, 0.0125)  # the closed fingers leave 12.5 mm either side (m)
+CONTACT_MODELS = ("point", "hydroelastic_with_fallback")
+# The paper's two tools (m).
+PAPER_TOOL_LENGTHS = (0.125, 0.175)
+
+
+@dc.dataclass
+class ToolConfig:
+    """A straight rod gripped at one end.
+
+    `length` runs from the grasp point (the `right_gripper` frame origin, between the fingertips)
+    to the tip. With zero grasp offsets the tool axis is +z of `right_gripper`.
+    """
+
+    length: float = 0.175
+    radius: float = 0.008
+    mass: float = 0.05
+    # Where the hand really holds the tool (truth only; the robot believes both are 0):
+    # along the tool axis (+ pushes the tip further out) and across it (along gripper x).
+    grasp_offset_along: float = 0.0
+    grasp_offset_across: float = 0.0
+    # Length of each orange marker band, at the grip end and at the tip (m).
+    marker_length: float = 0.012
+
+
+@dc.dataclass
+class BoxConfig:
+    """The wooden box the robot pushes."""
+
+    size: list[float] = dc.field(default_factory=lambda: [0.05, 0.05, 0.05])
+    mass: float = 0.2
+    friction: float = 0.4
+    # Initial position of the box centre in W; z is set so the box rests on the table when
+    # `on_table` is true.
+    position: list[float] = dc.field(default_factory=lambda: [0.70, -0.25, 0.0])
+    yaw: float = 0.0
+    on_table: bool = True
+
+
+@dc.dataclass
+class TableConfig:
+    top_z: float = -0.20
+    center_xy: list[float] = dc.field(default_factory=lambda: [0.75, 0.0])
+    size_xy: list[float] = dc.field(default_factory=lambda: [0.70, 1.40])
+    thickness: float = 0.04
+    friction: float = 0.4
+
+
+@dc.dataclass
+class PlantConfig:
+    time_step: float = 0.005
+    contact_model: str = "point"
+
+
+@dc.dataclass
+class ControlConfig:
+    """Joint PD gains of the seven right-arm joints (s0 … w2) and the control period."""
+
+    kp: list[float] = dc.field(
+        default_factory=lambda: [1500.0, 1500.0, 800.0, 800.0, 200.0, 200.0, 100.0])
+    kd: list[float] = dc.field(
+        default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
+    control_period: float = 0.04
+
+
+@dc.dataclass
+class RobotConfig:
+    # Home: the tool tip this high above the table top at this (x, y), pointing down. The
+    # initial joint angles are solved for by IK, warm-started from `posture_seed`, so the arm
+    # starts in the same posture whatever the tool length.
+    home_tip_xy: list[float] = dc.field(default_factory=lambda: [0.62, -0.30])
+    home_tip_height: float = 0.10
+    # Right-arm joint angles s0 … w2 (rad) of a comfortable posture near home.
+    posture_seed: list[float] = dc.field(
+        default_factory=lambda: [0.712, -1.106, 0.005, 1.75, -0.003, 0.927, 1.504])
+    # The left arm is welded at this pose (s0 … w2), rad: tucked beside the body.
+    left_arm_q: list[float] = dc.field(
+        default_factory=lambda: [-0.6, -1.0, 0.0, 2.0, 0.0, 0.6, 0.0])
+
+
+@dc.dataclass
+class Scenario:
+    tool: ToolConfig = dc.field(default_factory=ToolConfig)
+    box: BoxConfig = dc.field(default_factory=BoxConfig)
+    # Goal of the box centre relative to its initial position (m), in W.
+    goal_offset: list[float] = dc.field(default_factory=lambda: [0.0, 0.20, 0.0])
+    table: TableConfig = dc.field(default_factory=TableConfig)
+    plant: PlantConfig = dc.field(default_factory=PlantConfig)
+    control: ControlConfig = dc.field(default_factory=ControlConfig)
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    seed: int = 0
+
+
+def check_tool_length(length, name="tool length") -> float:
+    """A tool length in (0, 0.60] m; returns it as a float."""
+    lo, hi = TOOL_LENGTH_RANGE
+    value = check_in_range(length, lo, hi, name, unit="m", lower_inclusive=False)
+    return value
+
+
+def validate_scenario(s: Scenario) -> Scenario:
+    """Range-checks every field; raises ValueError naming the field, its value and the range."""
+    check_tool_length(s.tool.length, "tool.length")
+    check_in_range(s.tool.radius, *TOOL_RADIUS_RANGE, "tool.radius", unit="m")
+    check_positive(s.tool.mass, "tool.mass", unit="kg")
+    check_in_range(s.tool.grasp_offset_along, -0.03, 0.03, "tool.grasp_offset_along", unit="m")
+    check_in_range(s.tool.grasp_offset_across, -0.01, 0.01, "tool.grasp_offset_across", unit="m")
+    check_in_range(s.tool.marker_length, 0.004, 0.03, "tool.marker_length", unit="m")
+    if s.tool.marker_length * 2 >= s.tool.length:
+        raise ValueError(
+            f"tool.length={s.tool.length} m must exceed twice tool.marker_length="
+            f"{s.tool.marker_length} m so the two markers do not overlap")
+    size = check_finite_vector(s.box.size, 3, "box.size")
+    for i, v in enumerate(size):
+        check_in_range(v, 0.01, 0.30, f"box.size[{i}]", unit="m")
+    check_in_range(s.box.mass, 0.01, 10.0, "box.mass", unit="kg")
+    check_in_range(s.box.friction, 0.0, 2.0, "box.friction")
+    check_finite_vector(s.box.position, 3, "box.position")
+    check_in_range(s.box.yaw, -math.pi, math.pi, "box.yaw", unit="rad")
+    check_finite_vector(s.goal_offset, 3, "goal_offset")
+    check_in_range(s.table.top_z, -1.0, 0.5, "table.top_z", unit="m")
+    check_finite_vector(s.table.center_xy, 2, "table.center_xy")
+    for i, v in enumerate(check_finite_vector(s.table.size_xy, 2, "table.size_xy")):
+        check_in_range(v, 0.1, 3.0, f"table.size_xy[{i}]", unit="m")
+    check_in_range(s.table.thickness, 0.005, 0.5, "table.thickness", unit="m")
+    check_in_range(s.table.friction, 0.0, 2.0, "table.friction")
+    check_in_range(s.plant.time_step, 1e-4, 0.02, "plant.time_step", unit="s")
+    check_one_of(s.plant.contact_model, CONTACT_MODELS, "plant.contact_model")
+    for name in ("kp", "kd"):
+        gains = check_finite_vector(getattr(s.control, name), 7, f"control.{name}")
+        for i, g in enumerate(gains):
+            check_in_range(g, 0.0, 1e5, f"control.{name}[{i}]")
+    check_in_range(s.control.control_period, s.plant.time_step, 1.0, "control.control_period",
+                   unit="s")
+    check_finite_vector(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
+    check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
+    check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
+    check_finite_vector(s.robot.left_arm_q, 7, "robot.left_arm_q")
+    if not isinstance(s.seed, int) or s.seed < 0:
+        raise ValueError(f"seed={s.seed!r} must be a non-negative integer")
+    return s
+
+
+def load_scenario(filename) -> Scenario:
+    """Loads and validates a scenario YAML file."""
+    path = Path(filename)
+    if not path.is_file():
+        raise FileNotFoundError(f"scenario file not found: {str(path)!r}")
+    try:
+        scenario = yaml_load_typed(schema=Scenario, filename=str(path))
+    except RuntimeError as e:  # Drake's loader names the offending key.
+        raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
+    return validate_scenario(scenario)
+
+
+def scenario_to_yaml(scenario: Scenario) -> str:
+    return yaml_dump_typed(scenario)
+
+
+def with_tool_length(scenario: Scenario, length: float) -> Scenario:
+    """A copy of `scenario` holding a tool of `length` m."""
+    tool = dc.replace(scenario.tool, length=check_tool_length(length))
+    return validate_scenario(dc.replace(scenario, tool=tool))

@@ -1,0 +1,290 @@
+"""Builds the world (truth) and the robot model (belief) from a scenario.
+
+- `add_world(builder, scenario)` adds a discrete MultibodyPlant (SAP) + SceneGraph holding
+  Baxter with the tool welded in its right gripper (true length and grasp), a table and a free
+  box. The seven right-arm joints are PD-controlled in the plant; every other joint is welded.
+- `make_robot_model(tool_length)` builds a robot-only plant (no geometry) with a tool-tip frame
+  at the *believed* length; the IK runs on it, as a controller plant does in Drake's own
+  examples.
+
+Frames: W = Baxter's `base`; G = `right_gripper` (between the fingertips, +z out of the
+fingers); T = `tool_tip` (G translated by the tool length along +z for the nominal grasp).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from pydrake.geometry import (
+    AddCompliantHydroelasticProperties,
+    AddContactMaterial,
+    Box,
+    CollisionFilterDeclaration,
+    Cylinder,
+    GeometrySet,
+    ProximityProperties,
+    Sphere,
+)
+from pydrake.common.eigen_geometry import AngleAxis
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import (
+    AddMultibodyPlant,
+    CoulombFriction,
+    MultibodyPlant,
+    MultibodyPlantConfig,
+)
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    PdControllerGains,
+    SpatialInertia,
+)
+
+from drake_tooluse.baxter_model import LEFT_ARM_JOINTS, RIGHT_ARM_JOINTS
+from drake_tooluse.scenario import Scenario, check_tool_length
+
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+BAXTER_URL = "package://drake_tooluse/baxter/baxter.urdf"
+GRIPPER_FRAME = "right_gripper"
+# The tool pointing straight down (z_T = -z_W), the fingers' closing axis along W's x.
+TOOL_DOWN_RPY = (np.pi, 0.0, np.pi / 2)
+TIP_FRAME = "tool_tip"
+# The rod reaches this far into the closed fingers behind the grasp point (m).
+TOOL_HANDLE_DEPTH = 0.03
+ORANGE = np.array([1.0, 0.45, 0.0, 1.0])
+TOOL_RGBA = np.array([0.55, 0.6, 0.68, 1.0])
+WOOD_RGBA = np.array([0.72, 0.53, 0.33, 1.0])
+TABLE_RGBA = np.array([0.45, 0.33, 0.22, 1.0])
+# Point contact: the box stands on spheres at its bottom corners (stable pushing, see FACTS).
+BOX_CORNER_SPHERE_RADIUS = 0.003
+
+
+def models_dir() -> Path:
+    package_xml = MODELS_DIR / "package.xml"
+    if not package_xml.is_file():
+        raise FileNotFoundError(
+            f"the project's models are missing: {package_xml} (install the package from its "
+            "repository with `pip install -e .`)")
+    return MODELS_DIR
+
+
+def make_parser(plant: MultibodyPlant) -> Parser:
+    parser = Parser(plant)
+    parser.package_map().AddPackageXml(str(models_dir() / "package.xml"))
+    return parser
+
+
+def _weld_joints(plant: MultibodyPlant, names, angles) -> None:
+    """Replaces each revolute joint by a weld at the given angle (rad)."""
+    for name, angle in zip(names, angles):
+        joint = plant.GetJointByName(name)
+        frame_on_parent, frame_on_child = joint.frame_on_parent(), joint.frame_on_child()
+        axis = joint.revolute_axis()
+        plant.RemoveJoint(joint)
+        X_FM = RigidTransform(_rotation_about(axis, angle))
+        plant.WeldFrames(frame_on_parent, frame_on_child, X_FM)
+
+
+def _rotation_about(axis, angle) -> RotationMatrix:
+    return RotationMatrix(AngleAxis(angle, np.asarray(axis, float) / np.linalg.norm(axis)))
+
+
+def add_baxter(plant: MultibodyPlant, left_arm_q, right_arm_q=None):
+    """Adds Baxter with its base welded to the world; the left arm is welded at `left_arm_q`.
+
+    If `right_arm_q` is given, the right arm is welded too (used for fixed-pose scenes).
+    Returns the model instance.
+    """
+    (baxter,) = make_parser(plant).AddModels(url=BAXTER_URL)
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base", baxter))
+    _weld_joints(plant, LEFT_ARM_JOINTS, left_arm_q)
+    if right_arm_q is not None:
+        for name in RIGHT_ARM_JOINTS:
+            plant.RemoveJointActuator(plant.GetJointActuatorByName(f"{name}_motor"))
+        _weld_joints(plant, RIGHT_ARM_JOINTS, right_arm_q)
+    return baxter
+
+
+def tool_grasp_pose(scenario: Scenario) -> RigidTransform:
+    """X_GH: pose of the tool's handle frame H (at the grasp point, axis +z) in the gripper G."""
+    t = scenario.tool
+    return RigidTransform([t.grasp_offset_across, 0.0, t.grasp_offset_along])
+
+
+def add_tool(plant: MultibodyPlant, instance, scenario: Scenario, with_geometry: bool = True):
+    """Welds a straight rod to the right gripper; adds the `tool_tip` frame at its tip.
+
+    The rod runs from TOOL_HANDLE_DEPTH behind the grasp point to `length` in front of it, with
+    orange marker bands at the grip end and at the tip. Returns the tool body.
+    """
+    t = scenario.tool
+    L = t.length
+    total = L + TOOL_HANDLE_DEPTH
+    center = np.array([0.0, 0.0, (L - TOOL_HANDLE_DEPTH) / 2])
+    M = SpatialInertia.SolidCylinderWithMass(t.mass, t.radius, total, [0.0, 0.0, 1.0])
+    M = M.Shift(-center)  # the cylinder's centre is at `center` in the tool frame.
+    tool = plant.AddRigidBody("tool", instance, M)
+    plant.WeldFrames(plant.GetFrameByName(GRIPPER_FRAME, instance), tool.body_frame(),
+                     tool_grasp_pose(scenario))
+    plant.AddFrame(FixedOffsetFrame(TIP_FRAME, tool.body_frame(), RigidTransform([0, 0, L])))
+    if with_geometry and plant.geometry_source_is_registered():
+        plant.RegisterVisualGeometry(tool, RigidTransform(center), Cylinder(t.radius, total),
+                                     "tool_visual", TOOL_RGBA)
+        m = t.marker_length
+        for name, z in (("grip_marker", m / 2), ("tip_marker", L - m / 2)):
+            plant.RegisterVisualGeometry(tool, RigidTransform([0, 0, z]),
+                                         Cylinder(t.radius * 1.15, m), name, ORANGE)
+        props = ProximityProperties()
+        AddContactMaterial(friction=CoulombFriction(0.4, 0.4), properties=props)
+        # Collision only in front of the fingers: the handle part is inside the hand.
+        plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, L / 2]),
+                                        Cylinder(t.radius, L), "tool_collision", props)
+    return tool
+
+
+def add_table(plant: MultibodyPlant, scenario: Scenario):
+    tb = scenario.table
+    sx, sy = tb.size_xy
+    X_WTable = RigidTransform([tb.center_xy[0], tb.center_xy[1], tb.top_z - tb.thickness / 2])
+    table = plant.AddRigidBody("table", plant.AddModelInstance("table"),
+                               SpatialInertia.SolidBoxWithMass(20.0, sx, sy, tb.thickness))
+    plant.WeldFrames(plant.world_frame(), table.body_frame(), X_WTable)
+    shape = Box(sx, sy, tb.thickness)
+    props = ProximityProperties()
+    AddContactMaterial(friction=CoulombFriction(tb.friction, tb.friction), properties=props)
+    if scenario.plant.contact_model != "point":
+        AddCompliantHydroelasticProperties(0.01, 1e7, props)
+    plant.RegisterCollisionGeometry(table, RigidTransform(), shape, "table_collision", props)
+    plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
+    return table
+
+
+def add_box(plant: MultibodyPlant, scenario: Scenario):
+    """A free wooden box. Point contact: corner spheres carry it; its sides take the pushes."""
+    b = scenario.box
+    sx, sy, sz = b.size
+    box = plant.AddRigidBody("box", plant.AddModelInstance("box"),
+                             SpatialInertia.SolidBoxWithMass(b.mass, sx, sy, sz))
+    props = ProximityProperties()
+    AddContactMaterial(friction=CoulombFriction(b.friction, b.friction), properties=props)
+    plant.RegisterVisualGeometry(box, RigidTransform(), Box(sx, sy, sz), "box_visual", WOOD_RGBA)
+    if scenario.plant.contact_model == "point":
+        r = BOX_CORNER_SPHERE_RADIUS
+        lift = 2 * r  # keeps the side geometry clear of the table.
+        plant.RegisterCollisionGeometry(box, RigidTransform([0, 0, lift / 2]),
+                                        Box(sx, sy, sz - lift), "box_sides", props)
+        for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
+            p = [cx * (sx / 2 - r), cy * (sy / 2 - r), -sz / 2 + r]
+            plant.RegisterCollisionGeometry(box, RigidTransform(p), Sphere(r),
+                                            f"box_corner_{i}", props)
+    else:
+        AddCompliantHydroelasticProperties(0.005, 1e6, props)
+        plant.RegisterCollisionGeometry(box, RigidTransform(), Box(sx, sy, sz), "box_collision",
+                                        props)
+    return box
+
+
+def initial_box_pose(scenario: Scenario) -> RigidTransform:
+    b = scenario.box
+    p = np.array(b.position, float)
+    if b.on_table:
+        p[2] = scenario.table.top_z + b.size[2] / 2
+    return RigidTransform(RotationMatrix.MakeZRotation(b.yaw), p)
+
+
+def home_tip_pose(scenario: Scenario) -> RigidTransform:
+    """X_WT of the home pose: the tip above the table, the tool pointing down."""
+    x, y = scenario.robot.home_tip_xy
+    z = scenario.table.top_z + scenario.robot.home_tip_height
+    return RigidTransform(RollPitchYaw(*TOOL_DOWN_RPY), [x, y, z])
+
+
+def goal_position(scenario: Scenario) -> np.ndarray:
+    """x*: the goal of the box centre in W."""
+    return initial_box_pose(scenario).translation() + np.asarray(scenario.goal_offset, float)
+
+
+@dataclass
+class World:
+    """Handles into the world added by `add_world`."""
+
+    plant: MultibodyPlant
+    scene_graph: object
+    baxter: object  # ModelInstanceIndex of Baxter + tool
+    tool: object
+    box: object
+    scenario: Scenario
+
+    @property
+    def tip_frame(self):
+        return self.plant.GetFrameByName(TIP_FRAME)
+
+    @property
+    def gripper_frame(self):
+        return self.plant.GetFrameByName(GRIPPER_FRAME)
+
+    def arm_joints(self):
+        return [self.plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS]
+
+
+def add_world(builder, scenario: Scenario) -> World:
+    """Adds the world (truth) to `builder`: plant + scene graph, finalized, defaults set.
+
+    Ports to connect (the plant's): `plant.get_desired_state_input_port(world.baxter)` takes
+    [q_d (7), v_d (7)] of the right arm; `plant.get_actuation_input_port(world.baxter)` takes a
+    feed-forward torque (7, N·m) added to the PD output (the sum is clipped to the effort limits).
+    """
+    config = MultibodyPlantConfig(
+        time_step=scenario.plant.time_step,
+        discrete_contact_approximation="sap",
+        contact_model=scenario.plant.contact_model,
+    )
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    baxter = add_baxter(plant, scenario.robot.left_arm_q)
+    tool = add_tool(plant, baxter, scenario)
+    # Baxter's own controller compensates gravity (with the spring assist on s1, whose 50 N·m
+    # limit alone could not hold the outstretched arm): modelled as ideal, gravity off for the
+    # robot and the tool it holds. The box feels gravity.
+    plant.set_gravity_enabled(baxter, False)
+    add_table(plant, scenario)
+    box = add_box(plant, scenario)
+    for name, kp, kd in zip(RIGHT_ARM_JOINTS, scenario.control.kp, scenario.control.kd):
+        plant.GetJointActuatorByName(f"{name}_motor").set_controller_gains(
+            PdControllerGains(p=kp, d=kd))
+    plant.Finalize()
+    _filter_robot_self_collisions(plant, scene_graph, baxter)
+    for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS],
+                        scenario.robot.posture_seed):
+        joint.set_default_angle(q)  # callers set the solved home pose (ik.home_configuration).
+    plant.SetDefaultFloatingBaseBodyPose(box, initial_box_pose(scenario))
+    return World(plant, scene_graph, baxter, tool, box, scenario)
+
+
+def _filter_robot_self_collisions(plant, scene_graph, baxter) -> None:
+    """The robot's own links and the tool never collide with each other (they are one grasp)."""
+    bodies = [plant.get_body(i) for i in plant.GetBodyIndices(baxter)]
+    geometries = plant.CollectRegisteredGeometries(bodies)
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(geometries))
+
+
+def make_robot_model(tool_length: float | None, left_arm_q=None) -> MultibodyPlant:
+    """The robot as the controller believes it: Baxter + a `tool_tip` frame `tool_length` m
+    past the gripper (None: no tool, the tip frame is the gripper frame). Finalized, continuous,
+    no geometry."""
+    from drake_tooluse.scenario import RobotConfig, ToolConfig
+
+    plant = MultibodyPlant(time_step=0.0)
+    baxter = add_baxter(plant, left_arm_q if left_arm_q is not None else RobotConfig().left_arm_q)
+    gripper = plant.GetFrameByName(GRIPPER_FRAME, baxter)
+    if tool_length is None:
+        plant.AddFrame(FixedOffsetFrame(TIP_FRAME, gripper, RigidTransform()))
+    else:
+        length = check_tool_length(tool_length)
+        tool_cfg = ToolConfig(length=length)
+        scenario = Scenario(tool=tool_cfg)
+        add_tool(plant, baxter, scenario, with_geometry=False)
+    plant.Finalize()
+    return plant

@@ -1,0 +1,59 @@
+"""Meshcat recordings saved as standalone HTML, and block diagrams rendered for `diagrams/`."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams
+
+from drake_tooluse.io import atomic_write_text
+
+
+def start_meshcat() -> Meshcat:
+    """A Meshcat server on a free loopback port (no browser needed)."""
+    return Meshcat(MeshcatParams(host="localhost", port=0, show_stats_plot=False))
+
+
+def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat) -> MeshcatVisualizer:
+    return MeshcatVisualizer.AddToBuilder(
+        builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 32))
+
+
+def save_recording(meshcat: Meshcat, visualizer: MeshcatVisualizer, path: str | Path) -> Path:
+    """Stops the visualizer's recording and writes scene + playback as one HTML file."""
+    visualizer.StopRecording()
+    visualizer.PublishRecording()
+    return atomic_write_text(path, meshcat.StaticHtml())
+
+
+def graphviz_dot(diagram, max_depth: int = 1) -> str:
+    """The diagram's Graphviz text with Drake's run-dependent system ids renumbered, so the
+    same diagram always gives the same text."""
+    text = diagram.GetGraphvizString(max_depth=max_depth)
+    ids: dict[str, str] = {}
+
+    def renumber(match):
+        return ids.setdefault(match.group(0), str(len(ids)))
+
+    # Ids appear as `digraph _N`, `clusterN...` and node names `sN`.
+    lines = re.sub(r"(?<=digraph _)\d+|(?<=cluster)\d+|(?<=\bs)\d+\b", renumber,
+                   text).split("\n")
+    # Drake lists the edges in id order, which depends on the run: sort them.
+    edge_rows = [i for i, line in enumerate(lines) if " -> " in line]
+    for i, line in zip(edge_rows, sorted(lines[i] for i in edge_rows)):
+        lines[i] = line
+    return "\n".join(lines)
+
+
+def render_svg(dot_text: str, svg_path: str | Path) -> Path:
+    """Renders Graphviz text to SVG with the `dot` program (Debian package `graphviz`)."""
+    dot = shutil.which("dot")
+    if dot is None:
+        raise RuntimeError("rendering a block diagram needs Graphviz's `dot` "
+                           "(apt-get install graphviz)")
+    svg = subprocess.run([dot, "-Tsvg"], input=dot_text, capture_output=True, text=True,
+                         check=True).stdout
+    return atomic_write_text(svg_path, svg)

@@ -1,0 +1,99 @@
+"""Tool-tip IK: round trips, the paper's offset method, unreachable targets, bad input."""
+
+import numpy as np
+import pytest
+from pydrake.math import RigidTransform, RollPitchYaw
+
+from drake_tooluse.ik import (
+    Q_LOWER,
+    Q_UPPER,
+    ToolTipIK,
+    gripper_target_from_tip_target,
+    pose_from_vector,
+    rotation_angle_between,
+)
+
+LENGTHS = [None, 0.05, 0.125, 0.175, 0.30, 0.60]
+
+
+@pytest.fixture(scope="module", params=LENGTHS, ids=lambda L: f"tool={L}")
+def ik(request):
+    return ToolTipIK(request.param)
+
+
+def test_fk_ik_round_trip_from_mid_limits(ik):
+    rng = np.random.default_rng(7)
+    for _ in range(15):
+        X = ik.fk(rng.uniform(Q_LOWER, Q_UPPER))
+        result = ik.solve(X)
+        assert result.success, result
+        assert result.position_error < 1e-5 and result.orientation_error < 1e-4
+        assert np.all(result.q >= Q_LOWER) and np.all(result.q <= Q_UPPER)
+        # Independent check by FK on the solution.
+        X_solved = ik.fk(result.q)
+        assert np.linalg.norm(X_solved.translation() - X.translation()) < 1e-5
+        assert rotation_angle_between(X_solved.rotation(), X.rotation()) < 1e-4
+
+
+def test_same_call_gives_same_answer():
+    ik = ToolTipIK(0.175)
+    X = ik.fk([0.3, -0.5, 0.2, 1.2, 0.1, 0.8, -0.3])
+    a, b = ik.solve(X), ToolTipIK(0.175).solve(X)
+    np.testing.assert_array_equal(a.q, b.q)
+
+
+@pytest.mark.parametrize("length", [0.125, 0.175, 0.30])
+def test_offset_method_agrees_with_tip_frame_ik(length):
+    tip_ik, gripper_ik = ToolTipIK(length), ToolTipIK(None)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        X_WT = tip_ik.fk(rng.uniform(Q_LOWER, Q_UPPER))
+        X_WG = gripper_target_from_tip_target(X_WT, length)
+        via_offset = gripper_ik.solve(X_WG)
+        assert via_offset.success
+        # The gripper solution puts the tool tip on the target too, and vice versa.
+        X_tip = tip_ik.fk(via_offset.q)
+        assert np.linalg.norm(X_tip.translation() - X_WT.translation()) < 1e-5
+        assert rotation_angle_between(X_tip.rotation(), X_WT.rotation()) < 1e-4
+        via_tip = tip_ik.solve(X_WT)
+        X_g = gripper_ik.fk(via_tip.q)
+        assert np.linalg.norm(X_g.translation() - X_WG.translation()) < 1e-5
+
+
+def test_offset_is_the_rotated_tool_vector():
+    X_WT = RigidTransform(RollPitchYaw(np.pi, 0, 0), [0.7, -0.2, 0.0])  # tool pointing down
+    X_WG = gripper_target_from_tip_target(X_WT, 0.175)
+    np.testing.assert_allclose(X_WG.translation(), [0.7, -0.2, 0.175], atol=1e-12)
+
+
+def test_unreachable_target_is_a_result_not_an_exception():
+    ik = ToolTipIK(0.175, max_attempts=3)
+    result = ik.solve(RigidTransform(RollPitchYaw(np.pi, 0, 0), [3.0, 0.0, 0.0]))
+    assert not result.success
+    assert result.position_error > 1.0  # the residual: ~1.7 m beyond reach
+    assert np.all(np.isfinite(result.q))
+
+
+@pytest.mark.parametrize("length", [0.0, -0.1, float("nan"), 0.61, float("inf")])
+def test_bad_tool_length_names_value_and_range(length):
+    with pytest.raises(ValueError, match=r"tool length.*(range \(0, 0\.6\]|finite)"):
+        ToolTipIK(length)
+
+
+def test_non_finite_target_is_an_error():
+    ik = ToolTipIK(0.175, library_size=1)
+    with pytest.raises(ValueError, match="finite"):
+        ik.solve([0.7, np.nan, 0.0, 1, 0, 0, 0])
+
+
+def test_zero_quaternion_is_an_error():
+    with pytest.raises(ValueError, match="zero norm"):
+        pose_from_vector([0.7, 0.0, 0.0, 0, 0, 0, 0])
+
+
+def test_q_of_wrong_size_or_outside_limits():
+    ik = ToolTipIK(0.175, library_size=1)
+    with pytest.raises(ValueError, match="exactly 7"):
+        ik.check_q([0.0] * 6)
+    with pytest.raises(ValueError, match=r"right_s1=2 rad outside \[-2.147, 1.047\]"):
+        ik.check_q([0.0, 2.0, 0.0, 0.5, 0.0, 0.0, 0.0])

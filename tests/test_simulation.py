@@ -1,0 +1,86 @@
+"""The IK system in the dynamic simulation, and Meshcat recordings."""
+
+import base64
+import re
+
+import numpy as np
+import pytest
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import ConstantVectorSource
+
+from drake_tooluse.ik import ToolTipIK, ToolTipIKSystem, pose_to_vector
+from drake_tooluse.scenario import Scenario
+from drake_tooluse.scene import TOOL_DOWN_RPY, add_world
+from drake_tooluse.simulation import simulate_waypoints
+
+DOWN = RollPitchYaw(*TOOL_DOWN_RPY)
+
+
+def _recorded_scene_paths(html: str) -> bytes:
+    """Meshcat's standalone HTML embeds its commands as base64 msgpack payloads."""
+    payloads = re.findall(r'base64,([A-Za-z0-9+/=]+)"', html)
+    return b"".join(base64.b64decode(p) for p in payloads)
+
+
+def test_ik_system_in_a_diagram_reaches_a_target():
+    scenario = Scenario()
+    target = RigidTransform(DOWN, [0.68, -0.15, -0.13])
+    builder = DiagramBuilder()
+    world = add_world(builder, scenario)
+    ik = ToolTipIK(scenario.tool.length)
+    q0 = ik.solve(RigidTransform(DOWN, [0.62, -0.3, -0.1]), scenario.robot.posture_seed).q
+    for joint, q in zip(world.arm_joints(), q0):
+        joint.set_default_angle(q)
+    ik_system = builder.AddSystem(ToolTipIKSystem(ik, q0, scenario.control.control_period))
+    source = builder.AddSystem(ConstantVectorSource(pose_to_vector(target)))
+    builder.Connect(source.get_output_port(), ik_system.GetInputPort("tip_pose_desired"))
+    builder.Connect(ik_system.GetOutputPort("desired_state"),
+                    world.plant.get_desired_state_input_port(world.baxter))
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.AdvanceTo(2.0)
+    plant_context = world.plant.GetMyContextFromRoot(simulator.get_context())
+    p_WT = world.tip_frame.CalcPoseInWorld(plant_context).translation()
+    assert np.linalg.norm(p_WT - target.translation()) < 1e-3
+    status = ik_system.GetOutputPort("status").Eval(
+        ik_system.GetMyContextFromRoot(simulator.get_context()))
+    assert status[0] == 1.0 and status[1] < 1e-5
+
+
+def test_ik_system_holds_last_solution_on_unreachable_target():
+    scenario = Scenario()
+    ik = ToolTipIK(scenario.tool.length, max_attempts=2)
+    q0 = np.array(scenario.robot.posture_seed)
+    system = ToolTipIKSystem(ik, q0, 0.04)
+    simulator = Simulator(system)
+    context = simulator.get_mutable_context()
+    system.GetInputPort("tip_pose_desired").FixValue(
+        context, pose_to_vector(RigidTransform(DOWN, [3.0, 0.0, 0.0])))
+    simulator.AdvanceTo(0.01)  # one update, at t = 0
+    np.testing.assert_array_equal(system.GetOutputPort("q_desired").Eval(context), q0)
+    status = system.GetOutputPort("status").Eval(context)
+    assert status[0] == 0.0 and status[1] > 1.0 and status[3] == 1.0
+
+
+def test_waypoints_with_recording(tmp_path):
+    waypoints = [RigidTransform(DOWN, [0.66, -0.2, -0.12]), RigidTransform(DOWN, [0.6, -0.35, -0.1])]
+    out = tmp_path / "run.html"
+    run = simulate_waypoints(Scenario(), waypoints, move_time=0.6, dwell=0.8, record=out)
+    assert [r.ik_success for r in run.results] == [True, True]
+    assert max(r.position_error for r in run.results) < 1e-3
+    html = out.read_text()
+    assert html.lstrip().lower().startswith("<!doctype html") or "<html" in html[:200].lower()
+    blob = _recorded_scene_paths(html)
+    for name in (b"right_upper_shoulder", b"tool", b"box", b"table", b"animation"):
+        assert name in blob, name
+
+
+def test_believed_length_error_shows_up_at_the_tip():
+    # The robot believes 0.165 m but holds 0.175 m, pointing down: the true tip ends 1 cm low.
+    target = RigidTransform(DOWN, [0.64, -0.25, -0.12])
+    run = simulate_waypoints(Scenario(), [target], move_time=0.6, dwell=0.8,
+                             believed_tool_length=0.165)
+    result = run.results[0]
+    assert result.reached[2] == pytest.approx(target.translation()[2] - 0.01, abs=1e-3)
