@@ -3,7 +3,7 @@
 - `ToolTipIK(tool_length).solve(X_WT_desired, q_seed)` puts a position and an orientation
   constraint on T (plus the joint limits) and solves with SNOPT, warm-started from `q_seed`
   (or, when `q_seed` is far from the target, from the nearest entry of a seed library of
-  configurations drawn once with a fixed seed); if that fails it retries from the next
+  configurations drawn once with fixed seeds); if that fails it retries from the next
   nearest library entries. An unreachable
   target is a result (`success=False` with the residual), never an exception.
 - `gripper_target_from_tip_target` is the paper's offset method: the gripper goes to the tip
@@ -115,12 +115,12 @@ class ToolTipIK:
         tool_length: believed tool length (m), in (0, 0.60]; None for no tool (T = gripper).
         joint_lower, joint_upper: joint limits (rad) s0 … w2; default Baxter's.
         max_attempts: solves tried (the warm start, then deterministic random seeds).
-        library_size: configurations in the seed library (drawn with a fixed seed, so the
-            same call gives the same result).
+        library_size: configurations in the central seed library (drawn with a fixed seed,
+            so the same call gives the same result); the full-range library has half as many.
     """
 
     def __init__(self, tool_length: float | None = None, *, joint_lower=None, joint_upper=None,
-                 max_attempts: int = 8, library_size: int = 4000):
+                 max_attempts: int = 16, library_size: int = 4000):
         self.tool_length = tool_length
         self.plant = make_robot_model(tool_length)
         self.context = self.plant.CreateDefaultContext()
@@ -147,15 +147,23 @@ class ToolTipIK:
         self._build_seed_library(library_size)
 
     def _build_seed_library(self, size: int) -> None:
-        """Tip poses of `size` configurations drawn (with a fixed seed) within the limits: a
-        far-away seed is replaced by the nearest of these, in task space."""
-        rng = np.random.default_rng(12345)
-        self._library_q = rng.uniform(self.lower, self.upper, size=(size, 7))
-        poses = [self.fk(q) for q in self._library_q]
-        self._library_p = np.array([X.translation() for X in poses])
-        self._library_R = np.array([X.rotation().matrix() for X in poses])
+        """Two seed libraries of configurations drawn once with fixed seeds: `size` in the
+        central 80 % of each joint's range (seeds there rarely end against a limit) and
+        `size // 2` over the full range (for targets that need a joint near its limit)."""
+        centre, half = (self.lower + self.upper) / 2, (self.upper - self.lower) / 2
+        self._libraries = [
+            self._library(centre - 0.8 * half, centre + 0.8 * half, size, seed=1),
+            self._library(self.lower, self.upper, max(size // 2, 1), seed=2),
+        ]
 
-    def _task_distance(self, X_WT: RigidTransform, p, R) -> np.ndarray:
+    def _library(self, lower, upper, size: int, seed: int):
+        q = np.random.default_rng(seed).uniform(lower, upper, size=(size, 7))
+        poses = [self.fk(x) for x in q]
+        return (q, np.array([X.translation() for X in poses]),
+                np.array([X.rotation().matrix() for X in poses]))
+
+    @staticmethod
+    def _task_distance(X_WT: RigidTransform, p, R) -> np.ndarray:
         """Position distance (m) + 0.2 m/rad x rotation angle, for arrays of poses."""
         cos = (np.einsum("ij,kij->k", X_WT.rotation().matrix(), R) - 1.0) / 2.0
         angle = np.arccos(np.clip(cos, -1.0, 1.0))
@@ -163,15 +171,17 @@ class ToolTipIK:
 
     def seeds(self, X_WT: RigidTransform, q_seed: np.ndarray) -> list[np.ndarray]:
         """Seeds to try, best first: q_seed when its tip is within WARM_START_DISTANCE of the
-        target (or nearer than any library entry), else the nearest library entry first; then
-        the next nearest library entries."""
-        d = self._task_distance(X_WT, self._library_p, self._library_R)
-        order = np.argsort(d)[: self.max_attempts]
+        target, else the nearest central-library entry first; then the nearest entries of the
+        two libraries, alternating."""
+        nearest = []
+        for q, p, R in self._libraries:
+            order = np.argsort(self._task_distance(X_WT, p, R))[: self.max_attempts]
+            nearest.append([q[i] for i in order])
+        library = [s for pair in zip(*nearest) for s in pair]
         X_seed = self.fk(q_seed)
         d_seed = self._task_distance(X_WT, X_seed.translation()[None],
                                      X_seed.rotation().matrix()[None])[0]
-        library = [self._library_q[i] for i in order]
-        if d_seed <= max(d[order[0]], WARM_START_DISTANCE):
+        if d_seed <= WARM_START_DISTANCE:
             return [q_seed] + library
         return library[:1] + [q_seed] + library[1:]
 
@@ -308,17 +318,16 @@ class ToolTipIKSystem(LeafSystem):
         output.SetFromVector(context.get_discrete_state(self._state).get_value()[7:])
 
 
-def home_configuration(scenario, tool_length: float | None = None) -> np.ndarray:
-    """Right-arm joint angles of the scenario's home pose for a tool of `tool_length` m (default
-    the scenario's tool), warm-started from its posture seed. Raises if unreachable."""
+def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
+    """Right-arm joint angles of the scenario's home pose for a tool of `tool_length` m (None:
+    no tool), warm-started from its posture seed. Raises if unreachable."""
     from drake_tooluse.scene import home_tip_pose
 
-    length = scenario.tool.length if tool_length is None else tool_length
-    ik = ToolTipIK(length)
+    ik = ToolTipIK(tool_length)
     result = ik.solve(home_tip_pose(scenario), q_seed=scenario.robot.posture_seed)
     if not result.success:
         raise ValueError(
             f"the scenario's home pose (tip at {home_tip_pose(scenario).translation().tolist()}"
-            f" m) is unreachable with a {length} m tool: residual {result.position_error:.3g} m,"
+            f" m) is unreachable with tool length {tool_length} m: residual {result.position_error:.3g} m,"
             f" {result.orientation_error:.3g} rad; move robot.home_tip_xy / home_tip_height")
     return result.q

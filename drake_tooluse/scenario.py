@@ -37,6 +37,8 @@ class ToolConfig:
     """
 
     length: float = 0.175
+    # False: no tool in the hand; the tool-tip frame is the gripper frame.
+    attached: bool = True
     radius: float = 0.008
     mass: float = 0.05
     # Where the hand really holds the tool (truth only; the robot believes both are 0):
@@ -179,6 +181,11 @@ def load_scenario(filename) -> Scenario:
 
 def scenario_to_yaml(scenario: Scenario) -> str:
     return yaml_dump_typed(scenario)
+
+
+def tool_length_or_none(scenario: Scenario) -> float | None:
+    """The scenario's tool length (m), or None when no tool is attached."""
+    return scenario.tool.length if scenario.tool.attached else None
 
 
 def with_tool_length(scenario: Scenario, length: float) -> Scenario:

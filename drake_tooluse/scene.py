@@ -213,7 +213,7 @@ class World:
     plant: MultibodyPlant
     scene_graph: object
     baxter: object  # ModelInstanceIndex of Baxter + tool
-    tool: object
+    tool: object  # the tool body, None when no tool is attached
     box: object
     scenario: Scenario
 
@@ -243,7 +243,12 @@ def add_world(builder, scenario: Scenario) -> World:
     )
     plant, scene_graph = AddMultibodyPlant(config, builder)
     baxter = add_baxter(plant, scenario.robot.left_arm_q)
-    tool = add_tool(plant, baxter, scenario)
+    if scenario.tool.attached:
+        tool = add_tool(plant, baxter, scenario)
+    else:
+        tool = None
+        plant.AddFrame(FixedOffsetFrame(TIP_FRAME, plant.GetFrameByName(GRIPPER_FRAME, baxter),
+                                        RigidTransform()))
     # Baxter's own controller compensates gravity (with the spring assist on s1, whose 50 N·m
     # limit alone could not hold the outstretched arm): modelled as ideal, gravity off for the
     # robot and the tool it holds. The box feels gravity.

@@ -26,7 +26,7 @@ from drake_tooluse.ik import (
     pose_to_vector,
     rotation_angle_between,
 )
-from drake_tooluse.scenario import Scenario, check_tool_length
+from drake_tooluse.scenario import Scenario, check_tool_length, tool_length_or_none
 from drake_tooluse.scene import World, add_world, home_tip_pose
 from drake_tooluse.validation import check_in_range
 
@@ -67,8 +67,8 @@ def build_tip_control_diagram(scenario: Scenario, trajectory: PiecewisePolynomia
     length) + a TrajectorySource of desired tip poses; Meshcat if given."""
     from drake_tooluse.viz import add_meshcat_visualizer
 
-    believed = scenario.tool.length if believed_tool_length is None else check_tool_length(
-        believed_tool_length, "believed tool length")
+    believed = tool_length_or_none(scenario) if believed_tool_length is None else (
+        check_tool_length(believed_tool_length, "believed tool length"))
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
     q0 = home_configuration(scenario, believed)
