@@ -26,6 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from drake_tooluse.io import atomic_write_text
+
 HALF_PI = 1.57079632679
 PI = 3.14159265359
 
@@ -165,21 +167,14 @@ def _link_xml(name, inertial=None, visuals=(), collisions=()) -> str:
             f'iyy="{iyy:.10g}" iyz="{iyz:.10g}" izz="{izz:.10g}"/>',
             "    </inertial>",
         ]
-    for i, s in enumerate(visuals):
-        lines += [
-            f'    <visual name="{name}_visual_{i}">',
-            f'      <origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>',
-            f"      <geometry>{_geometry_xml(s)}</geometry>",
-            f'      <material><color rgba="{_fmt(s.rgba)}"/></material>',
-            "    </visual>",
-        ]
-    for i, s in enumerate(collisions):
-        lines += [
-            f'    <collision name="{name}_collision_{i}">',
-            f'      <origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>',
-            f"      <geometry>{_geometry_xml(s)}</geometry>",
-            "    </collision>",
-        ]
+    for tag, shapes in (("visual", visuals), ("collision", collisions)):
+        for i, s in enumerate(shapes):
+            lines += [f'    <{tag} name="{name}_{tag}_{i}">',
+                      f'      <origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>',
+                      f"      <geometry>{_geometry_xml(s)}</geometry>"]
+            if tag == "visual":
+                lines.append(f'      <material><color rgba="{_fmt(s.rgba)}"/></material>')
+            lines.append(f"    </{tag}>")
     lines.append("  </link>")
     return "\n".join(lines)
 
@@ -282,9 +277,4 @@ def baxter_urdf() -> str:
 
 def write_models(models_dir: Path) -> Path:
     """Writes `baxter/baxter.urdf` under `models_dir` and returns its path."""
-    path = Path(models_dir) / "baxter" / "baxter.urdf"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".urdf.tmp")
-    tmp.write_text(baxter_urdf())
-    tmp.replace(path)
-    return path
+    return atomic_write_text(Path(models_dir) / "baxter" / "baxter.urdf", baxter_urdf())

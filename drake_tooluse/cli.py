@@ -160,9 +160,9 @@ def _print_human(name: str, out: dict) -> None:
     elif name == "simulate":
         for i, w in enumerate(out["waypoints"]):
             print(f"waypoint {i}: target {np.round(w['target_m'], 4).tolist()} m, "
-                  f"tip error {w['position_error_m'] * 1e3:.3f} mm, "
+                  f"tip error {w['position_error_m'] * 1e3:.3g} mm, "
                   f"{w['orientation_error_rad']:.2e} rad, IK ok {w['ik_success']}")
-        print(f"max tip error {out['max_position_error_m'] * 1e3:.3f} mm; "
+        print(f"max tip error {out['max_position_error_m'] * 1e3:.3g} mm; "
               f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
         if out["recording"]:
             print(f"recording: {out['recording']}")
