@@ -39,7 +39,7 @@ class ToolConfig:
     length: float = 0.175
     # False: no tool in the hand; the tool-tip frame is the gripper frame.
     attached: bool = True
-    radius: float = 0.008
+    radius: float = 0.006
     mass: float = 0.05
     # Where the hand really holds the tool (truth only; the robot believes both are 0):
     # along the tool axis (+ pushes the tip further out) and across it (along gripper x).
@@ -53,7 +53,7 @@ class ToolConfig:
 class BoxConfig:
     """The wooden box the robot pushes."""
 
-    size: list[float] = dc.field(default_factory=lambda: [0.05, 0.05, 0.05])
+    size: list[float] = dc.field(default_factory=lambda: [0.04, 0.04, 0.04])
     mass: float = 0.2
     friction: float = 0.4
     # Initial position of the box centre in W; z is set so the box rests on the table when
