@@ -44,6 +44,8 @@ BASIN_ANGLE = 0.02  # rad
 # A warm start whose tip is within this task-space distance (m + 0.2 m/rad) of the target is
 # always tried first, so consecutive solutions of a moving target stay on one branch.
 WARM_START_DISTANCE = 0.15
+# A warm start within this distance is tried first with the constrained solve alone.
+NEAR_DISTANCE = 0.05
 
 
 @dataclass
@@ -169,21 +171,35 @@ class ToolTipIK:
         angle = np.arccos(np.clip(cos, -1.0, 1.0))
         return np.linalg.norm(p - X_WT.translation(), axis=1) + 0.2 * angle
 
-    def seeds(self, X_WT: RigidTransform, q_seed: np.ndarray) -> list[np.ndarray]:
-        """Seeds to try, best first: q_seed when its tip is within WARM_START_DISTANCE of the
-        target, else the nearest central-library entry first; then the nearest entries of the
-        two libraries, alternating."""
+    def _seed_distance(self, X_WT: RigidTransform, q_seed: np.ndarray) -> float:
+        X = self.fk(q_seed)
+        return float(self._task_distance(X_WT, X.translation()[None],
+                                         X.rotation().matrix()[None])[0])
+
+    def library_seeds(self, X_WT: RigidTransform) -> list[np.ndarray]:
+        """The nearest entries (task space) of the two libraries, alternating."""
         nearest = []
         for q, p, R in self._libraries:
             order = np.argsort(self._task_distance(X_WT, p, R))[: self.max_attempts]
             nearest.append([q[i] for i in order])
-        library = [s for pair in zip(*nearest) for s in pair]
-        X_seed = self.fk(q_seed)
-        d_seed = self._task_distance(X_WT, X_seed.translation()[None],
-                                     X_seed.rotation().matrix()[None])[0]
+        return [s for pair in zip(*nearest) for s in pair]
+
+    def attempts(self, X_WT: RigidTransform, q_seed: np.ndarray):
+        """Yields (seed, find_basin) to try, best first, computing the library order only if
+        needed. A warm start within NEAR_DISTANCE is tried first with the constrained solve
+        alone (it is in the right basin); one within WARM_START_DISTANCE with both phases; a
+        farther one after the nearest central-library entry."""
+        d_seed = self._seed_distance(X_WT, q_seed)
+        if d_seed <= NEAR_DISTANCE:
+            yield q_seed, False
         if d_seed <= WARM_START_DISTANCE:
-            return [q_seed] + library
-        return library[:1] + [q_seed] + library[1:]
+            yield q_seed, True
+            yield from ((q, True) for q in self.library_seeds(X_WT))
+            return
+        library = self.library_seeds(X_WT)
+        yield library[0], True
+        yield q_seed, True
+        yield from ((q, True) for q in library[1:])
 
     # -- kinematics -------------------------------------------------------------------------
     def check_q(self, q, name: str = "q") -> np.ndarray:
@@ -219,7 +235,10 @@ class ToolTipIK:
         ik.AddPositionConstraint(self.tip_frame, np.zeros(3), self.plant.world_frame(), p, p)
         return ik
 
-    def _solve_once(self, X_WT: RigidTransform, q_seed: np.ndarray) -> np.ndarray:
+    def _solve_once(self, X_WT: RigidTransform, q_seed: np.ndarray,
+                    find_basin: bool = True) -> np.ndarray:
+        if not find_basin:
+            return self._solve_constrained(X_WT, q_seed)
         # Phase 1: tip position constrained, orientation as a cost. This finds the basin
         # quickly; where it ends far from the target orientation, the seed is in the wrong
         # basin and the attempt stops early.
@@ -231,10 +250,14 @@ class ToolTipIK:
         if self.errors(q1, X_WT)[1] > BASIN_ANGLE:
             return q1
         # Phase 2: position and orientation constraints on the tip frame, from phase 1.
+        return self._solve_constrained(X_WT, q1)
+
+    def _solve_constrained(self, X_WT: RigidTransform, q_seed: np.ndarray) -> np.ndarray:
+        """Position and orientation constraints on the tip frame, from q_seed."""
         ik = self._new_ik(X_WT)
         ik.AddOrientationConstraint(self.plant.world_frame(), X_WT.rotation(), self.tip_frame,
                                     RotationMatrix(), 0.0)
-        result = self._solver.Solve(ik.prog(), q1, self._options)
+        result = self._solver.Solve(ik.prog(), q_seed, self._options)
         return result.GetSolution(ik.q())
 
     def solve(self, X_WT_desired, q_seed=None) -> IKResult:
@@ -244,9 +267,13 @@ class ToolTipIK:
         q_seed = np.clip(q_seed, self.lower, self.upper)
         start = time.perf_counter()
         best = None
-        seeds = self.seeds(X_WT, q_seed)[: self.max_attempts]
-        for attempt, q_try in enumerate(seeds, start=1):
-            q = self._solve_once(X_WT, q_try)
+        attempt = 0
+        for q_try, find_basin in self.attempts(X_WT, q_seed):
+            attempt += 1
+            if attempt > self.max_attempts:
+                attempt -= 1
+                break
+            q = self._solve_once(X_WT, q_try, find_basin)
             q = np.clip(q, self.lower, self.upper)  # SNOPT may sit 1e-10 past a bound.
             pos_err, rot_err = self.errors(q, X_WT)
             ok = pos_err <= POSITION_TOLERANCE and rot_err <= ORIENTATION_TOLERANCE
@@ -284,9 +311,12 @@ class ToolTipIKSystem(LeafSystem):
         self._pose_port = self.DeclareVectorInputPort("tip_pose_desired", 7)
         self._state = self.DeclareDiscreteState(np.concatenate([q0, [1.0, 0.0, 0.0, 0.0]]))
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        self.DeclareVectorOutputPort("q_desired", 7, self._calc_q)
-        self.DeclareVectorOutputPort("desired_state", 14, self._calc_desired_state)
-        self.DeclareVectorOutputPort("status", 4, self._calc_status)
+        # Outputs depend on the discrete state only: cached between plant steps.
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("q_desired", 7, self._calc_q, prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("desired_state", 14, self._calc_desired_state,
+                                     prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("status", 4, self._calc_status, prerequisites_of_calc=xd)
         self.last_result: IKResult | None = None
 
     @property
@@ -331,3 +361,31 @@ def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
             f" m) is unreachable with tool length {tool_length} m: residual {result.position_error:.3g} m,"
             f" {result.orientation_error:.3g} rad; move robot.home_tip_xy / home_tip_height")
     return result.q
+
+
+def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
+    """A cheaper first-order alternative to `ToolTipIKSystem` for training: Drake's
+    `DifferentialInverseKinematicsIntegrator` on the tool-tip frame of the robot model (one QP
+    per control period, joint position and velocity limits respected; all C++, no Python in
+    the loop). Connect a RigidTransform X_WT* to its `X_AE_desired` input; its
+    `joint_positions` output (7) are the joint targets. Set its positions to q0 at each
+    episode start (`SetPositions`).
+    """
+    from pydrake.multibody.inverse_kinematics import (
+        DifferentialInverseKinematicsIntegrator,
+        DifferentialInverseKinematicsParameters,
+    )
+
+    from drake_tooluse.baxter_model import ARM_LIMITS, ARM_JOINT_SUFFIXES
+
+    plant = ik.plant
+    for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], q0):
+        joint.set_default_angle(q)
+    params = DifferentialInverseKinematicsParameters(7, 7)
+    params.set_joint_position_limits((ik.lower, ik.upper))
+    v_max = np.array([ARM_LIMITS[s][2] for s in ARM_JOINT_SUFFIXES])
+    params.set_joint_velocity_limits((-v_max, v_max))
+    params.set_nominal_joint_position(np.asarray(q0, float))
+    params.set_joint_centering_gain(0.01 * np.eye(7))  # a light pull toward the home posture
+    return builder.AddNamedSystem("differential_ik", DifferentialInverseKinematicsIntegrator(
+        plant, ik.tip_frame, period, params, log_only_when_result_state_changes=True))

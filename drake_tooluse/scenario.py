@@ -74,7 +74,7 @@ class TableConfig:
 
 @dc.dataclass
 class PlantConfig:
-    time_step: float = 0.005
+    time_step: float = 0.01
     contact_model: str = "point"
 
 

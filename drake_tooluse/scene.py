@@ -51,12 +51,14 @@ GRIPPER_FRAME = "right_gripper"
 # The tool pointing straight down (z_T = -z_W), the fingers' closing axis along W's x.
 TOOL_DOWN_RPY = (np.pi, 0.0, np.pi / 2)
 TIP_FRAME = "tool_tip"
+GRASP_FRAME = "tool_grasp"
 # The rod reaches this far into the closed fingers behind the grasp point (m).
 TOOL_HANDLE_DEPTH = 0.03
 ORANGE = np.array([1.0, 0.45, 0.0, 1.0])
 TOOL_RGBA = np.array([0.55, 0.6, 0.68, 1.0])
 WOOD_RGBA = np.array([0.72, 0.53, 0.33, 1.0])
 TABLE_RGBA = np.array([0.45, 0.33, 0.22, 1.0])
+FLOOR_Z = -0.95  # the floor under Baxter's pedestal, in W (m); visual only
 # Point contact: the box stands on spheres at its bottom corners (stable pushing, see FACTS).
 BOX_CORNER_SPHERE_RADIUS = 0.003
 
@@ -126,8 +128,11 @@ def add_tool(plant: MultibodyPlant, instance, scenario: Scenario, with_geometry:
     M = SpatialInertia.SolidCylinderWithMass(t.mass, t.radius, total, [0.0, 0.0, 1.0])
     M = M.Shift(-center)  # the cylinder's centre is at `center` in the tool frame.
     tool = plant.AddRigidBody("tool", instance, M)
-    plant.WeldFrames(plant.GetFrameByName(GRIPPER_FRAME, instance), tool.body_frame(),
-                     tool_grasp_pose(scenario))
+    # The grasp is a frame of its own so that a context can move it (domain randomization).
+    grasp = plant.AddFrame(FixedOffsetFrame(GRASP_FRAME, plant.GetFrameByName(GRIPPER_FRAME,
+                                                                              instance),
+                                            tool_grasp_pose(scenario)))
+    plant.WeldFrames(grasp, tool.body_frame(), RigidTransform())
     plant.AddFrame(FixedOffsetFrame(TIP_FRAME, tool.body_frame(), RigidTransform([0, 0, L])))
     if with_geometry and plant.geometry_source_is_registered():
         plant.RegisterVisualGeometry(tool, RigidTransform(center), Cylinder(t.radius, total),
@@ -158,6 +163,12 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
         AddCompliantHydroelasticProperties(0.01, 1e7, props)
     plant.RegisterCollisionGeometry(table, RigidTransform(), shape, "table_collision", props)
     plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
+    # Legs down to the floor Baxter's pedestal stands on (visual only).
+    leg = tb.top_z - tb.thickness - FLOOR_Z
+    for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
+        p = [cx * (sx / 2 - 0.04), cy * (sy / 2 - 0.04), -tb.thickness / 2 - leg / 2]
+        plant.RegisterVisualGeometry(table, RigidTransform(p), Box(0.04, 0.04, leg),
+                                     f"table_leg_{i}", TABLE_RGBA)
     return table
 
 

@@ -7,6 +7,8 @@ import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
+
 from pydrake.geometry import Meshcat, MeshcatParams, MeshcatVisualizer, MeshcatVisualizerParams
 
 from drake_tooluse.io import atomic_write_text
@@ -20,6 +22,38 @@ def start_meshcat() -> Meshcat:
 def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat) -> MeshcatVisualizer:
     return MeshcatVisualizer.AddToBuilder(
         builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 32))
+
+
+def add_render_camera(builder, world, width: int = 480, height: int = 360):
+    """A fixed colour camera looking at the table from the robot's front right, for
+    `render_mode="rgb_array"`; exports its `color_image` port. Returns the RgbdSensor."""
+    from pydrake.geometry import (
+        ClippingRange,
+        ColorRenderCamera,
+        DepthRange,
+        DepthRenderCamera,
+        MakeRenderEngineVtk,
+        RenderCameraCore,
+        RenderEngineVtkParams,
+    )
+    from pydrake.math import RigidTransform, RollPitchYaw
+    from pydrake.systems.sensors import CameraInfo, RgbdSensor
+
+    renderer = "render_camera"
+    if not world.scene_graph.HasRenderer(renderer):
+        world.scene_graph.AddRenderer(renderer, MakeRenderEngineVtk(RenderEngineVtkParams()))
+    core = RenderCameraCore(renderer, CameraInfo(width, height, 0.9), ClippingRange(0.05, 10.0),
+                            RigidTransform())
+    # Camera frame: +z along the view; looking back at the robot and table from the front.
+    X_WC = RigidTransform(RollPitchYaw(-np.pi / 2 - 0.45, 0, np.pi / 2 + 0.35),
+                          [1.75, -0.45, 0.55])
+    sensor = builder.AddNamedSystem("render_camera", RgbdSensor(
+        world.scene_graph.world_frame_id() if hasattr(world.scene_graph, "world_frame_id")
+        else world.plant.GetBodyFrameIdOrThrow(world.plant.world_body().index()),
+        X_WC, ColorRenderCamera(core, False), DepthRenderCamera(core, DepthRange(0.05, 10.0))))
+    builder.Connect(world.scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    builder.ExportOutput(sensor.color_image_output_port(), "color_image")
+    return sensor
 
 
 def save_recording(meshcat: Meshcat, visualizer: MeshcatVisualizer, path: str | Path) -> Path:

@@ -1,0 +1,125 @@
+"""The push task: observations (what the robot can know) and metrics (the truth).
+
+Observation, in the paper's order (30 values, float32; 31 with the tool length):
+
+| slice | what | units |
+| --- | --- | --- |
+| 0:3 | goal box position x* | m, W |
+| 3:6 | box position x | m, W |
+| 6:9 | tool-tip position y (robot model: believed length) | m, W |
+| 9:12 | gripper position | m, W |
+| 12:16 | gripper quaternion w x y z | — |
+| 16:23 | right-arm joint angles s0 … w2 | rad |
+| 23:30 | right-arm joint velocities | rad/s |
+| 30 | believed tool length (optional) | m |
+
+The metrics (reward, success, info) are computed from the world plant, i.e. the true tool.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from drake_tooluse.scene import GRIPPER_FRAME, TIP_FRAME, World
+
+OBSERVATION_SIZE = 30
+SUCCESS_DISTANCE = 0.05  # m: d(x, x*) + d(x, y) at or below this is a success
+
+
+class ToolPushObservation(LeafSystem):
+    """Plant state in, the push task's observation out (see the module docstring).
+
+    Input ports:
+        plant_state: the world plant's full state [q (14), v (13)].
+    Output ports:
+        observation: 30 (or 31 with the tool length) values.
+    Parameters: the goal x* (3, m), set per episode.
+    """
+
+    def __init__(self, world: World, robot_model, goal, include_tool_length: bool,
+                 believed_tool_length: float | None):
+        super().__init__()
+        plant = world.plant
+        nq = plant.num_positions()
+        self._nq = nq
+        self._arm_q = np.array([j.position_start() for j in world.arm_joints()])
+        self._arm_v = np.array([nq + j.velocity_start() for j in world.arm_joints()])
+        box_q0 = world.box.floating_positions_start()
+        self._box_p = np.arange(box_q0 + 4, box_q0 + 7)  # after the quaternion
+        self._model = robot_model
+        self._model_context = robot_model.CreateDefaultContext()
+        self._tip = robot_model.GetFrameByName(TIP_FRAME)
+        self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
+        self._tool_length = [] if not include_tool_length else [believed_tool_length or 0.0]
+        self._state = self.DeclareVectorInputPort(
+            "plant_state", plant.num_positions() + plant.num_velocities())
+        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
+        size = OBSERVATION_SIZE + len(self._tool_length)
+        self.DeclareVectorOutputPort("observation", size, self._calc,
+                                     prerequisites_of_calc={self.all_input_ports_ticket(),
+                                                            self.all_parameters_ticket()})
+
+    def set_goal(self, context, goal) -> None:
+        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
+
+    def goal(self, context) -> np.ndarray:
+        return context.get_numeric_parameter(self._goal).get_value()
+
+    def _calc(self, context, output):
+        x = self._state.Eval(context)
+        q = x[self._arm_q]
+        self._model.SetPositions(self._model_context, q)
+        X_WG = self._gripper.CalcPoseInWorld(self._model_context)
+        p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
+        output.SetFromVector(np.concatenate([
+            self.goal(context), x[self._box_p], p_WT, X_WG.translation(),
+            X_WG.rotation().ToQuaternion().wxyz(), q, x[self._arm_v], self._tool_length]))
+
+
+@dataclass
+class PushMetrics:
+    box_to_goal: float  # d(x, x*), m
+    tip_to_box: float  # d(x, y), m (true tip)
+    box_travel: float  # distance of the box centre from where it started, m
+    tool_touches_box: bool
+    gripper_touches_box: bool
+
+    @property
+    def is_success(self) -> bool:
+        return self.box_to_goal + self.tip_to_box <= SUCCESS_DISTANCE
+
+
+class PushMetricsReader:
+    """Reads the truth from the world plant: distances and which bodies touch the box."""
+
+    def __init__(self, world: World):
+        plant = world.plant
+        self._world = world
+        self._box = world.box
+        self._tool_index = world.tool.index() if world.tool is not None else None
+        self._robot_bodies = {plant.get_body(i).index() for i in plant.GetBodyIndices(world.baxter)}
+        self._robot_bodies.discard(self._tool_index)
+
+    def read(self, plant_context, goal, box_start) -> PushMetrics:
+        plant = self._world.plant
+        p_box = self._box.EvalPoseInWorld(plant_context).translation()
+        p_tip = self._world.tip_frame.CalcPoseInWorld(plant_context).translation()
+        tool_touch = gripper_touch = False
+        contacts = plant.get_contact_results_output_port().Eval(plant_context)
+        box = self._box.index()
+        for i in range(contacts.num_point_pair_contacts()):
+            info = contacts.point_pair_contact_info(i)
+            a, b = info.bodyA_index(), info.bodyB_index()
+            if box not in (a, b):
+                continue
+            other = b if a == box else a
+            tool_touch |= other == self._tool_index
+            gripper_touch |= other in self._robot_bodies
+        return PushMetrics(box_to_goal=float(np.linalg.norm(p_box - goal)),
+                           tip_to_box=float(np.linalg.norm(p_tip - p_box)),
+                           box_travel=float(np.linalg.norm(p_box[:2] - box_start[:2])),
+                           tool_touches_box=bool(tool_touch),
+                           gripper_touches_box=bool(gripper_touch))
