@@ -127,6 +127,8 @@ class ToolPushEnv(DrakeGymEnv):
         self.randomization = Randomization()
         self._build(config)
         n_obs = OBSERVATION_SIZE + int(config.include_tool_length)
+        # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
+        self.metadata = dict(type(self).metadata)
         super().__init__(
             simulator=self._simulator, time_step=self.scenario.control.control_period,
             action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],),
@@ -137,6 +139,7 @@ class ToolPushEnv(DrakeGymEnv):
             render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
             render_mode=config.render_mode or "human", reset_handler=self._reset_handler)
         self.render_mode = config.render_mode
+        self.metadata = dict(type(self).metadata)
         self._last_reward = 0.0
         self._episode = {}
 
@@ -274,6 +277,26 @@ class ToolPushEnv(DrakeGymEnv):
         self._last_reward = reward
         return observation, float(reward), bool(m.is_success), sim_error, self._info(
             m, sim_error)
+
+    def render(self):
+        """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
+        frame = super().render()
+        if self.render_mode == "rgb_array":
+            return np.asarray(frame)[:, :, :3].copy()
+        return frame
+
+    # -- Meshcat recordings ---------------------------------------------------------------
+    def start_recording(self) -> None:
+        """Records what follows in Meshcat (the env must be made with `meshcat=`)."""
+        if self.visualizer is None:
+            raise ValueError("this env has no Meshcat; make it with meshcat=start_meshcat()")
+        self.visualizer.StartRecording(False)
+
+    def save_recording(self, path) -> Path:
+        """Writes the recording so far as one standalone HTML file."""
+        from drake_tooluse.viz import save_recording
+
+        return save_recording(self.config.meshcat, self.visualizer, path)
 
     def _read_metrics(self):
         plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())

@@ -24,6 +24,19 @@ def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat) -> MeshcatVis
         builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 32))
 
 
+def look_at(eye, target):
+    """X_WC of a camera at `eye` looking at `target` (Drake camera frame: +z along the view,
+    +x right, +y down), with the world's +z up in the image."""
+    from pydrake.math import RigidTransform, RotationMatrix
+
+    z = np.asarray(target, float) - np.asarray(eye, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return RigidTransform(RotationMatrix(np.column_stack([x, y, z])), np.asarray(eye, float))
+
+
 def add_render_camera(builder, world, width: int = 480, height: int = 360):
     """A fixed colour camera looking at the table from the robot's front right, for
     `render_mode="rgb_array"`; exports its `color_image` port. Returns the RgbdSensor."""
@@ -36,7 +49,7 @@ def add_render_camera(builder, world, width: int = 480, height: int = 360):
         RenderCameraCore,
         RenderEngineVtkParams,
     )
-    from pydrake.math import RigidTransform, RollPitchYaw
+    from pydrake.math import RigidTransform
     from pydrake.systems.sensors import CameraInfo, RgbdSensor
 
     renderer = "render_camera"
@@ -44,9 +57,8 @@ def add_render_camera(builder, world, width: int = 480, height: int = 360):
         world.scene_graph.AddRenderer(renderer, MakeRenderEngineVtk(RenderEngineVtkParams()))
     core = RenderCameraCore(renderer, CameraInfo(width, height, 0.9), ClippingRange(0.05, 10.0),
                             RigidTransform())
-    # Camera frame: +z along the view; looking back at the robot and table from the front.
-    X_WC = RigidTransform(RollPitchYaw(-np.pi / 2 - 0.45, 0, np.pi / 2 + 0.35),
-                          [1.75, -0.45, 0.55])
+    # In front of the robot, to its right, looking at the work area of the table.
+    X_WC = look_at([1.35, -0.85, 0.35], [0.55, -0.15, -0.12])
     sensor = builder.AddNamedSystem("render_camera", RgbdSensor(
         world.scene_graph.world_frame_id() if hasattr(world.scene_graph, "world_frame_id")
         else world.plant.GetBodyFrameIdOrThrow(world.plant.world_body().index()),

@@ -1,0 +1,164 @@
+"""The push envs: ecosystem checks, determinism, rewards, success, bad input, vector envs."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+from stable_baselines3.common.vec_env import SubprocVecEnv
+
+import drake_tooluse  # noqa: F401  (registers the ids)
+from drake_tooluse.registration import ENV_IDS
+from drake_tooluse.scripted import ScriptedPush
+
+FAST = {"ik_mode": "differential"}
+
+
+@pytest.mark.parametrize("env_id", list(ENV_IDS))
+def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
+    env = gym.make(env_id, **FAST)
+    assert env.spec.max_episode_steps == 100
+    check_env(env.unwrapped, skip_render_check=True)
+    sb3_check_env(env.unwrapped)
+    assert env.observation_space.shape == (30,) and env.observation_space.dtype == np.float32
+    assert env.action_space.shape == (7,)
+
+
+def test_full_ik_env_passes_the_checker():
+    check_env(gym.make("drake_tooluse/ToolPush-v0").unwrapped, skip_render_check=True)
+
+
+@pytest.mark.parametrize("mode, size", [("paper", 7), ("pose", 6), ("position", 3)])
+def test_action_modes(mode, size):
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode=mode, include_tool_length=True, **FAST)
+    assert env.action_space.shape == (size,)
+    obs, _ = env.reset(seed=1)
+    assert obs.shape == (31,) and obs[30] == pytest.approx(0.175)
+    obs, *_ = env.step(np.ones(size) * 0.5)
+    assert np.all(np.isfinite(obs))
+
+
+def _rollout(env, seed, actions):
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    for a in actions:
+        obs, *_ = env.step(a)
+        out.append(obs)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("ik_mode", ["full", "differential"])
+def test_same_seed_same_actions_give_bit_identical_observations(ik_mode):
+    actions = np.random.default_rng(0).uniform(-1, 1, (15, 7))
+    kwargs = {"ik_mode": ik_mode, "randomize": True}
+    a = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
+    b = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
+    np.testing.assert_array_equal(a, b)
+    c = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 4, actions)
+    assert not np.array_equal(a[0], c[0])  # randomized start differs with the seed
+
+
+def test_rewards_of_env1_env2_env3():
+    action = np.zeros(7)
+    for env_id in ENV_IDS:
+        env = gym.make(env_id, **FAST)
+        obs, info = env.reset(seed=0)
+        goal, box = obs[0:3], obs[3:6]
+        _, reward, *_, info = env.step(action)
+        if env_id.endswith("BoxReward-v0"):
+            assert reward == pytest.approx(-info["box_to_goal"])
+        else:
+            assert reward == pytest.approx(-(info["box_to_goal"] + info["tip_to_box"]))
+        far = env_id.endswith("Far-v0")
+        assert goal[1] - box[1] == pytest.approx(0.30 if far else 0.20)
+        assert goal[0] == pytest.approx(box[0]) and goal[2] == pytest.approx(box[2])
+
+
+@pytest.mark.parametrize("ik_mode", ["full", "differential"])
+def test_scripted_push_reaches_the_goal_and_terminates(ik_mode):
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode=ik_mode)
+    policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
+    obs, _ = env.reset(seed=0)
+    for _ in range(100):
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        if terminated or truncated:
+            break
+    assert terminated and not truncated and info["is_success"]
+    assert info["box_to_goal"] + info["tip_to_box"] <= 0.05
+    assert info["box_travel"] > 0.15
+    assert info["tool_touched_box_in_episode"] and not info["gripper_touched_box_in_episode"]
+
+
+def test_nan_action_is_an_error_naming_it():
+    env = gym.make("drake_tooluse/ToolPush-v0", **FAST)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        env.step(np.array([0, np.nan, 0, 0, 0, 0, 0]))
+    with pytest.raises(ValueError, match="needs 7"):
+        env.step(np.zeros(3))
+
+
+def test_out_of_bounds_actions_are_clipped():
+    a = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **FAST)
+    b = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **FAST)
+    a.reset(seed=0)
+    b.reset(seed=0)
+    np.testing.assert_array_equal(a.step(np.array([5.0, -7.0, 0.3]))[0],
+                                  b.step(np.array([1.0, -1.0, 0.3]))[0])
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['scenario'"),
+    ({"action_mode": "joint"}, r"action_mode='joint' is not allowed; choose one of \['paper', 'pose', 'position'\]"),
+    ({"ik_mode": "fast"}, r"ik_mode='fast' is not allowed; choose one of \['full', 'differential'\]"),
+    ({"tool_length": 0.9}, r"tool length=0.9 m is outside the allowed range \(0, 0.6\]"),
+])
+def test_bad_kwargs_list_what_is_allowed(kwargs, message):
+    with pytest.raises((TypeError, ValueError), match=message):
+        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+
+
+def test_reset_options_are_refused():
+    env = gym.make("drake_tooluse/ToolPush-v0", **FAST)
+    with pytest.raises(ValueError, match="not supported"):
+        env.reset(options={"goal": 1})
+
+
+def test_rgb_array_render_from_the_camera():
+    env = gym.make("drake_tooluse/ToolPush-v0", render_mode="rgb_array", **FAST)
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (360, 480, 3) and frame.dtype == np.uint8
+    assert frame.std() > 10  # a scene, not a blank image
+
+
+def test_episode_recorded_to_meshcat_html(tmp_path):
+    from drake_tooluse.viz import start_meshcat
+
+    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat(), **FAST)
+    env.reset(seed=0)
+    env.unwrapped.start_recording()
+    for _ in range(5):
+        env.step(env.action_space.sample())
+    path = env.unwrapped.save_recording(tmp_path / "episode.html")
+    assert path.stat().st_size > 100_000
+
+
+def _make(rank):
+    def thunk():
+        # Workers start fresh (forkserver): "module:id" makes Gymnasium import the package.
+        return gym.make("drake_tooluse:drake_tooluse/ToolPush-v0", ik_mode="differential")
+    return thunk
+
+
+def test_subproc_vec_env_with_two_workers():
+    vec = SubprocVecEnv([_make(0), _make(1)])
+    try:
+        vec.seed(5)
+        obs = vec.reset()
+        assert obs.shape == (2, 30)
+        for _ in range(3):
+            obs, rewards, dones, infos = vec.step(np.zeros((2, 7), np.float32))
+        assert rewards.shape == (2,) and all("is_success" in i for i in infos)
+    finally:
+        vec.close()
