@@ -366,8 +366,7 @@ def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
 def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
     """A cheaper first-order alternative to `ToolTipIKSystem` for training: Drake's
     `DifferentialInverseKinematicsIntegrator` on the tool-tip frame of the robot model (one QP
-    per control period, joint position and velocity limits respected; all C++, no Python in
-    the loop). Connect a RigidTransform X_WT* to its `X_AE_desired` input; its
+    per control period, joint position limits respected; all C++, no Python in the loop). Connect a RigidTransform X_WT* to its `X_AE_desired` input; its
     `joint_positions` output (7) are the joint targets. Set its positions to q0 at each
     episode start (`SetPositions`).
     """
@@ -376,15 +375,13 @@ def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
         DifferentialInverseKinematicsParameters,
     )
 
-    from drake_tooluse.baxter_model import ARM_LIMITS, ARM_JOINT_SUFFIXES
-
     plant = ik.plant
     for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], q0):
         joint.set_default_angle(q)
     params = DifferentialInverseKinematicsParameters(7, 7)
     params.set_joint_position_limits((ik.lower, ik.upper))
-    v_max = np.array([ARM_LIMITS[s][2] for s in ARM_JOINT_SUFFIXES])
-    params.set_joint_velocity_limits((-v_max, v_max))
+    # No joint velocity limits, like the full IK: the step is the whole Newton step, and the
+    # PD controllers (effort-limited) decide how fast the arm gets there.
     params.set_nominal_joint_position(np.asarray(q0, float))
     params.set_joint_centering_gain(0.01 * np.eye(7))  # a light pull toward the home posture
     return builder.AddNamedSystem("differential_ik", DifferentialInverseKinematicsIntegrator(

@@ -69,14 +69,17 @@ class ToolPushObservation(LeafSystem):
         return context.get_numeric_parameter(self._goal).get_value()
 
     def _calc(self, context, output):
-        x = self._state.Eval(context)
+        output.SetFromVector(self.observation(self._state.Eval(context), self.goal(context)))
+
+    def observation(self, x, goal) -> np.ndarray:
+        """The observation from the plant state x and the goal."""
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
         X_WG = self._gripper.CalcPoseInWorld(self._model_context)
         p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
-        output.SetFromVector(np.concatenate([
-            self.goal(context), x[self._box_p], p_WT, X_WG.translation(),
-            X_WG.rotation().ToQuaternion().wxyz(), q, x[self._arm_v], self._tool_length]))
+        return np.concatenate([
+            goal, x[self._box_p], p_WT, X_WG.translation(),
+            X_WG.rotation().ToQuaternion().wxyz(), q, x[self._arm_v], self._tool_length])
 
 
 @dataclass

@@ -1,0 +1,147 @@
+"""Env throughput: random-action steps per second on one core, ours beside Gymnasium-Robotics'
+FetchPushDense-v4 (MuJoCo) measured in the same run, and where a step's time goes.
+
+    pip install -e ".[bench]"        # mujoco < 3.4 + gymnasium-robotics 1.4.2 (optional)
+    python benchmarks/env_throughput.py [--steps 4000]
+
+Prints a Markdown table and writes docs/results/env_throughput.json.
+"""
+
+import argparse
+import os
+import platform
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import gymnasium as gym  # noqa: E402
+import numpy as np  # noqa: E402
+
+import drake_tooluse  # noqa: E402,F401
+from drake_tooluse.io import atomic_write_json  # noqa: E402
+
+OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_throughput.json"
+
+
+def run_random(env, steps: int, seed: int = 0) -> float:
+    """Seconds per step over `steps` random-action steps, resets included."""
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    start = time.perf_counter()
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        if terminated or truncated:
+            env.reset()
+    return (time.perf_counter() - start) / steps
+
+
+class _Timer:
+    """Wraps a bound method and adds up the time spent in it."""
+
+    def __init__(self, obj, name):
+        self.total, self._f = 0.0, getattr(obj, name)
+        setattr(obj, name, self)
+
+    def __call__(self, *args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return self._f(*args, **kwargs)
+        finally:
+            self.total += time.perf_counter() - start
+
+
+def breakdown(ik_mode: str, steps: int) -> dict:
+    """Per-step time of each part, in ms: IK (Python-side solve), tip target, observation,
+    metrics (reward/info), and the rest (plant + Drake framework + DrakeGymEnv)."""
+    env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode)
+    u = env.unwrapped
+    timers = {"tip target": _Timer(u.target_system, "_target"),
+              "observation": _Timer(u.observation_system, "observation"),
+              "metrics (reward, info)": _Timer(u, "_read_metrics")}
+    if u.ik_system is not None:
+        timers["IK (InverseKinematics)"] = _Timer(u.ik_system.ik, "solve")
+    total = run_random(env, steps)
+    parts = {name: t.total / steps * 1e3 for name, t in timers.items()}
+    parts["plant, framework, rest"] = total * 1e3 - sum(parts.values())
+    return parts
+
+
+def plant_only_ms(steps: int = 500) -> float:
+    """One 40 ms control period of the world alone (constant joint targets), in ms."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_tooluse.ik import home_configuration
+    from drake_tooluse.scenario import Scenario
+    from drake_tooluse.scene import add_world
+
+    s = Scenario()
+    builder = DiagramBuilder()
+    world = add_world(builder, s)
+    q0 = home_configuration(s, s.tool.length)
+    for joint, q in zip(world.arm_joints(), q0):
+        joint.set_default_angle(q)
+    source = builder.AddSystem(ConstantVectorSource(np.concatenate([q0, np.zeros(7)])))
+    builder.Connect(source.get_output_port(),
+                    world.plant.get_desired_state_input_port(world.baxter))
+    simulator = Simulator(builder.Build())
+    simulator.Initialize()
+    period = s.control.control_period
+    start = time.perf_counter()
+    for i in range(steps):
+        simulator.AdvanceTo((i + 1) * period)
+    return (time.perf_counter() - start) / steps * 1e3
+
+
+def fetch_push(steps: int):
+    try:
+        import gymnasium_robotics
+    except ImportError:
+        return None
+    gym.register_envs(gymnasium_robotics)
+    return run_random(gym.make("FetchPushDense-v4"), steps)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--steps", type=int, default=4000)
+    args = ap.parse_args()
+    rows = []
+    fetch = fetch_push(args.steps)
+    if fetch is not None:
+        rows.append(("FetchPushDense-v4 (MuJoCo)", fetch))
+    for ik_mode in ("full", "differential"):
+        for action_mode in ("paper", "position"):
+            env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode, action_mode=action_mode)
+            rows.append((f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}",
+                         run_random(env, args.steps)))
+    print("| env | steps/s | ms/step | ratio ours / FetchPush |")
+    print("| --- | --- | --- | --- |")
+    results = []
+    for name, sec in rows:
+        ratio = f"{fetch / sec:.2f}" if fetch is not None and not name.startswith("Fetch") else "—"
+        print(f"| {name} | {1 / sec:.0f} | {sec * 1e3:.3f} | {ratio} |")
+        results.append({"env": name, "steps_per_s": 1 / sec, "ms_per_step": sec * 1e3,
+                        "ratio_to_fetchpush": None if fetch is None or name.startswith("Fetch")
+                        else fetch / sec})
+    if fetch is None:
+        print("(FetchPushDense-v4 not installed: pip install -e '.[bench]' to compare)")
+    plant = plant_only_ms()
+    parts = {mode: breakdown(mode, max(args.steps // 2, 200)) for mode in ("full", "differential")}
+    print(f"\nWhere a step's time goes (ms per step, action_mode=paper; the world alone: "
+          f"{plant:.3f} ms per 40 ms control period):\n")
+    names = sorted({k for p in parts.values() for k in p})
+    print("| part | ik_mode=full | ik_mode=differential |")
+    print("| --- | --- | --- |")
+    for k in names:
+        print(f"| {k} | {parts['full'].get(k, 0.0):.3f} | {parts['differential'].get(k, 0.0):.3f} |")
+    atomic_write_json(OUT, {"command": f"python benchmarks/env_throughput.py --steps {args.steps}",
+                            "machine": platform.platform(), "results": results,
+                            "plant_only_ms_per_control_period": plant, "breakdown_ms": parts})
+    print(f"\nwrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()
