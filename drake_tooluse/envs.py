@@ -21,6 +21,7 @@ x: box centre, x*: goal, y: the true tool tip. Success (terminated) when d(x, x*
 from __future__ import annotations
 
 import dataclasses as dc
+import logging
 from pathlib import Path
 
 import gymnasium as gym
@@ -168,6 +169,9 @@ class ToolPushEnv(DrakeGymEnv):
                             self.ik_system.GetInputPort("tip_pose_desired"))
             q_commanded = self.ik_system.GetOutputPort("q_desired")
         else:
+            # Drake logs every switch of the differential IK into and out of "no solution"
+            # (a target it cannot reach in one step: the arm holds); too chatty for training.
+            logging.getLogger("drake").setLevel(logging.ERROR)
             self._differential = add_differential_ik(builder, ik, q0, period)
             builder.Connect(target.GetOutputPort("X_WT_desired"),
                             self._differential.GetInputPort("X_AE_desired"))
