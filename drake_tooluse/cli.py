@@ -146,6 +146,38 @@ def cmd_render_diagrams(args) -> dict:
     return render_all(DIAGRAMS_DIR, check=args.check)
 
 
+def cmd_train(args) -> dict:
+    from drake_tooluse.train import resolve_config, train
+
+    if args.resume is not None:
+        out_dir = args.resume
+        if args.out is not None and args.out != args.resume:
+            raise UsageError("give --resume DIR alone (it is the run directory), not with --out")
+    elif args.out is None:
+        raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
+    else:
+        out_dir = args.out
+    overrides = json.loads(args.hyperparams) if args.hyperparams else None
+    config = resolve_config(args.env, args.algo, args.timesteps, args.n_envs, args.seed,
+                            init_from=str(args.init_from) if args.init_from else None,
+                            overrides=overrides)
+    command = "drake-tooluse " + " ".join(sys.argv[1:]) if sys.argv else ""
+    return train(config, out_dir, resume=args.resume is not None,
+                 progress_bar=not args.no_progress and sys.stderr.isatty(), command=command)
+
+
+def cmd_evaluate(args) -> dict:
+    from dataclasses import asdict
+
+    from drake_tooluse.train import evaluate
+
+    env_kwargs = json.loads(args.env_kwargs) if args.env_kwargs else None
+    result = asdict(evaluate(args.policy, args.env, args.episodes, args.seed, env_kwargs))
+    if not args.per_episode:
+        result.pop("per_episode")
+    return result
+
+
 def _print_human(name: str, out: dict) -> None:
     if name == "fk":
         t = out["tip"]
@@ -166,12 +198,22 @@ def _print_human(name: str, out: dict) -> None:
               f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
         if out["recording"]:
             print(f"recording: {out['recording']}")
+    elif name == "evaluate":
+        print(f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
+              f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
+              f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
+              f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
+              f"{out['success_rate'] * 100:.0f} %; box travel {out['box_travel_mean_m'] * 100:.1f}"
+              f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
+              f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
+              f"{out['gripper_touched_rate'] * 100:.0f} %")
     else:
         print(json.dumps(out, indent=2))
 
 
 COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
-            "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams}
+            "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams,
+            "train": cmd_train, "evaluate": cmd_evaluate}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -208,6 +250,30 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--record", type=Path, metavar="HTML",
                    help="write a Meshcat recording (standalone HTML)")
 
+    from drake_tooluse.registration import ENV_IDS
+
+    p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
+    p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {list(ENV_IDS)}")
+    p.add_argument("--algo", default="ppo", help="ppo, a2c, ddpg or trpo")
+    p.add_argument("--timesteps", type=int, default=1_250_000)
+    p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, help="new run directory")
+    p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
+    p.add_argument("--init-from", type=Path, metavar="POLICY",
+                   help="start from a trained policy directory (fine-tuning)")
+    p.add_argument("--hyperparams", metavar="JSON",
+                   help='override YAML hyperparameters, e.g. \'{"learning_rate": 1e-4}\'')
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    p = sub.add_parser("evaluate", help="evaluate a policy directory over seeded episodes")
+    p.add_argument("--policy", type=Path, required=True, help="policy directory")
+    p.add_argument("--env", help="env id (default: the one it was trained on)")
+    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
+    p.add_argument("--per-episode", action="store_true", help="include each episode")
+
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")
 
@@ -224,7 +290,7 @@ def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
     try:
         out = COMMANDS[args.command](args)
-    except (ValueError, FileNotFoundError) as e:
+    except (ValueError, FileNotFoundError, FileExistsError, json.JSONDecodeError) as e:
         if getattr(args, "json", False):
             print(json.dumps({"error": str(e)}))
         print(f"drake-tooluse {args.command}: error: {e}", file=sys.stderr)
