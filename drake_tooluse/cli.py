@@ -178,6 +178,16 @@ def cmd_evaluate(args) -> dict:
     return result
 
 
+def cmd_sweep(args) -> dict:
+    from drake_tooluse.sweep import results_table, sweep
+
+    overrides = json.loads(args.hyperparams) if args.hyperparams else None
+    rows = sweep(args.algos, args.envs, args.seeds, args.timesteps, args.out,
+                 address=args.address, num_cpus=args.num_cpus, overrides=overrides,
+                 episodes=args.episodes)
+    return {"runs": rows, "table": results_table(rows)}
+
+
 def _print_human(name: str, out: dict) -> None:
     if name == "fk":
         t = out["tip"]
@@ -198,6 +208,8 @@ def _print_human(name: str, out: dict) -> None:
               f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
         if out["recording"]:
             print(f"recording: {out['recording']}")
+    elif name == "sweep":
+        print(out["table"], end="")
     elif name == "evaluate":
         print(f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
               f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
@@ -213,7 +225,7 @@ def _print_human(name: str, out: dict) -> None:
 
 COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
             "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams,
-            "train": cmd_train, "evaluate": cmd_evaluate}
+            "train": cmd_train, "evaluate": cmd_evaluate, "sweep": cmd_sweep}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -274,6 +286,18 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
     p.add_argument("--per-episode", action="store_true", help="include each episode")
 
+    p = sub.add_parser("sweep", help="a grid of runs (algos x envs x seeds) on Ray "
+                                     "(pip install -e '.[cluster]')")
+    p.add_argument("--algos", nargs="+", default=["ppo"], help="ppo a2c ddpg trpo")
+    p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"])
+    p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    p.add_argument("--timesteps", type=int, default=300_000)
+    p.add_argument("--out", type=Path, required=True, help="directory for the runs and table")
+    p.add_argument("--address", help="join this Ray cluster (default: a local one)")
+    p.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
+    p.add_argument("--hyperparams", metavar="JSON", help="override YAML hyperparameters")
+    p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per run")
+
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")
 
@@ -290,7 +314,8 @@ def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
     try:
         out = COMMANDS[args.command](args)
-    except (ValueError, FileNotFoundError, FileExistsError, json.JSONDecodeError) as e:
+    except (ValueError, FileNotFoundError, FileExistsError, json.JSONDecodeError,
+            RuntimeError) as e:
         if getattr(args, "json", False):
             print(json.dumps({"error": str(e)}))
         print(f"drake-tooluse {args.command}: error: {e}", file=sys.stderr)

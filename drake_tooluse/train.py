@@ -361,8 +361,14 @@ def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar:
         if normalize:
             venv = VecNormalize(venv, norm_obs=True, norm_reward=True,
                                 gamma=float(hp.get("gamma", 0.99)))
-        model = algo_cls(hp.get("policy", "MlpPolicy"), venv, seed=config.seed, device="cpu",
-                         verbose=0, **_algo_kwargs(config, venv.action_space.shape[0]))
+        try:
+            model = algo_cls(hp.get("policy", "MlpPolicy"), venv, seed=config.seed,
+                             device="cpu", verbose=0,
+                             **_algo_kwargs(config, venv.action_space.shape[0]))
+        except TypeError as e:  # a hyperparameter this algorithm does not take
+            venv.close()
+            eval_env.close()
+            raise ValueError(f"bad hyperparameters for {config.algo}: {e}") from None
         if config.init_from:
             init = load_policy(config.init_from)
             model.set_parameters(init.model.get_parameters())

@@ -58,6 +58,12 @@ def test_resume_after_sigkill_loses_at_most_one_checkpoint_interval(tmp_path):
     assert json.loads((out / "summary.json").read_text())["timesteps"] >= 6000
 
 
+def test_a_hyperparameter_the_algorithm_does_not_take(tmp_path):
+    config = resolve_config(ENV, "a2c", 100, 1, 0, overrides={**TINY, "batch_size": 64})
+    with pytest.raises(ValueError, match="bad hyperparameters for a2c.*batch_size"):
+        train(config, tmp_path / "run", progress_bar=False)
+
+
 def test_resume_with_different_hyperparameters_is_refused(tmp_path):
     config = resolve_config(ENV, "ppo", 300, 1, 0, overrides={**TINY, **PER_ALGO["ppo"]})
     train(config, tmp_path / "run", progress_bar=False)
