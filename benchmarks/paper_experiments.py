@@ -4,7 +4,8 @@ command, evaluated with `drake-tooluse evaluate` over 100 seeded episodes.
     python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only NAME ...]
 
 Runs (budgets are this machine's, smaller than the paper's 1.25 M steps; see docs/TRAINING.md):
-  ppo_env1            PPO on Env1, position action (the shipped policy's recipe)
+  ppo_env1            PPO on Env1, position action, first-order (differential) IK in the loop
+  ppo_env1_fullik     the same with the full tool-tip InverseKinematics in the loop
   ppo_env1_paper      PPO on Env1, the paper's 7-d action (tip position + quaternion change)
   trpo_env1, a2c_env1, ddpg_env1   the other three algorithms on Env1, position action
   ppo_env2            PPO on Env2 (reward -d(box, goal) only): tool or gripper?
@@ -27,16 +28,19 @@ from drake_tooluse.io import atomic_write_json
 ROOT = Path(__file__).resolve().parent.parent
 ENV1, ENV2, ENV3 = ("drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPushBoxReward-v0",
                     "drake_tooluse/ToolPushFar-v0")
-PAPER_ACTION = '{"env_kwargs": {"action_mode": "paper", "ik_mode": "differential"}}'
+PAPER_ACTION = ('{"env_kwargs": {"action_mode": "paper", "ik_mode": "differential", '
+                '"randomize": true}}')
+FULL_IK = '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", "randomize": true}}'
 RUNS = {
     "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=500_000),
-    "ppo_env1_paper": dict(env=ENV1, algo="ppo", timesteps=500_000, hyperparams=PAPER_ACTION),
-    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=300_000),
-    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=300_000),
-    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=100_000),
+    "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=500_000, hyperparams=FULL_IK),
     "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=300_000),
     "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=300_000),
     "ppo_env3_finetune": dict(env=ENV3, algo="ppo", timesteps=150_000, init_from="ppo_env1"),
+    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=300_000),
+    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=300_000),
+    "ppo_env1_paper": dict(env=ENV1, algo="ppo", timesteps=500_000, hyperparams=PAPER_ACTION),
+    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=100_000),
 }
 
 

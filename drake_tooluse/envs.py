@@ -21,7 +21,6 @@ x: box centre, x*: goal, y: the true tool tip. Success (terminated) when d(x, x*
 from __future__ import annotations
 
 import dataclasses as dc
-import logging
 from pathlib import Path
 
 import gymnasium as gym
@@ -30,25 +29,16 @@ from pydrake.gym import DrakeGymEnv
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.common.value import AbstractValue
-from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, Multiplexer
 
-from drake_tooluse.actions import ACTION_MODES, TipTargetSystem, Workspace, check_action
-from drake_tooluse.ik import (
-    ToolTipIK,
-    ToolTipIKSystem,
-    add_differential_ik,
-    home_configuration,
-    pose_to_vector,
-)
+from drake_tooluse.actions import ACTION_MODES, check_action
+from drake_tooluse.control import IK_MODES, add_tip_control
+from drake_tooluse.ik import ToolTipIK, home_configuration
 from drake_tooluse.scenario import Scenario, load_scenario, tool_length_or_none, with_tool_length
-from drake_tooluse.scene import GRASP_FRAME, add_world, goal_position, home_tip_pose
-from drake_tooluse.scene import initial_box_pose
+from drake_tooluse.scene import GRASP_FRAME, add_world, goal_position, initial_box_pose
 from drake_tooluse.task import OBSERVATION_SIZE, PushMetricsReader, ToolPushObservation
 from drake_tooluse.validation import check_in_range, check_one_of
 
 REWARD_TYPES = ("tool_and_box", "box")
-IK_MODES = ("full", "differential")
 
 
 @dc.dataclass
@@ -154,45 +144,13 @@ class ToolPushEnv(DrakeGymEnv):
         for joint, q in zip(world.arm_joints(), q0):
             joint.set_default_angle(q)
         ik = ToolTipIK(believed, max_attempts=3)
-        period = s.control.control_period
-        self._home = pose_to_vector(home_tip_pose(s))
-        self._q0 = q0
-        target = builder.AddNamedSystem("tip_target", TipTargetSystem(
-            config.action_mode, ik.plant, self._home, Workspace.above_table(s.table.top_z)))
-        arm_state = world.plant.get_state_output_port(world.baxter)
-        builder.Connect(arm_state, target.GetInputPort("arm_state"))
-        self.ik_system = self._differential = None
-        if config.ik_mode == "full":
-            self.ik_system = builder.AddNamedSystem("tool_tip_ik",
-                                                    ToolTipIKSystem(ik, q0, period))
-            builder.Connect(target.GetOutputPort("tip_pose_desired"),
-                            self.ik_system.GetInputPort("tip_pose_desired"))
-            q_commanded = self.ik_system.GetOutputPort("q_desired")
-        else:
-            # Drake logs every switch of the differential IK into and out of "no solution"
-            # (a target it cannot reach in one step: the arm holds); too chatty for training.
-            logging.getLogger("drake").setLevel(logging.ERROR)
-            self._differential = add_differential_ik(builder, ik, q0, period)
-            builder.Connect(target.GetOutputPort("X_WT_desired"),
-                            self._differential.GetInputPort("X_AE_desired"))
-            # Linearize about the measured arm, as the full IK starts from it; integrating
-            # open loop instead would let the target (measured + action) run away.
-            builder.Connect(arm_state, self._differential.GetInputPort("robot_state"))
-            use_measured = builder.AddSystem(ConstantValueSource(AbstractValue.Make(True)))
-            builder.Connect(use_measured.get_output_port(),
-                            self._differential.GetInputPort("use_robot_state"))
-            q_commanded = self._differential.GetOutputPort("joint_positions")
-        # Desired state [q*, 0]: joint targets held over the control period, zero velocity.
-        zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
-        desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
-        builder.Connect(q_commanded, desired_state.get_input_port(0))
-        builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
-        builder.Connect(desired_state.get_output_port(),
-                        world.plant.get_desired_state_input_port(world.baxter))
+        self.control = add_tip_control(builder, world, ik, q0, config.action_mode,
+                                       config.ik_mode)
+        self.ik_system = self.control.ik_system
         observation = builder.AddNamedSystem("observation", ToolPushObservation(
             world, ik.plant, goal_position(s), config.include_tool_length, believed))
         builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
-        builder.ExportInput(target.GetInputPort("action"), "action")
+        builder.ExportInput(self.control.target.GetInputPort("action"), "action")
         builder.ExportOutput(observation.get_output_port(), "observation")
         if config.render_mode == "rgb_array":
             from drake_tooluse.viz import add_render_camera
@@ -205,7 +163,7 @@ class ToolPushEnv(DrakeGymEnv):
             self.visualizer = add_meshcat_visualizer(builder, world.scene_graph, config.meshcat)
         diagram = builder.Build()
         diagram.set_name("tool_push_env")
-        self.world, self.target_system = world, target
+        self.world, self.target_system = world, self.control.target
         self.observation_system = observation
         self.diagram = diagram
         self._metrics = PushMetricsReader(world)
@@ -232,9 +190,7 @@ class ToolPushEnv(DrakeGymEnv):
                     plant_context, RigidTransform([s.tool.grasp_offset_across + across, 0.0,
                                                    s.tool.grasp_offset_along + along]))
         plant.SetFreeBodyPose(plant_context, self.world.box, X_WB)
-        if self._differential is not None:
-            self._differential.SetPositions(
-                self._differential.GetMyMutableContextFromRoot(context), self._q0)
+        self.control.reset(context)
         box_start = X_WB.translation()
         goal = box_start + np.asarray(s.goal_offset, float)
         self.observation_system.set_goal(
@@ -309,13 +265,6 @@ class ToolPushEnv(DrakeGymEnv):
         self._episode["gripper_touched"] |= m.gripper_touches_box
         return m
 
-    def _ik_ok(self) -> bool:
-        if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
-            return True
-        status = self.ik_system.GetOutputPort("status").Eval(
-            self.ik_system.GetMyContextFromRoot(self.simulator.get_context()))
-        return bool(status[0] > 0.5)
-
     def _info(self, m, sim_error: bool) -> dict:
         return {"is_success": bool(m.is_success), "box_to_goal": m.box_to_goal,
                 "tip_to_box": m.tip_to_box, "box_travel": m.box_travel,
@@ -323,4 +272,4 @@ class ToolPushEnv(DrakeGymEnv):
                 "gripper_touches_box": m.gripper_touches_box,
                 "tool_touched_box_in_episode": self._episode["tool_touched"],
                 "gripper_touched_box_in_episode": self._episode["gripper_touched"],
-                "ik_ok": self._ik_ok(), "sim_error": sim_error}
+                "ik_ok": self.control.ik_ok(self.simulator.get_context()), "sim_error": sim_error}

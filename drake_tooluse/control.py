@@ -1,0 +1,90 @@
+"""Tool-tip control wired into a world: action → desired tool-tip pose → IK → joint targets.
+
+```
+action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem (full)            ──q*──► [q*, 0] ──► plant
+              ▲                     └► DifferentialIKIntegrator (differential)                 │
+              └───────────────────────── measured arm state ◄─────────────────────────────────┘
+```
+
+Used by the Gymnasium envs and by the policy diagram, so both run the same controller.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, Multiplexer
+
+from drake_tooluse.actions import TipTargetSystem, Workspace
+from drake_tooluse.ik import ToolTipIK, ToolTipIKSystem, add_differential_ik, pose_to_vector
+from drake_tooluse.scene import World, home_tip_pose
+from drake_tooluse.validation import check_one_of
+
+IK_MODES = ("full", "differential")
+
+
+@dataclass
+class TipControl:
+    target: TipTargetSystem
+    ik: ToolTipIK
+    q0: np.ndarray
+    ik_system: ToolTipIKSystem | None = None  # ik_mode "full"
+    differential: object = None  # ik_mode "differential"
+
+    def reset(self, root_context) -> None:
+        """Puts the IK's state back at the home configuration (episode start)."""
+        if self.differential is not None:
+            self.differential.SetPositions(
+                self.differential.GetMyMutableContextFromRoot(root_context), self.q0)
+
+    def ik_ok(self, root_context) -> bool:
+        if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
+            return True
+        status = self.ik_system.GetOutputPort("status").Eval(
+            self.ik_system.GetMyContextFromRoot(root_context))
+        return bool(status[0] > 0.5)
+
+
+def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
+                    ik_mode: str) -> TipControl:
+    """Adds the tip target, the IK (full or differential) and the desired-state mux, connected
+    to the world's plant. The target's `action` input is left for the caller to connect."""
+    check_one_of(ik_mode, IK_MODES, "ik_mode")
+    s = world.scenario
+    period = s.control.control_period
+    target = builder.AddNamedSystem("tip_target", TipTargetSystem(
+        action_mode, ik.plant, pose_to_vector(home_tip_pose(s)),
+        Workspace.above_table(s.table.top_z)))
+    arm_state = world.plant.get_state_output_port(world.baxter)
+    builder.Connect(arm_state, target.GetInputPort("arm_state"))
+    control = TipControl(target, ik, np.asarray(q0, float))
+    if ik_mode == "full":
+        control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
+        builder.Connect(target.GetOutputPort("tip_pose_desired"),
+                        control.ik_system.GetInputPort("tip_pose_desired"))
+        q_commanded = control.ik_system.GetOutputPort("q_desired")
+    else:
+        # Drake logs every switch of the differential IK into and out of "no solution" (a
+        # target it cannot reach in one step: the arm holds); too chatty for training.
+        logging.getLogger("drake").setLevel(logging.ERROR)
+        control.differential = add_differential_ik(builder, ik, q0, period)
+        builder.Connect(target.GetOutputPort("X_WT_desired"),
+                        control.differential.GetInputPort("X_AE_desired"))
+        # Linearize about the measured arm, as the full IK starts from it; integrating open
+        # loop instead would let the target (measured + action) run away.
+        builder.Connect(arm_state, control.differential.GetInputPort("robot_state"))
+        use_measured = builder.AddSystem(ConstantValueSource(AbstractValue.Make(True)))
+        builder.Connect(use_measured.get_output_port(),
+                        control.differential.GetInputPort("use_robot_state"))
+        q_commanded = control.differential.GetOutputPort("joint_positions")
+    # Desired state [q*, 0]: joint targets held over the control period, zero velocity.
+    zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+    desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
+    builder.Connect(q_commanded, desired_state.get_input_port(0))
+    builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
+    builder.Connect(desired_state.get_output_port(),
+                    world.plant.get_desired_state_input_port(world.baxter))
+    return control
