@@ -8,7 +8,6 @@ figures as JSON to docs/results/ik_kinematic.json.
 """
 
 import argparse
-import json
 import platform
 import time
 from pathlib import Path
@@ -60,8 +59,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     results = [bench(L, args.poses, args.seed) for L in args.lengths]
-    print(f"| tool (m) | poses | success | tip err median / max (mm) | orient. err median / max "
-          f"(rad) | solve median / p95 / max (ms) | 1st try | violations |")
+    print("| tool (m) | poses | success | tip err median / max (mm) | orient. err median / max "
+          "(rad) | solve median / p95 / max (ms) | 1st try | violations |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in results:
         print(f"| {r['tool_length_m']:.3f} | {r['poses']} | {r['success_rate'] * 100:.2f} % | "

@@ -19,8 +19,14 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, Multiplexer
 
 from drake_tooluse.actions import TipTargetSystem, Workspace
-from drake_tooluse.ik import ToolTipIK, ToolTipIKSystem, add_differential_ik, pose_to_vector
-from drake_tooluse.scene import World, home_tip_pose
+from drake_tooluse.ik import (
+    ToolTipIK,
+    ToolTipIKSystem,
+    add_differential_ik,
+    home_configuration,
+    pose_to_vector,
+)
+from drake_tooluse.scene import World, add_world, home_tip_pose
 from drake_tooluse.validation import check_one_of
 
 IK_MODES = ("full", "differential")
@@ -46,6 +52,17 @@ class TipControl:
         status = self.ik_system.GetOutputPort("status").Eval(
             self.ik_system.GetMyContextFromRoot(root_context))
         return bool(status[0] > 0.5)
+
+
+def add_world_at_home(builder, scenario, believed_tool_length: float | None,
+                      ik_attempts: int = 3):
+    """The world, started at the home configuration the robot computes for the tool it
+    believes it holds, and the IK on that belief. Returns (world, ik, q0)."""
+    world = add_world(builder, scenario)
+    q0 = home_configuration(scenario, believed_tool_length)
+    for joint, q in zip(world.arm_joints(), q0):
+        joint.set_default_angle(q)
+    return world, ToolTipIK(believed_tool_length, max_attempts=ik_attempts), q0
 
 
 def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,

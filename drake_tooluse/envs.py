@@ -31,10 +31,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.actions import ACTION_MODES, check_action
-from drake_tooluse.control import IK_MODES, add_tip_control
-from drake_tooluse.ik import ToolTipIK, home_configuration
+from drake_tooluse.control import IK_MODES, add_tip_control, add_world_at_home
 from drake_tooluse.scenario import Scenario, load_scenario, tool_length_or_none, with_tool_length
-from drake_tooluse.scene import GRASP_FRAME, add_world, goal_position, initial_box_pose
+from drake_tooluse.scene import GRASP_FRAME, goal_position, initial_box_pose
 from drake_tooluse.task import OBSERVATION_SIZE, PushMetricsReader, ToolPushObservation
 from drake_tooluse.validation import check_in_range, check_one_of
 
@@ -139,11 +138,7 @@ class ToolPushEnv(DrakeGymEnv):
         s = self.scenario
         believed = tool_length_or_none(s)
         builder = DiagramBuilder()
-        world = add_world(builder, s)
-        q0 = home_configuration(s, believed)
-        for joint, q in zip(world.arm_joints(), q0):
-            joint.set_default_angle(q)
-        ik = ToolTipIK(believed, max_attempts=3)
+        world, ik, q0 = add_world_at_home(builder, s, believed)
         self.control = add_tip_control(builder, world, ik, q0, config.action_mode,
                                        config.ik_mode)
         self.ik_system = self.control.ik_system

@@ -14,15 +14,14 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import SnoptSolver, SolverOptions
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.baxter_model import ARM_LIMITS, ARM_JOINT_SUFFIXES, RIGHT_ARM_JOINTS
 from drake_tooluse.scene import GRIPPER_FRAME, TIP_FRAME, make_robot_model

@@ -13,10 +13,9 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
-from drake_tooluse.control import TipControl, add_tip_control
-from drake_tooluse.ik import ToolTipIK, home_configuration
+from drake_tooluse.control import TipControl, add_tip_control, add_world_at_home
 from drake_tooluse.scenario import Scenario, check_tool_length, tool_length_or_none
-from drake_tooluse.scene import World, add_world, goal_position, initial_box_pose
+from drake_tooluse.scene import World, goal_position, initial_box_pose
 from drake_tooluse.task import PushMetricsReader, ToolPushObservation
 from drake_tooluse.train import LoadedPolicy, load_policy
 
@@ -67,11 +66,7 @@ def build_policy_diagram(scenario: Scenario, policy_dir, believed_tool_length=No
         check_tool_length(believed_tool_length, "believed tool length"))
     include_length = policy.meta.observation_shape[0] == 31
     builder = DiagramBuilder()
-    world = add_world(builder, scenario)
-    q0 = home_configuration(scenario, believed)
-    for joint, q in zip(world.arm_joints(), q0):
-        joint.set_default_angle(q)
-    ik = ToolTipIK(believed, max_attempts=3)
+    world, ik, q0 = add_world_at_home(builder, scenario, believed)
     control = add_tip_control(builder, world, ik, q0, kwargs.get("action_mode", "paper"), ik_mode)
     observation = builder.AddNamedSystem("observation", ToolPushObservation(
         world, ik.plant, goal_position(scenario), include_length, believed))

@@ -23,7 +23,6 @@ from pydrake.geometry import (
     Box,
     CollisionFilterDeclaration,
     Cylinder,
-    GeometrySet,
     ProximityProperties,
     Sphere,
 )

@@ -19,15 +19,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
-from drake_tooluse.ik import (
-    ToolTipIK,
-    ToolTipIKSystem,
-    home_configuration,
-    pose_to_vector,
-    rotation_angle_between,
-)
+from drake_tooluse.control import add_world_at_home
+from drake_tooluse.ik import ToolTipIKSystem, pose_to_vector, rotation_angle_between
 from drake_tooluse.scenario import Scenario, check_tool_length, tool_length_or_none
-from drake_tooluse.scene import World, add_world, home_tip_pose
+from drake_tooluse.scene import World, home_tip_pose
 from drake_tooluse.validation import check_in_range
 
 
@@ -70,12 +65,9 @@ def build_tip_control_diagram(scenario: Scenario, trajectory: PiecewisePolynomia
     believed = tool_length_or_none(scenario) if believed_tool_length is None else (
         check_tool_length(believed_tool_length, "believed tool length"))
     builder = DiagramBuilder()
-    world = add_world(builder, scenario)
-    q0 = home_configuration(scenario, believed)
-    for joint, q in zip(world.arm_joints(), q0):
-        joint.set_default_angle(q)
+    world, ik, q0 = add_world_at_home(builder, scenario, believed, ik_attempts=16)
     ik_system = builder.AddNamedSystem(
-        "tool_tip_ik", ToolTipIKSystem(ToolTipIK(believed), q0, scenario.control.control_period))
+        "tool_tip_ik", ToolTipIKSystem(ik, q0, scenario.control.control_period))
     source = builder.AddNamedSystem("tip_trajectory", TrajectorySource(trajectory))
     builder.Connect(source.get_output_port(), ik_system.GetInputPort("tip_pose_desired"))
     builder.Connect(ik_system.GetOutputPort("desired_state"),

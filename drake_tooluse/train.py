@@ -19,7 +19,6 @@ as rl-zoo keeps them).
 from __future__ import annotations
 
 import json
-import os
 import pickle
 import shutil
 import tempfile

@@ -8,7 +8,6 @@ without geometry). Run once, offline afterwards:
     python tests/data/make_upstream_fk.py /tmp/hpp/cmeel.prefix/share/hpp-baxter/urdf/baxter.urdf
 """
 
-import json
 import sys
 from pathlib import Path
 
