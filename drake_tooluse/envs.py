@@ -41,19 +41,6 @@ REWARD_TYPES = ("tool_and_box", "box")
 
 
 @dc.dataclass
-class Randomization:
-    """Ranges of domain randomization, each drawn uniformly per reset from the env's seeded
-    generator (± half-widths, or [lo, hi] for mass and friction scale)."""
-
-    box_xy: float = 0.02  # m, box start position offset
-    box_yaw: float = 0.2  # rad
-    box_mass_scale: tuple = (0.7, 1.3)
-    box_friction_scale: tuple = (0.7, 1.3)
-    grasp_along: float = 0.01  # m
-    grasp_across: float = 0.005  # m
-
-
-@dc.dataclass
 class EnvConfig:
     """The keyword arguments of `ToolPushEnv` (and of `gym.make`)."""
 
@@ -63,7 +50,7 @@ class EnvConfig:
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "paper"
     include_tool_length: bool = False
-    randomize: bool = False
+    randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
     # "full": Drake InverseKinematics on the tool tip, warm-started, every control period;
     # "differential": Drake's differential IK integrator (first order, cheaper; for training).
@@ -114,7 +101,6 @@ class ToolPushEnv(DrakeGymEnv):
         config = _config(kwargs)
         self.config = config
         self.scenario = _scenario(config)
-        self.randomization = Randomization()
         self._build(config)
         n_obs = OBSERVATION_SIZE + int(config.include_tool_length)
         # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
@@ -171,7 +157,7 @@ class ToolPushEnv(DrakeGymEnv):
         plant_context = plant.GetMyMutableContextFromRoot(context)
         X_WB = initial_box_pose(s)
         if self.config.randomize:
-            r, rng = self.randomization, self.np_random
+            r, rng = s.randomization, self.np_random
             dxy = rng.uniform(-r.box_xy, r.box_xy, 2)
             yaw = rng.uniform(-r.box_yaw, r.box_yaw)
             X_WB = RigidTransform(RotationMatrix.MakeZRotation(s.box.yaw + yaw),

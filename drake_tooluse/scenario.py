@@ -107,6 +107,20 @@ class RobotConfig:
 
 
 @dc.dataclass
+class RandomizationConfig:
+    """Domain randomization of the envs (`randomize=True`): half-widths of uniform draws
+    around the nominal values, or [low, high] scale factors, drawn per reset from the env's
+    seeded generator."""
+
+    box_xy: float = 0.02  # m, offset of the box's start position
+    box_yaw: float = 0.2  # rad
+    box_mass_scale: list[float] = dc.field(default_factory=lambda: [0.7, 1.3])
+    box_friction_scale: list[float] = dc.field(default_factory=lambda: [0.7, 1.3])
+    grasp_along: float = 0.01  # m, the true grasp shifted along the tool
+    grasp_across: float = 0.005  # m, and across it
+
+
+@dc.dataclass
 class Scenario:
     tool: ToolConfig = dc.field(default_factory=ToolConfig)
     box: BoxConfig = dc.field(default_factory=BoxConfig)
@@ -116,6 +130,7 @@ class Scenario:
     plant: PlantConfig = dc.field(default_factory=PlantConfig)
     control: ControlConfig = dc.field(default_factory=ControlConfig)
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    randomization: RandomizationConfig = dc.field(default_factory=RandomizationConfig)
     seed: int = 0
 
 
@@ -164,6 +179,17 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
     check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
     check_finite_vector(s.robot.left_arm_q, 7, "robot.left_arm_q")
+    r = s.randomization
+    check_in_range(r.box_xy, 0.0, 0.10, "randomization.box_xy", unit="m")
+    check_in_range(r.box_yaw, 0.0, math.pi, "randomization.box_yaw", unit="rad")
+    for name in ("box_mass_scale", "box_friction_scale"):
+        lo, hi = check_finite_vector(getattr(r, name), 2, f"randomization.{name}")
+        check_in_range(lo, 0.1, 1.0, f"randomization.{name}[0]")
+        check_in_range(hi, 1.0, 3.0, f"randomization.{name}[1]")
+    check_in_range(r.grasp_along, 0.0, 0.03 - abs(s.tool.grasp_offset_along),
+                   "randomization.grasp_along", unit="m")
+    check_in_range(r.grasp_across, 0.0, 0.01 - abs(s.tool.grasp_offset_across),
+                   "randomization.grasp_across", unit="m")
     if not isinstance(s.seed, int) or s.seed < 0:
         raise ValueError(f"seed={s.seed!r} must be a non-negative integer")
     return s
