@@ -1,0 +1,52 @@
+"""Copies a trained run's best policy into models/policies/NAME with its metrics and the exact
+commands that trained and evaluated it.
+
+    python benchmarks/ship_policy.py --run runs/paper/ppo_env1_fullik --name ppo_toolpush
+
+The metrics are re-measured here with `drake-tooluse evaluate` on the copied policy, so the
+shipped metrics.json is what that command prints for the shipped files.
+"""
+
+import argparse
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+from drake_tooluse.io import atomic_write_json
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--run", type=Path, required=True, help="a training run directory")
+    ap.add_argument("--name", required=True, help="directory name under models/policies")
+    ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument("--seed", type=int, default=1000)
+    args = ap.parse_args()
+    target = ROOT / "models" / "policies" / args.name
+    tmp = target.with_name(f".{args.name}.tmp")
+    shutil.rmtree(tmp, ignore_errors=True)
+    shutil.copytree(args.run / "best", tmp)
+    meta = json.loads((tmp / "policy.json").read_text())
+    evaluate = ["drake-tooluse", "evaluate", "--policy", f"models/policies/{args.name}",
+                "--episodes", str(args.episodes), "--seed", str(args.seed), "--json",
+                "--per-episode"]
+    if target.exists():
+        shutil.rmtree(target)
+    tmp.rename(target)
+    metrics = json.loads(subprocess.run(evaluate, capture_output=True, text=True, check=True,
+                                        cwd=ROOT).stdout)
+    summary = json.loads((args.run / "summary.json").read_text())
+    atomic_write_json(target / "metrics.json", {
+        "trained_with": meta["command"], "trained_timesteps": meta["trained_timesteps"],
+        "training_wall_time_s": summary["wall_time_s"], "evaluated_with": " ".join(evaluate),
+        "evaluation": metrics})
+    print(f"shipped {args.run / 'best'} -> {target}: final box-goal mean "
+          f"{metrics['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
+          f"{metrics['success_rate'] * 100:.0f} %")
+
+
+if __name__ == "__main__":
+    main()

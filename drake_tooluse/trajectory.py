@@ -1,0 +1,205 @@
+"""Tool-tip trajectories as the paper made them, and their export for a real Baxter.
+
+Record N episodes of a policy (tool-tip and gripper poses at each control step), average them
+(positions by the mean, orientations by the quaternion average of Markley et al. 2007: the
+principal eigenvector of Σ q qᵀ, blind to the sign of q), smooth, and keep the poses the robot
+can reach under the conservative real-robot joint limits. A trajectory file is an `.npz` with
+`times` (T,), `positions` (T, 3) and `quaternions` (T, 4, w x y z) of the tool tip in W.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from drake_tooluse.baxter_model import ARM_JOINT_SUFFIXES, ARM_LIMITS, LEFT_ARM_JOINTS, RIGHT_ARM_JOINTS
+from drake_tooluse.io import atomic_write_bytes, atomic_write_text
+from drake_tooluse.validation import check_finite_vector
+
+
+@dataclass
+class TipTrajectory:
+    """Tool-tip poses in W at times (s)."""
+
+    times: np.ndarray  # (T,)
+    positions: np.ndarray  # (T, 3)
+    quaternions: np.ndarray  # (T, 4), w x y z, unit
+
+    def __post_init__(self):
+        self.times = np.asarray(self.times, float)
+        self.positions = np.asarray(self.positions, float)
+        self.quaternions = np.asarray(self.quaternions, float)
+        T = self.times.shape[0]
+        if self.times.ndim != 1 or T < 1:
+            raise ValueError(f"times must be a non-empty vector; got shape {self.times.shape}")
+        if self.positions.shape != (T, 3) or self.quaternions.shape != (T, 4):
+            raise ValueError(f"positions {self.positions.shape} and quaternions "
+                             f"{self.quaternions.shape} must be ({T}, 3) and ({T}, 4)")
+        for name, a in (("times", self.times), ("positions", self.positions),
+                        ("quaternions", self.quaternions)):
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"trajectory {name} hold NaN or infinite values")
+        if np.any(np.diff(self.times) <= 0):
+            raise ValueError("trajectory times must increase strictly")
+        norms = np.linalg.norm(self.quaternions, axis=1)
+        if np.any(norms < 1e-6):
+            raise ValueError("trajectory quaternions must be non-zero")
+        self.quaternions = self.quaternions / norms[:, None]
+
+    def __len__(self) -> int:
+        return len(self.times)
+
+    def save(self, path) -> Path:
+        buffer = io.BytesIO()
+        np.savez(buffer, times=self.times, positions=self.positions,
+                 quaternions=self.quaternions)
+        return atomic_write_bytes(path, buffer.getvalue())
+
+    @staticmethod
+    def load(path) -> "TipTrajectory":
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"trajectory file not found: {str(path)!r}")
+        try:
+            with np.load(path) as data:
+                return TipTrajectory(data["times"], data["positions"], data["quaternions"])
+        except (KeyError, ValueError, OSError) as e:
+            raise ValueError(f"malformed trajectory file {str(path)!r}: {e} (it needs times "
+                             "(T,), positions (T, 3), quaternions (T, 4))") from None
+
+
+def average_quaternions(quaternions: np.ndarray, weights=None) -> np.ndarray:
+    """The average rotation of unit quaternions (N, 4): the eigenvector of the largest
+    eigenvalue of Σ w q qᵀ (Markley et al., 2007); q and −q count as the same rotation."""
+    q = np.asarray(quaternions, float)
+    w = np.ones(len(q)) if weights is None else np.asarray(weights, float)
+    M = np.einsum("n,ni,nj->ij", w, q, q)
+    values, vectors = np.linalg.eigh(M)
+    mean = vectors[:, np.argmax(values)]
+    return mean if mean[0] >= 0 else -mean
+
+
+def average_episodes(positions: np.ndarray, quaternions: np.ndarray, period: float) -> TipTrajectory:
+    """The per-step average of N episodes: positions (N, T, 3), quaternions (N, T, 4)."""
+    positions = np.asarray(positions, float)
+    quaternions = np.asarray(quaternions, float)
+    T = positions.shape[1]
+    mean_q = np.array([average_quaternions(quaternions[:, t]) for t in range(T)])
+    return TipTrajectory(np.arange(T) * period, positions.mean(axis=0), mean_q)
+
+
+def pad_episodes(episodes: list[np.ndarray]) -> np.ndarray:
+    """Stacks episodes of different lengths, holding each one's last row (an episode that
+    succeeded early stays where it ended)."""
+    T = max(len(e) for e in episodes)
+    return np.stack([np.vstack([e, np.repeat(e[-1:], T - len(e), axis=0)]) for e in episodes])
+
+
+def smooth(traj: TipTrajectory, window: int = 5) -> TipTrajectory:
+    """Centred moving average of `window` steps (odd), positions and quaternions alike."""
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window={window} must be an odd number >= 1")
+    half = window // 2
+    T = len(traj)
+    idx = [np.arange(max(0, t - half), min(T, t + half + 1)) for t in range(T)]
+    positions = np.array([traj.positions[i].mean(axis=0) for i in idx])
+    quaternions = np.array([average_quaternions(traj.quaternions[i]) for i in idx])
+    return TipTrajectory(traj.times, positions, quaternions)
+
+
+@dataclass
+class ReachabilityReport:
+    poses: int
+    reachable: int
+    kept: TipTrajectory
+    joint_positions: np.ndarray  # (kept, 7) IK solutions, warm-started along the path
+    dropped_indices: list
+
+
+def filter_reachable(traj: TipTrajectory, tool_length: float | None,
+                     conservative: bool = True) -> ReachabilityReport:
+    """Solves the tool-tip IK along the trajectory (warm-started) under the conservative
+    real-robot limits (s1 in [-1.35, 1.0]) or Baxter's own; drops the poses it cannot reach."""
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RigidTransform
+
+    from drake_tooluse.ik import (
+        Q_LOWER_CONSERVATIVE,
+        Q_UPPER_CONSERVATIVE,
+        ToolTipIK,
+    )
+
+    kwargs = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+              if conservative else {})
+    ik = ToolTipIK(tool_length, **kwargs)
+    q_seed, keep, qs, dropped = None, [], [], []
+    for i, (p, quat) in enumerate(zip(traj.positions, traj.quaternions)):
+        result = ik.solve(RigidTransform(Quaternion(quat), p), q_seed)
+        if result.success:
+            keep.append(i)
+            qs.append(result.q)
+            q_seed = result.q
+        else:
+            dropped.append(i)
+    if not keep:
+        raise ValueError("no pose of the trajectory is reachable with tool length "
+                         f"{tool_length} m under the {'conservative' if conservative else ''} "
+                         "joint limits")
+    kept = TipTrajectory(traj.times[keep], traj.positions[keep], traj.quaternions[keep])
+    return ReachabilityReport(len(traj), len(keep), kept, np.array(qs), dropped)
+
+
+# -- Baxter SDK playback CSV ------------------------------------------------------------------
+Q_LOWER = np.array([ARM_LIMITS[s][0] for s in ARM_JOINT_SUFFIXES])
+Q_UPPER = np.array([ARM_LIMITS[s][1] for s in ARM_JOINT_SUFFIXES])
+V_MAX = np.array([ARM_LIMITS[s][2] for s in ARM_JOINT_SUFFIXES])
+CSV_HEADER = (["time", *LEFT_ARM_JOINTS, "left_gripper", *RIGHT_ARM_JOINTS, "right_gripper"])
+
+
+def export_baxter_csv(path, times, right_q, left_q, gripper: float = 0.0) -> Path:
+    """Writes a joint trajectory in the Baxter SDK playback format
+    (`joint_trajectory_file_playback.py`): time in s from the start, both arms, both grippers
+    (0–100, 0 = closed on the tool). Position and velocity limits are checked first; nothing is
+    written if they fail."""
+    times = check_finite_vector(times, len(np.atleast_1d(times)), "times")
+    right_q = np.asarray(right_q, float)
+    if right_q.shape != (len(times), 7) or not np.all(np.isfinite(right_q)):
+        raise ValueError(f"right_q must be finite with shape ({len(times)}, 7); got "
+                         f"{right_q.shape}")
+    left_q = check_finite_vector(left_q, 7, "left_q")
+    if not 0.0 <= gripper <= 100.0:
+        raise ValueError(f"gripper={gripper} is outside the allowed range [0, 100]")
+    if times[0] < 0 or np.any(np.diff(times) <= 0):
+        raise ValueError("times must start at or after 0 s and increase strictly")
+    for i in range(7):
+        bad = np.flatnonzero((right_q[:, i] < Q_LOWER[i] - 1e-9) | (right_q[:, i] > Q_UPPER[i] + 1e-9))
+        if bad.size:
+            raise ValueError(f"{RIGHT_ARM_JOINTS[i]}={right_q[bad[0], i]:.4g} rad at t="
+                             f"{times[bad[0]]:.3g} s is outside [{Q_LOWER[i]:.4g}, "
+                             f"{Q_UPPER[i]:.4g}] rad")
+    if len(times) > 1:
+        v = np.abs(np.diff(right_q, axis=0)) / np.diff(times)[:, None]
+        for i in range(7):
+            j = int(np.argmax(v[:, i]))
+            if v[j, i] > V_MAX[i]:
+                raise ValueError(f"{RIGHT_ARM_JOINTS[i]} moves at {v[j, i]:.3g} rad/s between "
+                                 f"t={times[j]:.3g} and {times[j + 1]:.3g} s; its limit is "
+                                 f"{V_MAX[i]:g} rad/s (slow the trajectory down)")
+    rows = [",".join(CSV_HEADER)]
+    for t, q in zip(times, right_q):
+        values = [t, *left_q, gripper, *q, gripper]
+        rows.append(",".join(f"{x:.6f}" for x in values))
+    return atomic_write_text(path, "\n".join(rows) + "\n")
+
+
+def read_baxter_csv(path) -> dict:
+    """Reads a playback CSV back: {'time': (T,), joint name: (T,), ...}."""
+    with open(path, newline="") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        data = np.array([[float(x) for x in row] for row in reader])
+    return {name: data[:, i] for i, name in enumerate(header)}

@@ -1,0 +1,108 @@
+"""Trajectory averaging, the reachability filter, files, and the Baxter playback CSV."""
+
+import numpy as np
+import pytest
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RollPitchYaw, RotationMatrix
+
+from drake_tooluse.baxter_model import RIGHT_ARM_JOINTS
+from drake_tooluse.ik import ToolTipIK, rotation_angle_between
+from drake_tooluse.scene import TOOL_DOWN_RPY
+from drake_tooluse.trajectory import (
+    CSV_HEADER,
+    TipTrajectory,
+    average_episodes,
+    average_quaternions,
+    export_baxter_csv,
+    filter_reachable,
+    pad_episodes,
+    read_baxter_csv,
+    smooth,
+)
+
+
+def _quat(rpy):
+    return RollPitchYaw(rpy).ToQuaternion().wxyz()
+
+
+def test_quaternion_average_ignores_sign_and_recovers_the_mean_rotation():
+    rng = np.random.default_rng(0)
+    R0 = RotationMatrix(RollPitchYaw(0.3, -0.2, 1.0))
+    qs = []
+    for _ in range(200):
+        dR = RotationMatrix(RollPitchYaw(rng.normal(0, 0.05, 3)))
+        q = (R0 @ dR).ToQuaternion().wxyz()
+        qs.append(q if rng.random() < 0.5 else -q)  # random signs: same rotations
+    mean = average_quaternions(np.array(qs))
+    assert rotation_angle_between(RotationMatrix(Quaternion(mean)), R0) < 0.01
+    # A naive component mean of sign-mixed quaternions is wrong; this one is not fooled.
+    assert abs(np.linalg.norm(np.mean(qs, axis=0))) < 0.5
+
+
+def test_average_of_episodes_and_padding():
+    a = np.array([[0.0, 0, 0], [1, 0, 0]])
+    b = np.array([[0.0, 2, 0], [1, 2, 0], [2, 2, 0]])
+    padded = pad_episodes([a, b])
+    assert padded.shape == (2, 3, 3) and np.all(padded[0, 2] == [1, 0, 0])
+    q = np.tile(_quat(TOOL_DOWN_RPY), (2, 3, 1))
+    traj = average_episodes(padded, q, period=0.04)
+    np.testing.assert_allclose(traj.positions[2], [1.5, 1, 0])
+    np.testing.assert_allclose(traj.times, [0, 0.04, 0.08])
+    assert len(smooth(traj, 3)) == 3
+
+
+def test_reachability_filter_drops_unreachable_poses():
+    q_down = _quat(TOOL_DOWN_RPY)
+    positions = np.array([[0.65, -0.25, -0.1], [0.66, -0.24, -0.1], [3.0, 0.0, 0.0],
+                          [0.67, -0.23, -0.1]])
+    traj = TipTrajectory(np.arange(4) * 0.04, positions, np.tile(q_down, (4, 1)))
+    report = filter_reachable(traj, 0.175)
+    assert report.poses == 4 and report.reachable == 3 and report.dropped_indices == [2]
+    ik = ToolTipIK(0.175, library_size=1)
+    for q, p in zip(report.joint_positions, report.kept.positions):
+        assert np.linalg.norm(ik.fk(q).translation() - p) < 1e-4
+        assert -1.35 <= q[1] <= 1.0  # the conservative s1 limits
+
+
+def test_trajectory_file_round_trip_and_malformed_file(tmp_path):
+    traj = TipTrajectory([0, 0.04], [[0.6, 0, 0], [0.6, 0.01, 0]],
+                         [_quat(TOOL_DOWN_RPY)] * 2)
+    path = traj.save(tmp_path / "t.npz")
+    back = TipTrajectory.load(path)
+    np.testing.assert_array_equal(back.positions, traj.positions)
+    (tmp_path / "bad.npz").write_bytes(b"junk")
+    with pytest.raises(ValueError, match="malformed trajectory file"):
+        TipTrajectory.load(tmp_path / "bad.npz")
+    with pytest.raises(ValueError, match="NaN or infinite"):
+        TipTrajectory([0], [[np.nan, 0, 0]], [[1, 0, 0, 0]])
+    with pytest.raises(ValueError, match="increase strictly"):
+        TipTrajectory([0, 0], [[0, 0, 0]] * 2, [[1, 0, 0, 0]] * 2)
+
+
+def test_baxter_csv_format_read_back(tmp_path):
+    times = np.array([0.0, 0.5, 1.0])
+    right = np.array([[0.1, -0.5, 0, 1.2, 0, 0.8, 0]] * 3) + np.array([[0], [0.05], [0.1]])
+    left = [-0.6, -1.0, 0.0, 2.0, 0.0, 0.6, 0.0]
+    path = export_baxter_csv(tmp_path / "t.csv", times, right, left)
+    header = path.read_text().splitlines()[0].split(",")
+    assert header == CSV_HEADER
+    assert header[0] == "time" and header[8] == "left_gripper" and header[-1] == "right_gripper"
+    data = read_baxter_csv(path)
+    np.testing.assert_allclose(data["time"], times)
+    for i, name in enumerate(RIGHT_ARM_JOINTS):
+        np.testing.assert_allclose(data[name], right[:, i], atol=1e-6)
+    assert np.all((data["left_gripper"] >= 0) & (data["right_gripper"] <= 100))
+
+
+def test_baxter_csv_refuses_limits_and_writes_nothing(tmp_path):
+    times = np.array([0.0, 0.1])
+    right = np.array([[0.1, -0.5, 0, 1.2, 0, 0.8, 0], [0.1, -0.5, 0, 1.2, 0, 0.8, 0]])
+    fast = right.copy()
+    fast[1, 0] += 0.5  # 5 rad/s on s0 (limit 1.5)
+    with pytest.raises(ValueError, match=r"right_s0 moves at 5 rad/s.*limit is 1.5 rad/s"):
+        export_baxter_csv(tmp_path / "fast.csv", times, fast, [0] * 7)
+    outside = right.copy()
+    outside[0, 3] = 3.0  # e1 upper limit 2.618
+    with pytest.raises(ValueError, match=r"right_e1=3 rad at t=0 s is outside"):
+        export_baxter_csv(tmp_path / "out.csv", times, outside, [0] * 7)
+    assert not list(tmp_path.iterdir())
