@@ -188,6 +188,41 @@ def cmd_sweep(args) -> dict:
     return {"runs": rows, "table": results_table(rows)}
 
 
+def cmd_trajectory(args) -> dict:
+    from drake_tooluse.scenario import check_tool_length
+    from drake_tooluse.trajectory import extract, plot_extraction
+
+    length = check_tool_length(args.tool_length, "--tool-length")
+    start = time.perf_counter()
+    ex = extract(args.policy, args.episodes, args.seed, args.window, length)
+    path = ex.reachability.kept.save(args.out / "trajectory.npz")
+    figure = plot_extraction(ex, args.out / "trajectory.png")
+    r = ex.reachability
+    return {"episodes": args.episodes, "successes": ex.successes, "steps": r.poses,
+            "reachable_before_filter": r.poses, "reachable_after_filter": r.reachable,
+            "dropped_steps": r.dropped_indices, "trajectory": str(path), "figure": str(figure),
+            "wall_time_s": time.perf_counter() - start}
+
+
+def cmd_export_csv(args) -> dict:
+    from drake_tooluse.scenario import RobotConfig, check_tool_length
+    from drake_tooluse.trajectory import TipTrajectory, export_baxter_csv, filter_reachable
+    from drake_tooluse.validation import check_in_range
+
+    length = check_tool_length(args.tool_length, "--tool-length")
+    scale = check_in_range(args.time_scale, 0.1, 100.0, "--time-scale")
+    traj = TipTrajectory.load(args.trajectory)
+    report = filter_reachable(traj, length)
+    if report.dropped_indices:
+        times = [round(float(traj.times[i]), 3) for i in report.dropped_indices[:10]]
+        raise ValueError(f"{len(report.dropped_indices)} of {report.poses} poses of "
+                         f"{str(args.trajectory)!r} are unreachable with a {length} m tool under "
+                         f"the conservative joint limits (at t = {times} s …); nothing written")
+    times = (report.kept.times - report.kept.times[0]) * scale
+    path = export_baxter_csv(args.out, times, report.joint_positions, RobotConfig().left_arm_q)
+    return {"csv": str(path), "rows": len(times), "duration_s": float(times[-1])}
+
+
 def _print_human(name: str, out: dict) -> None:
     if name == "fk":
         t = out["tip"]
@@ -225,7 +260,8 @@ def _print_human(name: str, out: dict) -> None:
 
 COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
             "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams,
-            "train": cmd_train, "evaluate": cmd_evaluate, "sweep": cmd_sweep}
+            "train": cmd_train, "evaluate": cmd_evaluate, "sweep": cmd_sweep,
+            "trajectory": cmd_trajectory, "export-csv": cmd_export_csv}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -297,6 +333,23 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
     p.add_argument("--hyperparams", metavar="JSON", help="override YAML hyperparameters")
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per run")
+
+    p = sub.add_parser("trajectory", help="record a policy's episodes and average them into a "
+                                          "tool-tip trajectory (the paper's transfer input)")
+    p.add_argument("--policy", type=Path, required=True, help="policy directory")
+    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--window", type=int, default=5, help="smoothing window (odd, steps)")
+    p.add_argument("--tool-length", type=float, default=0.175,
+                   help="tool for the reachability filter (m)")
+    p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")
+
+    p = sub.add_parser("export-csv", help="a tool-tip trajectory as a Baxter SDK playback CSV")
+    p.add_argument("--trajectory", type=Path, required=True, help="trajectory .npz")
+    p.add_argument("--tool-length", type=float, required=True, help="the tool held (m)")
+    p.add_argument("--out", type=Path, required=True, help="CSV file to write")
+    p.add_argument("--time-scale", type=float, default=1.0,
+                   help="stretch time by this factor (slower is safer)")
 
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")

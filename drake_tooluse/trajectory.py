@@ -121,9 +121,12 @@ class ReachabilityReport:
 
 
 def filter_reachable(traj: TipTrajectory, tool_length: float | None,
-                     conservative: bool = True) -> ReachabilityReport:
-    """Solves the tool-tip IK along the trajectory (warm-started) under the conservative
+                     conservative: bool = True, q_start=None) -> ReachabilityReport:
+    """Solves the tool-tip IK along the trajectory, each pose warm-started from the last
+    (the first from `q_start`, default the scenario's home posture), under the conservative
     real-robot limits (s1 in [-1.35, 1.0]) or Baxter's own; drops the poses it cannot reach."""
+    from drake_tooluse.scenario import RobotConfig
+
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.math import RigidTransform
 
@@ -136,7 +139,8 @@ def filter_reachable(traj: TipTrajectory, tool_length: float | None,
     kwargs = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
               if conservative else {})
     ik = ToolTipIK(tool_length, **kwargs)
-    q_seed, keep, qs, dropped = None, [], [], []
+    q_seed = np.asarray(RobotConfig().posture_seed if q_start is None else q_start, float)
+    keep, qs, dropped = [], [], []
     for i, (p, quat) in enumerate(zip(traj.positions, traj.quaternions)):
         result = ik.solve(RigidTransform(Quaternion(quat), p), q_seed)
         if result.success:
@@ -203,3 +207,85 @@ def read_baxter_csv(path) -> dict:
         header = next(reader)
         data = np.array([[float(x) for x in row] for row in reader])
     return {name: data[:, i] for i, name in enumerate(header)}
+
+
+# -- from a policy --------------------------------------------------------------------------
+@dataclass
+class Extraction:
+    tip_positions: np.ndarray  # (N, T, 3) padded episodes
+    tip_quaternions: np.ndarray  # (N, T, 4)
+    gripper_positions: np.ndarray  # (N, T, 3)
+    mean: TipTrajectory
+    smoothed: TipTrajectory
+    reachability: ReachabilityReport
+    successes: int
+
+
+def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None):
+    """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
+    each control step (from the observation) and the number of successes."""
+    import gymnasium as gym
+
+    import drake_tooluse  # noqa: F401  (registers the envs)
+    from drake_tooluse.train import check_policy_matches, load_policy
+
+    if episodes < 1:
+        raise ValueError(f"episodes={episodes} must be at least 1")
+    policy = load_policy(policy_dir)
+    kwargs = dict(policy.meta.env_kwargs)
+    kwargs.update(env_kwargs or {})
+    env = gym.make(policy.meta.env_id, **kwargs)
+    check_policy_matches(policy, env)
+    tips, quats, grippers, successes = [], [], [], 0
+    for ep in range(episodes):
+        obs, _ = env.reset(seed=seed + ep)
+        rows = [obs]
+        while True:
+            obs, _, terminated, truncated, info = env.step(policy.act(obs))
+            rows.append(obs)
+            if terminated or truncated:
+                break
+        successes += bool(info["is_success"])
+        rows = np.array(rows, float)
+        tips.append(rows[:, 6:9])
+        grippers.append(rows[:, 9:12])
+        quats.append(rows[:, 12:16])  # the tool is rigid in the hand: tip orientation
+    return pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes
+
+
+def extract(policy_dir, episodes: int = 100, seed: int = 0, window: int = 5,
+            tool_length: float | None = 0.175, period: float = 0.04) -> Extraction:
+    """The paper's trajectory for transfer: N episodes, averaged, smoothed, and filtered to the
+    poses reachable under the conservative real-robot limits with `tool_length`."""
+    tips, quats, grippers, successes = record_episodes(policy_dir, episodes, seed)
+    mean = average_episodes(tips, quats, period)
+    smoothed = smooth(mean, window)
+    report = filter_reachable(smoothed, tool_length)
+    return Extraction(tips, quats, grippers, mean, smoothed, report, successes)
+
+
+def plot_extraction(extraction: Extraction, path) -> Path:
+    """A 3-D figure of the N recorded tool-tip paths and their mean, like the paper's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    for p in extraction.tip_positions:
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", alpha=0.15, lw=0.8)
+    m = extraction.smoothed.positions
+    ax.plot(m[:, 0], m[:, 1], m[:, 2], color="tab:red", lw=2.5, label="mean (smoothed)")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.set_title(f"{len(extraction.tip_positions)} tool-tip paths and their mean", fontsize=10)
+    ax.legend(fontsize=8)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    tmp.replace(path)
+    return path

@@ -106,3 +106,25 @@ def test_baxter_csv_refuses_limits_and_writes_nothing(tmp_path):
     with pytest.raises(ValueError, match=r"right_e1=3 rad at t=0 s is outside"):
         export_baxter_csv(tmp_path / "out.csv", times, outside, [0] * 7)
     assert not list(tmp_path.iterdir())
+
+
+def test_export_csv_cli_refuses_unreachable_or_malformed_trajectories(tmp_path, capsys):
+    from drake_tooluse.cli import main
+
+    q_down = _quat(TOOL_DOWN_RPY)
+    good = TipTrajectory([0, 0.5, 1.0], [[0.62, -0.3, -0.1], [0.63, -0.29, -0.1],
+                                         [0.64, -0.28, -0.1]], [q_down] * 3)
+    good.save(tmp_path / "good.npz")
+    out = tmp_path / "t.csv"
+    assert main(["export-csv", "--trajectory", str(tmp_path / "good.npz"), "--tool-length",
+                 "0.175", "--out", str(out), "--json"]) == 0
+    assert len(out.read_text().splitlines()) == 4
+    far = TipTrajectory([0, 0.5], [[0.62, -0.3, -0.1], [3.0, 0, 0]], [q_down] * 2)
+    far.save(tmp_path / "far.npz")
+    assert main(["export-csv", "--trajectory", str(tmp_path / "far.npz"), "--tool-length",
+                 "0.175", "--out", str(tmp_path / "far.csv")]) == 2
+    assert "1 of 2 poses" in capsys.readouterr().err and not (tmp_path / "far.csv").exists()
+    (tmp_path / "bad.npz").write_text("no")
+    assert main(["export-csv", "--trajectory", str(tmp_path / "bad.npz"), "--tool-length",
+                 "0.175", "--out", str(tmp_path / "bad.csv")]) == 2
+    assert "malformed trajectory file" in capsys.readouterr().err
