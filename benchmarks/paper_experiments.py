@@ -33,14 +33,14 @@ PAPER_ACTION = ('{"env_kwargs": {"action_mode": "paper", "ik_mode": "differentia
 FULL_IK = '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", "randomize": true}}'
 RUNS = {
     "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=500_000),
-    "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=500_000, hyperparams=FULL_IK),
-    "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=300_000),
-    "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=300_000),
-    "ppo_env3_finetune": dict(env=ENV3, algo="ppo", timesteps=150_000, init_from="ppo_env1"),
-    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=300_000),
-    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=300_000),
-    "ppo_env1_paper": dict(env=ENV1, algo="ppo", timesteps=500_000, hyperparams=PAPER_ACTION),
-    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=100_000),
+    "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=FULL_IK),
+    "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=200_000),
+    "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=200_000),
+    "ppo_env3_finetune": dict(env=ENV3, algo="ppo", timesteps=100_000, init_from="ppo_env1"),
+    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=200_000),
+    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=200_000),
+    "ppo_env1_paper": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=PAPER_ACTION),
+    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=50_000),
 }
 
 
