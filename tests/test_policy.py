@@ -1,0 +1,58 @@
+"""The trained policy inside a Drake diagram (PolicySystem), not through the Gym wrapper."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from pydrake.systems.framework import DiagramBuilder
+
+import drake_tooluse  # noqa: F401
+from drake_tooluse.policy import PolicySystem, build_policy_diagram, run_policy
+from drake_tooluse.scenario import Scenario
+from drake_tooluse.train import load_policy, resolve_config, train
+
+
+@pytest.fixture(scope="module")
+def policy_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("policy") / "run"
+    overrides = {"n_steps": 256, "batch_size": 64, "n_epochs": 1, "eval_freq": 10_000_000,
+                 "eval_episodes": 1, "checkpoint_freq": 10_000_000,
+                 "env_kwargs": {"action_mode": "position", "ik_mode": "differential"}}
+    train(resolve_config("drake_tooluse/ToolPush-v0", "ppo", 512, 1, 0, overrides=overrides),
+          out, progress_bar=False)
+    return out / "final"
+
+
+def test_policy_system_acts_as_the_policy(policy_dir):
+    policy = load_policy(policy_dir)
+    system = PolicySystem(policy)
+    context = system.CreateDefaultContext()
+    obs = np.linspace(-1, 1, 30)
+    system.get_input_port().FixValue(context, obs)
+    np.testing.assert_allclose(system.get_output_port().Eval(context), policy.act(obs))
+
+
+def test_policy_diagram_matches_the_env_rollout(policy_dir):
+    built = build_policy_diagram(Scenario(), policy_dir, ik_mode="differential")
+    run = run_policy(built, max_steps=20)
+    policy = load_policy(policy_dir)
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode="differential")
+    obs, _ = env.reset(seed=0)
+    tips = [obs[6:9]]
+    for _ in range(run.steps):
+        obs, *_ = env.step(policy.act(obs))
+        tips.append(obs[6:9])
+    # The same controller and policy: the same tip path (float32 observations aside).
+    np.testing.assert_allclose(run.tip_path, np.array(tips), atol=2e-3)
+
+
+def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
+    import json
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(policy_dir, other)
+    meta = json.loads((other / "policy.json").read_text())
+    meta["env_kwargs"]["action_mode"] = "paper"
+    (other / "policy.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="do not fit the action mode 'paper'"):
+        build_policy_diagram(Scenario(), other)
