@@ -18,6 +18,7 @@ Writes docs/results/paper_experiments.json and the figures in docs/figures/.
 
 import argparse
 import json
+import shlex
 import subprocess
 import sys
 import time
@@ -86,8 +87,8 @@ def main() -> None:
         summary = json.loads((out / "summary.json").read_text())
         env_id = RUNS[name]["env"]
         evaluation = run_json(evaluate_command(out / "best", env_id, args.episodes))
-        entry = {"command": " ".join(cmd), "train": summary, "evaluate_best": evaluation,
-                 "evaluate_command": " ".join(evaluate_command(out / "best", env_id,
+        entry = {"command": shlex.join(cmd), "train": summary, "evaluate_best": evaluation,
+                 "evaluate_command": shlex.join(evaluate_command(out / "best", env_id,
                                                                args.episodes))}
         if name == "ppo_env1":  # the same policy with the full tool-tip IK in the loop
             entry["evaluate_best_full_ik"] = run_json(evaluate_command(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -161,7 +162,7 @@ def cmd_train(args) -> dict:
     config = resolve_config(args.env, args.algo, args.timesteps, args.n_envs, args.seed,
                             init_from=str(args.init_from) if args.init_from else None,
                             overrides=overrides)
-    command = "drake-tooluse " + " ".join(sys.argv[1:]) if sys.argv else ""
+    command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
     return train(config, out_dir, resume=args.resume is not None,
                  progress_bar=not args.no_progress and sys.stderr.isatty(), command=command)
 

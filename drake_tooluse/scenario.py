@@ -121,6 +121,25 @@ class RandomizationConfig:
 
 
 @dc.dataclass
+class CameraConfig:
+    """Baxter's head camera as a Drake RgbdSensor (RenderEngineVtk): intrinsics, clipping and
+    depth ranges, and the colour image noise. The field of view is wide enough to hold a
+    0.60 m tool at the measurement poses of `drake_tooluse.measure`; the resolution gives
+    about 0.9 mm per pixel there."""
+
+    width: int = 1280  # pixels
+    height: int = 800  # pixels
+    fov_y: float = 1.0  # vertical field of view, rad
+    clipping_near: float = 0.05  # m
+    clipping_far: float = 5.0  # m
+    # Depths outside [depth_min, depth_max] read as 0 (too close) or inf (too far), m.
+    depth_min: float = 0.1
+    depth_max: float = 3.0
+    # Standard deviation of the Gaussian noise added to each colour channel, grey levels.
+    noise_sigma: float = 0.0
+
+
+@dc.dataclass
 class Scenario:
     tool: ToolConfig = dc.field(default_factory=ToolConfig)
     box: BoxConfig = dc.field(default_factory=BoxConfig)
@@ -131,6 +150,7 @@ class Scenario:
     control: ControlConfig = dc.field(default_factory=ControlConfig)
     robot: RobotConfig = dc.field(default_factory=RobotConfig)
     randomization: RandomizationConfig = dc.field(default_factory=RandomizationConfig)
+    camera: CameraConfig = dc.field(default_factory=CameraConfig)
     seed: int = 0
 
 
@@ -190,6 +210,19 @@ def validate_scenario(s: Scenario) -> Scenario:
                    "randomization.grasp_along", unit="m")
     check_in_range(r.grasp_across, 0.0, 0.01 - abs(s.tool.grasp_offset_across),
                    "randomization.grasp_across", unit="m")
+    c = s.camera
+    for name in ("width", "height"):
+        value = getattr(c, name)
+        if not isinstance(value, int) or isinstance(value, bool) or not 16 <= value <= 4096:
+            raise ValueError(f"camera.{name}={value!r} must be an integer in [16, 4096] pixels")
+    check_in_range(c.fov_y, 0.1, 2.5, "camera.fov_y", unit="rad")
+    check_in_range(c.clipping_near, 0.01, 1.0, "camera.clipping_near", unit="m")
+    check_in_range(c.clipping_far, c.clipping_near, 100.0, "camera.clipping_far", unit="m",
+                   lower_inclusive=False)
+    check_in_range(c.depth_min, c.clipping_near, c.clipping_far, "camera.depth_min", unit="m")
+    check_in_range(c.depth_max, c.depth_min, c.clipping_far, "camera.depth_max", unit="m",
+                   lower_inclusive=False)
+    check_in_range(c.noise_sigma, 0.0, 50.0, "camera.noise_sigma", unit="grey levels")
     if not isinstance(s.seed, int) or s.seed < 0:
         raise ValueError(f"seed={s.seed!r} must be a non-negative integer")
     return s

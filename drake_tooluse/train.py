@@ -19,6 +19,7 @@ as rl-zoo keeps them).
 from __future__ import annotations
 
 import json
+import os
 import pickle
 import shutil
 import tempfile
@@ -108,6 +109,9 @@ class PolicyMeta:
 
 def _atomic_replace_dir(tmp_dir: Path, target: Path) -> None:
     """Swaps a fully written temporary directory into place."""
+    mask = os.umask(0)
+    os.umask(mask)
+    tmp_dir.chmod(0o777 & ~mask)  # mkdtemp makes 0700; give the usual directory mode
     old = target.with_name(f".{target.name}.old")
     if old.exists():
         shutil.rmtree(old)

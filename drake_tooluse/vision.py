@@ -1,0 +1,511 @@
+"""Tool length from Baxter's head camera: the camera as a Drake `RgbdSensor`, and the paper's
+OpenCV estimator with the metric scale taken from the depth image.
+
+```
+             ┌──────── world ────────┐
+ SceneGraph ─┤ RgbdSensor on         ├─color_image─► [ColorImageNoise] ─► ToolLengthEstimator
+             │ `head_camera` (VTK)   ├─depth_image────────────────────────►   ├─► tool_length
+             └───────────────────────┘                                       └─► measurement
+```
+
+The estimator follows the paper: colour image → HSV → orange mask → contours → a bounding box
+per blob → the two largest blobs are the marker bands at the grip end and at the tip → the
+distance between their OUTER ends. The paper scaled that pixel distance by a fixed metres per
+pixel (`method="pixel"`, kept as an option); by default (`method="depth"`) the two outer-end
+pixels are back-projected to 3-D with the depth image and the camera intrinsics, which does
+not need the tool to lie at a known depth, nor square to the optical axis.
+
+Frames: H = the URDF's `head_camera` frame; C = the camera's optical frame (Drake's camera
+convention: +z out of the lens, +x right in the image, +y down). Pixel (u, v): u to the right,
+v down, pixel centres at integer coordinates (Drake's `CameraInfo`). SI units.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses as dc
+import math
+
+import cv2
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import (
+    ClippingRange,
+    ColorRenderCamera,
+    DepthRange,
+    DepthRenderCamera,
+    LightParameter,
+    MakeRenderEngineVtk,
+    RenderCameraCore,
+    RenderEngineVtkParams,
+)
+from pydrake.geometry import Rgba
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.systems.framework import LeafSystem
+from pydrake.systems.sensors import CameraInfo, ImageDepth32F, ImageRgba8U, RgbdSensor
+
+from drake_tooluse.scenario import CameraConfig
+from drake_tooluse.validation import check_in_range, check_one_of
+
+HEAD_CAMERA_FRAME = "head_camera"
+RENDERER = "head_camera_vtk"
+# X_HC: the URDF's head_camera frame has +x to the robot's left and +y up (checked by
+# rendering: the image came out upside down), so the optical frame is it turned half a turn
+# about the viewing axis.
+X_HC = RigidTransform(RotationMatrix.MakeZRotation(math.pi))
+
+METHODS = ("depth", "pixel")
+# Orange in OpenCV's HSV (H in [0, 180), S and V in [0, 255]). The bands are (1, 0.45, 0): hue
+# 27 deg = 13.5; the table and the box are orange-brown too (hue 14-15) but dull (S < 140),
+# the robot is red (hue 0). V only excludes near-black pixels, so dimmer light passes.
+ORANGE_HSV_LOW = (6, 170, 40)
+ORANGE_HSV_HIGH = (22, 255, 255)
+# Blobs smaller than this are noise, not markers (pixels).
+MIN_BLOB_AREA_PX = 12
+# A marker blob whose area, scaled by depth squared to a physical area, is below this fraction
+# of the other's is taken as partly hidden.
+MIN_AREA_RATIO = 0.4
+# A blob counts as the grip marker when it lies within this distance of where the robot put
+# the grip (m, in the tool plane): tracking error plus the band's own length.
+GRIP_TOLERANCE = 0.04
+# The depth of a marker: this percentile of its pixels' depths. A low percentile is the front
+# of the band, where its silhouette (and so its outer end in the image) lies; it ignores the
+# background depth of edge pixels that colour noise adds to the mask.
+DEPTH_PERCENTILE = 10.0
+LIGHTINGS = ("default", "dim_side")
+
+
+def camera_info(config: CameraConfig) -> CameraInfo:
+    """Intrinsics of a pinhole camera with the scenario's image size and vertical field of
+    view (square pixels, principal point at the image centre)."""
+    return CameraInfo(config.width, config.height, config.fov_y)
+
+
+def lighting_params(lighting: str) -> RenderEngineVtkParams:
+    """Renderer settings: "default" is VTK's headlight; "dim_side" a single white light at 45 %
+    intensity from the upper left of the camera (a lighting change for robustness tests)."""
+    check_one_of(lighting, LIGHTINGS, "lighting")
+    params = RenderEngineVtkParams()
+    if lighting == "dim_side":
+        direction = np.array([0.6, 0.5, 1.0])
+        params.lights = [LightParameter(type="directional", color=Rgba(1.0, 1.0, 1.0, 1.0),
+                                        intensity=0.45, frame="camera",
+                                        direction=direction / np.linalg.norm(direction))]
+    return params
+
+
+
+def add_head_camera(builder, world, config: CameraConfig, lighting: str = "default"):
+    """Adds an RgbdSensor on Baxter's `head_camera` frame (pose X_HC in it) rendering with VTK;
+    connects it to the scene graph. Returns the sensor; its `color_image` (ImageRgba8U) and
+    `depth_image_32f` (ImageDepth32F, m) ports are left for the caller."""
+    scene_graph, plant = world.scene_graph, world.plant
+    if not scene_graph.HasRenderer(RENDERER):
+        scene_graph.AddRenderer(RENDERER, MakeRenderEngineVtk(lighting_params(lighting)))
+    core = RenderCameraCore(RENDERER, camera_info(config),
+                            ClippingRange(config.clipping_near, config.clipping_far),
+                            RigidTransform())
+    body = plant.GetBodyByName(HEAD_CAMERA_FRAME)
+    sensor = builder.AddNamedSystem("head_camera", RgbdSensor(
+        plant.GetBodyFrameIdOrThrow(body.index()), X_HC, ColorRenderCamera(core, False),
+        DepthRenderCamera(core, DepthRange(config.depth_min, config.depth_max))))
+    builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
+    return sensor
+
+
+def head_camera_pose(plant, plant_context) -> RigidTransform:
+    """X_WC: the optical frame C of the head camera in the world."""
+    return plant.GetFrameByName(HEAD_CAMERA_FRAME).CalcPoseInWorld(plant_context) @ X_HC
+
+
+class ColorImageNoise(LeafSystem):
+    """Adds zero-mean Gaussian noise of `sigma` grey levels to each colour channel of each
+    pixel (then rounds and clips to [0, 255]); the alpha channel passes through. The noise is
+    a fixed function of (seed, time), so a run is repeatable.
+
+    .. pydrake_system::
+
+        name: ColorImageNoise
+        input_ports:
+        - color_image
+        output_ports:
+        - color_image
+    """
+
+    def __init__(self, width: int, height: int, sigma: float, seed: int = 0):
+        super().__init__()
+        self._sigma = check_in_range(sigma, 0.0, 50.0, "noise sigma", unit="grey levels")
+        self._seed = int(seed)
+        self._width, self._height = int(width), int(height)
+        self._input = self.DeclareAbstractInputPort(
+            "color_image", AbstractValue.Make(ImageRgba8U(self._width, self._height)))
+        self.DeclareAbstractOutputPort(
+            "color_image", lambda: AbstractValue.Make(ImageRgba8U(self._width, self._height)),
+            self._calc)
+
+    def _calc(self, context, output):
+        image = self._input.Eval(context)
+        out = output.get_mutable_value()
+        out.resize(image.width(), image.height())
+        data = out.mutable_data
+        data[:] = image.data
+        if self._sigma > 0:
+            rng = np.random.default_rng([self._seed, int(round(context.get_time() * 1e6))])
+            rgb = image.data[:, :, :3].astype(np.float32)
+            rgb += rng.normal(0.0, self._sigma, rgb.shape).astype(np.float32)
+            data[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+
+
+def add_color_noise(color_image: np.ndarray, sigma: float, seed: int = 0) -> np.ndarray:
+    """The same noise model on an (H, W, 3 or 4) uint8 array (for tests and offline use)."""
+    sigma = check_in_range(sigma, 0.0, 50.0, "noise sigma", unit="grey levels")
+    out = np.array(color_image, copy=True)
+    rng = np.random.default_rng(seed)
+    rgb = out[:, :, :3].astype(np.float32) + rng.normal(0.0, sigma, out[:, :, :3].shape)
+    out[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    return out
+
+
+# -- the estimator ---------------------------------------------------------------------------
+
+
+@dc.dataclass
+class ViewSpec:
+    """What the robot knows about one measurement view: where it put the grip in the image
+    (the projection of its commanded gripper position, px) and at what depth along the
+    optical axis (m), which sets the pixel variant's fixed scale. It does not know the tool's
+    length."""
+
+    name: str
+    grip_pixel: tuple[float, float]
+    grip_depth: float
+
+
+@dc.dataclass
+class Blob:
+    """One connected orange region: its contour and statistics (pixel coordinates)."""
+
+    contour: np.ndarray  # (N, 2) int, OpenCV (u, v)
+    area_px: int
+    centroid: np.ndarray  # (u, v)
+    bbox: tuple[int, int, int, int]  # upright box: u, v, width, height (px)
+    pixels: np.ndarray  # (M, 2) int (v, u) of the blob's pixels
+
+
+@dc.dataclass
+class ViewMeasurement:
+    """The estimate from one view. `accepted` False: the view is dropped, `reason` says why.
+    `ends_px` are the two outer ends (grip marker first where known), `ends_C` the same
+    back-projected to 3-D in the camera frame C (m)."""
+
+    view: str
+    accepted: bool
+    reason: str = ""
+    length_depth: float = math.nan  # m, 3-D distance of the back-projected outer ends
+    length_pixel: float = math.nan  # m, pixel distance x the fixed metres per pixel
+    ends_px: list = dc.field(default_factory=list)
+    ends_C: list = dc.field(default_factory=list)
+    marker_depths: list = dc.field(default_factory=list)  # m
+    marker_areas_px: list = dc.field(default_factory=list)
+    boxes: list = dc.field(default_factory=list)  # per marker: 4 corners (u, v) of its box
+    blob_count: int = 0
+
+    def length(self, method: str) -> float:
+        return self.length_depth if method == "depth" else self.length_pixel
+
+    def as_dict(self) -> dict:
+        def f(x):
+            return None if x is None or not math.isfinite(x) else float(x)
+
+        return {"view": self.view, "accepted": self.accepted, "reason": self.reason,
+                "length_depth_m": f(self.length_depth), "length_pixel_m": f(self.length_pixel),
+                "ends_px": [[float(a) for a in e] for e in self.ends_px],
+                "ends_C_m": [[float(a) for a in e] for e in self.ends_C],
+                "marker_depths_m": [f(d) for d in self.marker_depths],
+                "marker_areas_px": [int(a) for a in self.marker_areas_px],
+                "blob_count": int(self.blob_count)}
+
+
+@dc.dataclass
+class ToolLengthMeasurement:
+    """All views measured so far and their combination (the mean of the accepted views)."""
+
+    method: str
+    views: list = dc.field(default_factory=list)  # ViewMeasurement per view, in order
+
+    @property
+    def accepted(self) -> list:
+        return [v for v in self.views if v.accepted]
+
+    @property
+    def dropped(self) -> list:
+        return [v for v in self.views if not v.accepted]
+
+    def lengths(self, method: str | None = None) -> np.ndarray:
+        m = self.method if method is None else method
+        return np.array([v.length(m) for v in self.accepted])
+
+    def length(self, method: str | None = None) -> float:
+        """Mean of the accepted views (m); NaN when none is accepted."""
+        values = self.lengths(method)
+        return float(np.mean(values)) if values.size else math.nan
+
+    def spread(self, method: str | None = None) -> float:
+        """Largest minus smallest accepted view (m); NaN when none is accepted."""
+        values = self.lengths(method)
+        return float(np.ptp(values)) if values.size else math.nan
+
+    def length_or_raise(self) -> float:
+        """The mean length; a ValueError naming each view and what it missed if no view gave
+        one."""
+        if not self.accepted:
+            detail = "; ".join(f"view {v.view!r}: {v.reason}" for v in self.views)
+            raise ValueError(f"the tool length could not be measured in any of the "
+                             f"{len(self.views)} views: {detail or 'no view was captured'}")
+        return self.length()
+
+
+def orange_mask(color_image: np.ndarray) -> np.ndarray:
+    """Binary mask (uint8, 0/255) of the orange pixels of an RGB(A) image, opened with a 3x3
+    kernel to remove isolated noise pixels."""
+    rgb = np.ascontiguousarray(color_image[:, :, :3])
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+    mask = cv2.inRange(hsv, np.array(ORANGE_HSV_LOW, np.uint8),
+                       np.array(ORANGE_HSV_HIGH, np.uint8))
+    return cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+
+
+def find_blobs(mask: np.ndarray, min_area_px: int = MIN_BLOB_AREA_PX) -> list[Blob]:
+    """The mask's outer contours as blobs, largest first (area = pixels inside the contour)."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    blobs = []
+    for contour in contours:
+        u, v, w, h = cv2.boundingRect(contour)
+        local = np.zeros((h, w), np.uint8)
+        cv2.drawContours(local, [contour - [u, v]], -1, 255, thickness=cv2.FILLED)
+        local &= mask[v:v + h, u:u + w]
+        vv, uu = np.nonzero(local)
+        if vv.size < min_area_px:
+            continue
+        pixels = np.column_stack([vv + v, uu + u])
+        blobs.append(Blob(contour=contour.reshape(-1, 2), area_px=int(vv.size),
+                          centroid=np.array([uu.mean() + u, vv.mean() + v]),
+                          bbox=(u, v, w, h), pixels=pixels))
+    blobs.sort(key=lambda b: b.area_px, reverse=True)
+    return blobs
+
+
+def _outer_end(blob: Blob, d: np.ndarray, sign: float):
+    """The outer end (u, v) of a marker blob on the tool line of image direction `d`, and the
+    corners of its bounding box aligned with `d`. `sign` -1: the end towards -d.
+
+    Contour points are pixel centres; a pixel is orange when its centre is on the band, so the
+    band's edge lies on average half a pixel beyond the last centre: the end is moved out by
+    0.5 px. For a horizontal or vertical tool the box is the upright box of the paper."""
+    n = np.array([-d[1], d[0]])
+    pts = blob.contour.astype(float)
+    along, across = pts @ d, pts @ n
+    a_lo, a_hi = along.min() - 0.5, along.max() + 0.5
+    c_lo, c_hi = across.min() - 0.5, across.max() + 0.5
+    a_end = a_lo if sign < 0 else a_hi
+    end = a_end * d + 0.5 * (c_lo + c_hi) * n
+    corners = [a * d + c * n for a, c in ((a_lo, c_lo), (a_hi, c_lo), (a_hi, c_hi), (a_lo, c_hi))]
+    return end, corners
+
+
+def _marker_depth(blob: Blob, depth: np.ndarray, percentile: float) -> float:
+    values = depth[blob.pixels[:, 0], blob.pixels[:, 1]]
+    values = values[np.isfinite(values) & (values > 0)]
+    return float(np.percentile(values, percentile)) if values.size else math.nan
+
+
+def _touches_border(blob: Blob, width: int, height: int) -> str:
+    u, v, w, h = blob.bbox
+    sides = [name for name, hit in (("left", u <= 0), ("top", v <= 0),
+                                    ("right", u + w >= width), ("bottom", v + h >= height))
+             if hit]
+    return " and ".join(sides)
+
+
+def back_project(info: CameraInfo, pixel, depth: float) -> np.ndarray:
+    """p_CP: the point at `depth` (m, along the optical axis) seen at `pixel` (u, v)."""
+    u, v = pixel
+    return np.array([(u - info.center_x()) * depth / info.focal_x(),
+                     (v - info.center_y()) * depth / info.focal_y(), depth])
+
+
+def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraInfo,
+                 view: ViewSpec, depth_percentile: float = DEPTH_PERCENTILE) -> ViewMeasurement:
+    """Measures the tool in one view (both the depth and the pixel variant).
+
+    color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
+    A view is dropped (accepted=False, with the reason) when fewer than two marker blobs are
+    found, when no blob lies at the grip, when a marker touches the image border (it may be
+    cut off), when one marker is much smaller than the other (partly hidden), or when a marker
+    has no valid depth."""
+    depth = np.asarray(depth_image, np.float32).reshape(info.height(), info.width())
+    if color_image.shape[:2] != (info.height(), info.width()):
+        raise ValueError(f"color image is {color_image.shape[1]} x {color_image.shape[0]} px; "
+                         f"the camera gives {info.width()} x {info.height()} px")
+    blobs = find_blobs(orange_mask(color_image))
+    out = ViewMeasurement(view=view.name, accepted=False, blob_count=len(blobs))
+    f = info.focal_x()
+    grip_px = np.asarray(view.grip_pixel, float)
+    tolerance_px = GRIP_TOLERANCE * f / view.grip_depth
+    near_grip = [b for b in blobs[:2] if np.linalg.norm(b.centroid - grip_px) <= tolerance_px]
+    if not blobs:
+        out.reason = ("no orange marker found: both the grip marker and the tip marker are "
+                      "missing")
+        return out
+    if len(blobs) == 1:
+        missing = "tip marker" if near_grip else "grip marker"
+        out.reason = (f"only one orange marker found: the {missing} is missing (hidden or out "
+                      "of frame)")
+        out.marker_areas_px = [blobs[0].area_px]
+        return out
+    if not near_grip:
+        out.reason = (f"no marker found within {GRIP_TOLERANCE * 100:.0f} cm of the grip at "
+                      f"pixel ({grip_px[0]:.0f}, {grip_px[1]:.0f}): the grip marker is missing "
+                      "(hidden or out of frame)")
+        return out
+    grip = near_grip[0]
+    tip = blobs[1] if grip is blobs[0] else blobs[0]
+    out.marker_areas_px = [grip.area_px, tip.area_px]
+    for name, blob in (("grip marker", grip), ("tip marker", tip)):
+        side = _touches_border(blob, info.width(), info.height())
+        if side:
+            out.reason = (f"the {name} touches the image's {side} border: it may be cut off "
+                          "(out of frame)")
+            return out
+    depths = [_marker_depth(b, depth, depth_percentile) for b in (grip, tip)]
+    out.marker_depths = depths
+    for name, d in zip(("grip marker", "tip marker"), depths):
+        if not math.isfinite(d):
+            out.reason = f"the {name} has no valid depth (outside the depth range)"
+            return out
+    physical_area = [b.area_px * d * d for b, d in zip((grip, tip), depths)]
+    ratio = min(physical_area) / max(physical_area)
+    if ratio < MIN_AREA_RATIO:
+        small = "grip marker" if physical_area[0] < physical_area[1] else "tip marker"
+        out.reason = (f"the {small} looks partly hidden: its area is {ratio * 100:.0f} % of the "
+                      f"other marker's (at least {MIN_AREA_RATIO * 100:.0f} % expected)")
+        return out
+    d = tip.centroid - grip.centroid
+    d /= np.linalg.norm(d)
+    grip_end, grip_box = _outer_end(grip, d, -1.0)
+    tip_end, tip_box = _outer_end(tip, d, +1.0)
+    p_CA = back_project(info, grip_end, depths[0])
+    p_CB = back_project(info, tip_end, depths[1])
+    out.ends_px = [grip_end.tolist(), tip_end.tolist()]
+    out.ends_C = [p_CA.tolist(), p_CB.tolist()]
+    out.boxes = [np.array(grip_box).tolist(), np.array(tip_box).tolist()]
+    out.length_depth = float(np.linalg.norm(p_CB - p_CA))
+    out.length_pixel = float(np.linalg.norm(tip_end - grip_end) * view.grip_depth / f)
+    out.accepted = True
+    return out
+
+
+def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement) -> np.ndarray:
+    """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box, the
+    measured segment between the outer ends, and the result (or why the view was dropped)."""
+    bgr = cv2.cvtColor(np.ascontiguousarray(color_image[:, :, :3]), cv2.COLOR_RGB2BGR)
+    mask = orange_mask(color_image) > 0
+    bgr[mask] = (0.5 * bgr[mask] + 0.5 * np.array([0, 255, 0])).astype(np.uint8)
+    for box in measurement.boxes:
+        cv2.polylines(bgr, [np.rint(np.array(box)).astype(np.int32)], True, (255, 0, 0), 1)
+    if len(measurement.ends_px) == 2:
+        a, b = (tuple(int(round(x)) for x in e) for e in measurement.ends_px)
+        cv2.line(bgr, a, b, (0, 0, 255), 1)
+        for p in (a, b):
+            cv2.circle(bgr, p, 4, (0, 0, 255), 1)
+    if measurement.accepted:
+        text = (f"{measurement.view}: depth {measurement.length_depth * 1000:.1f} mm, "
+                f"pixel {measurement.length_pixel * 1000:.1f} mm")
+    else:
+        text = f"{measurement.view}: dropped - {measurement.reason}"
+    scale = max(bgr.shape[1] / 1600, 0.4)
+    cv2.putText(bgr, text, (10, int(30 * scale + 5)), cv2.FONT_HERSHEY_SIMPLEX, scale,
+                (0, 0, 0), 2, cv2.LINE_AA)
+    return bgr
+
+
+class ToolLengthEstimator(LeafSystem):
+    """Measures the tool length from the head camera's images, one view per capture.
+
+    At the capture times t_k = first_capture + k * capture_period (k = 0 .. len(views) - 1,
+    when the arm holds view k still) it measures view k from the current images
+    (`measure_view`) and keeps the result in its abstract state; later times do nothing. The
+    outputs are computed from that state, so they hold between captures.
+
+    .. pydrake_system::
+
+        name: ToolLengthEstimator
+        input_ports:
+        - color_image
+        - depth_image
+        output_ports:
+        - tool_length
+        - measurement
+
+    - color_image: ImageRgba8U from the RgbdSensor (or ColorImageNoise).
+    - depth_image: ImageDepth32F (m) from the RgbdSensor's `depth_image_32f`.
+    - tool_length: [L] (m), the mean over the accepted views captured so far (by `method`);
+      NaN until one is accepted.
+    - measurement: AbstractValue[ToolLengthMeasurement], every captured view's result (both
+      variants, drop reasons), the mean and the spread.
+
+    Args:
+        info: the camera's intrinsics (`camera_info(scenario.camera)`).
+        views: the views in capture order (what the robot knows of each, see ViewSpec).
+        first_capture, capture_period: capture schedule (s).
+        method: "depth" (3-D distance of the back-projected ends) or "pixel" (the paper's
+            pixel distance x a fixed metres per pixel).
+    """
+
+    def __init__(self, info: CameraInfo, views, first_capture: float, capture_period: float,
+                 method: str = "depth", depth_percentile: float = DEPTH_PERCENTILE):
+        super().__init__()
+        self._info = info
+        self._views = list(views)
+        if not self._views:
+            raise ValueError("views is empty; give at least one ViewSpec")
+        self._method = check_one_of(method, METHODS, "method")
+        self._percentile = check_in_range(depth_percentile, 0.0, 100.0, "depth_percentile")
+        check_in_range(first_capture, 0.0, math.inf, "first_capture", unit="s")
+        check_in_range(capture_period, 1e-3, math.inf, "capture_period", unit="s")
+        w, h = info.width(), info.height()
+        self._color = self.DeclareAbstractInputPort("color_image",
+                                                    AbstractValue.Make(ImageRgba8U(w, h)))
+        self._depth = self.DeclareAbstractInputPort("depth_image",
+                                                    AbstractValue.Make(ImageDepth32F(w, h)))
+        self._state = self.DeclareAbstractState(
+            AbstractValue.Make(ToolLengthMeasurement(method=self._method)))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(capture_period, first_capture, self._capture)
+        state = {self.abstract_state_ticket(self._state)}
+        self.DeclareVectorOutputPort("tool_length", 1, self._calc_length,
+                                     prerequisites_of_calc=state)
+        self.DeclareAbstractOutputPort(
+            "measurement", lambda: AbstractValue.Make(ToolLengthMeasurement(method=self._method)),
+            self._calc_measurement, prerequisites_of_calc=state)
+
+    @property
+    def views(self) -> list:
+        return list(self._views)
+
+    def _capture(self, context, state):
+        measurement = context.get_abstract_state(self._state).get_value()
+        k = len(measurement.views)
+        if k >= len(self._views):
+            return
+        color = self._color.Eval(context).data
+        depth = self._depth.Eval(context).data
+        result = measure_view(color, depth, self._info, self._views[k], self._percentile)
+        updated = copy.copy(measurement)
+        updated.views = measurement.views + [result]
+        state.get_mutable_abstract_state(self._state).set_value(updated)
+
+    def _calc_length(self, context, output):
+        output.SetAtIndex(0, context.get_abstract_state(self._state).get_value().length())
+
+    def _calc_measurement(self, context, output):
+        output.set_value(context.get_abstract_state(self._state).get_value())
