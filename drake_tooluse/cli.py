@@ -73,15 +73,29 @@ def _target_pose(args):
     return RigidTransform(RollPitchYaw(rpy), p)
 
 
+def _measured_length(scenario) -> dict:
+    """Measures the scenario's (true) tool with the head camera."""
+    from drake_tooluse.measure import measure_tool
+
+    result = measure_tool(scenario)
+    return {"measured_tool_length_m": result.length, "true_tool_length_m": scenario.tool.length,
+            "measurement_spread_m": result.spread, "measurement_time_s": result.wall_time}
+
+
 def cmd_ik(args) -> dict:
     from drake_tooluse.ik import ToolTipIK
 
-    length = _tool_length(args)
+    measured = {}
+    if args.measure:
+        measured = _measured_length(_scenario(args))
+        length = measured["measured_tool_length_m"]
+    else:
+        length = _tool_length(args)
     X = _target_pose(args)
     ik = ToolTipIK(length)
     seed = None if args.seed_q is None else ik.check_q(args.seed_q, "--seed-q")
     result = ik.solve(X, seed)
-    out = {"tool_length_m": length, "target": _pose_dict(X)}
+    out = {"tool_length_m": length, **measured, "target": _pose_dict(X)}
     out.update(result.as_dict())
     return out
 
@@ -118,11 +132,18 @@ def cmd_simulate(args) -> dict:
     scenario = _scenario(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
     start = time.perf_counter()
+    measured = {}
+    believed = args.believed_tool_length
+    if args.measure:
+        if believed is not None:
+            raise UsageError("give either --measure or --believed-tool-length, not both")
+        measured = _measured_length(scenario)
+        believed = measured["measured_tool_length_m"]
     run = simulate_waypoints(scenario, waypoints, move_time=args.move_time, dwell=args.dwell,
-                             believed_tool_length=args.believed_tool_length, record=args.record)
+                             believed_tool_length=believed, record=args.record)
     errors = [r.position_error for r in run.results]
     return {"scenario": str(args.scenario), "tool_length_m": scenario.tool.length,
-            "believed_tool_length_m": args.believed_tool_length or scenario.tool.length,
+            "believed_tool_length_m": believed or scenario.tool.length, **measured,
             "waypoints": [r.as_dict() for r in run.results],
             "max_position_error_m": max(errors), "mean_position_error_m": float(np.mean(errors)),
             "sim_time_s": run.sim_time, "wall_time_s": time.perf_counter() - start,
@@ -224,6 +245,12 @@ def cmd_export_csv(args) -> dict:
     return {"csv": str(path), "rows": len(times), "duration_s": float(times[-1])}
 
 
+def _cmd_measure(args) -> dict:
+    from drake_tooluse.measure import cmd_measure
+
+    return cmd_measure(args)
+
+
 def _print_human(name: str, out: dict) -> None:
     if name == "fk":
         t = out["tip"]
@@ -244,6 +271,10 @@ def _print_human(name: str, out: dict) -> None:
               f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
         if out["recording"]:
             print(f"recording: {out['recording']}")
+    elif name == "measure":
+        from drake_tooluse.measure import format_measurement
+
+        print(format_measurement(out))
     elif name == "sweep":
         print(out["table"], end="")
     elif name == "evaluate":
@@ -262,7 +293,7 @@ def _print_human(name: str, out: dict) -> None:
 COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
             "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams,
             "train": cmd_train, "evaluate": cmd_evaluate, "sweep": cmd_sweep,
-            "trajectory": cmd_trajectory, "export-csv": cmd_export_csv}
+            "trajectory": cmd_trajectory, "export-csv": cmd_export_csv, "measure": _cmd_measure}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -284,6 +315,12 @@ def make_parser() -> argparse.ArgumentParser:
                    help="tip orientation as a quaternion w x y z (instead of --rpy)")
     p.add_argument("--seed-q", type=float, nargs="+", metavar="RAD",
                    help="warm start: 7 joint angles (rad)")
+    p.add_argument("--measure", action="store_true",
+                   help="measure the tool with the head camera first (the world's tool: "
+                        "--scenario, with --tool-length as its true length) and solve for the "
+                        "measured length")
+    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO,
+                   help="scenario YAML (with --measure)")
 
     p = sub.add_parser("simulate", help="move the tool tip through waypoints in the dynamic "
                                         "simulation with the IK in the loop")
@@ -298,6 +335,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--dwell", type=float, default=1.5, help="s held at each waypoint (1.5)")
     p.add_argument("--record", type=Path, metavar="HTML",
                    help="write a Meshcat recording (standalone HTML)")
+    p.add_argument("--measure", action="store_true",
+                   help="measure the tool with the head camera first; the robot model then "
+                        "holds the measured length")
 
     from drake_tooluse.registration import ENV_IDS
 
@@ -351,6 +391,10 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, required=True, help="CSV file to write")
     p.add_argument("--time-scale", type=float, default=1.0,
                    help="stretch time by this factor (slower is safer)")
+
+    from drake_tooluse.measure import add_measure_parser
+
+    add_measure_parser(sub)
 
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")

@@ -2,18 +2,27 @@
 OpenCV estimator with the metric scale taken from the depth image.
 
 ```
-             ┌──────── world ────────┐
- SceneGraph ─┤ RgbdSensor on         ├─color_image─► [ColorImageNoise] ─► ToolLengthEstimator
-             │ `head_camera` (VTK)   ├─depth_image────────────────────────►   ├─► tool_length
-             └───────────────────────┘                                       └─► measurement
+            ┌─ world ─────────────┐
+SceneGraph ─┤ RgbdSensor on       ├─color─► [ColorImageNoise] ─► ToolLengthEstimator
+            │ head_camera (VTK)   ├─depth──────────────────────►  ├─► tool_length
+            └─────────────────────┘                               └─► measurement
 ```
 
 The estimator follows the paper: colour image → HSV → orange mask → contours → a bounding box
 per blob → the two largest blobs are the marker bands at the grip end and at the tip → the
-distance between their OUTER ends. The paper scaled that pixel distance by a fixed metres per
-pixel (`method="pixel"`, kept as an option); by default (`method="depth"`) the two outer-end
-pixels are back-projected to 3-D with the depth image and the camera intrinsics, which does
-not need the tool to lie at a known depth, nor square to the optical axis.
+distance between their OUTER ends.
+
+- `method="pixel"` (the paper's): the boxes' outer ends in the image, their pixel distance
+  times a fixed metres per pixel (set by the depth at which the robot holds the grip). Right
+  only for a tool square to the optical axis at that depth.
+- `method="depth"` (default): each marker's pixels are back-projected to 3-D with the depth
+  image and the intrinsics, and its outer end is its extreme point along the tool's 3-D axis
+  (plus the sub-pixel distance to the band's edge). One outer-end pixel at one robust depth
+  per marker, as first planned, read 2 mm long in the view where the tool is tilted in depth
+  (its grip end's face is then in view, off the depth of the band's front); the 3-D extreme
+  does not mind the tilt.
+- A view is dropped, with the reason, when a marker is missing, cut by the image border or
+  partly hidden (see `measure_view`).
 
 Frames: H = the URDF's `head_camera` frame; C = the camera's optical frame (Drake's camera
 convention: +z out of the lens, +x right in the image, +y down). Pixel (u, v): u to the right,
@@ -65,13 +74,12 @@ MIN_BLOB_AREA_PX = 12
 # A marker blob whose area, scaled by depth squared to a physical area, is below this fraction
 # of the other's is taken as partly hidden.
 MIN_AREA_RATIO = 0.4
+# Marker pixels whose depth differs from the marker's median by more than this are not on it
+# (m): the bands are 14 mm across, a tilted band a few mm deeper at one end.
+MARKER_DEPTH_TOLERANCE = 0.03
 # A blob counts as the grip marker when it lies within this distance of where the robot put
 # the grip (m, in the tool plane): tracking error plus the band's own length.
 GRIP_TOLERANCE = 0.04
-# The depth of a marker: this percentile of its pixels' depths. A low percentile is the front
-# of the band, where its silhouette (and so its outer end in the image) lies; it ignores the
-# background depth of edge pixels that colour noise adds to the mask.
-DEPTH_PERCENTILE = 10.0
 LIGHTINGS = ("default", "dim_side")
 
 
@@ -92,7 +100,6 @@ def lighting_params(lighting: str) -> RenderEngineVtkParams:
                                         intensity=0.45, frame="camera",
                                         direction=direction / np.linalg.norm(direction))]
     return params
-
 
 
 def add_head_camera(builder, world, config: CameraConfig, lighting: str = "default"):
@@ -195,13 +202,14 @@ class Blob:
 @dc.dataclass
 class ViewMeasurement:
     """The estimate from one view. `accepted` False: the view is dropped, `reason` says why.
-    `ends_px` are the two outer ends (grip marker first where known), `ends_C` the same
-    back-projected to 3-D in the camera frame C (m)."""
+    Grip marker first: `ends_px` are the boxes' outer ends in the image (px, the pixel
+    variant), `ends_C` the markers' outer ends in 3-D, p_CA and p_CB in the camera frame C
+    (m, the depth variant)."""
 
     view: str
     accepted: bool
     reason: str = ""
-    length_depth: float = math.nan  # m, 3-D distance of the back-projected outer ends
+    length_depth: float = math.nan  # m, outer end to outer end along the tool's 3-D axis
     length_pixel: float = math.nan  # m, pixel distance x the fixed metres per pixel
     ends_px: list = dc.field(default_factory=list)
     ends_C: list = dc.field(default_factory=list)
@@ -266,13 +274,13 @@ class ToolLengthMeasurement:
 
 
 def orange_mask(color_image: np.ndarray) -> np.ndarray:
-    """Binary mask (uint8, 0/255) of the orange pixels of an RGB(A) image, opened with a 3x3
-    kernel to remove isolated noise pixels."""
+    """Binary mask (uint8, 0/255) of the orange pixels of an RGB(A) image. Not opened: that
+    would cut the bands' thin dark edges (their ends); specks of noise are left to the blob
+    size filter (MIN_BLOB_AREA_PX)."""
     rgb = np.ascontiguousarray(color_image[:, :, :3])
     hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-    mask = cv2.inRange(hsv, np.array(ORANGE_HSV_LOW, np.uint8),
+    return cv2.inRange(hsv, np.array(ORANGE_HSV_LOW, np.uint8),
                        np.array(ORANGE_HSV_HIGH, np.uint8))
-    return cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
 
 
 def find_blobs(mask: np.ndarray, min_area_px: int = MIN_BLOB_AREA_PX) -> list[Blob]:
@@ -313,10 +321,50 @@ def _outer_end(blob: Blob, d: np.ndarray, sign: float):
     return end, corners
 
 
-def _marker_depth(blob: Blob, depth: np.ndarray, percentile: float) -> float:
-    values = depth[blob.pixels[:, 0], blob.pixels[:, 1]]
-    values = values[np.isfinite(values) & (values > 0)]
-    return float(np.percentile(values, percentile)) if values.size else math.nan
+def _marker_points(blob: Blob, depth: np.ndarray, info: CameraInfo):
+    """p_CP of each of the marker's pixels with a valid depth, back-projected (m), (N, 3), and
+    those pixels (u, v), (N, 2).
+
+    Pixels whose depth is more than MARKER_DEPTH_TOLERANCE from the marker's median depth are
+    left out: on a real camera edge pixels mix the marker's depth with the background's."""
+    z = depth[blob.pixels[:, 0], blob.pixels[:, 1]].astype(float)
+    valid = np.isfinite(z) & (z > 0)
+    if not np.any(valid):
+        return np.zeros((0, 3)), np.zeros((0, 2), int)
+    z_median = np.median(z[valid])
+    keep = valid & (np.abs(z - z_median) <= MARKER_DEPTH_TOLERANCE)
+    v, u, z = blob.pixels[keep, 0], blob.pixels[keep, 1], z[keep]
+    points = np.column_stack([(u - info.center_x()) * z / info.focal_x(),
+                              (v - info.center_y()) * z / info.focal_y(), z])
+    return points, np.column_stack([u, v])
+
+
+def _end_correction(mask: np.ndarray, pixel, p_CE: np.ndarray, u_C: np.ndarray, sign: float,
+                    f: float) -> float:
+    """How far (m, along the tool axis) the band's edge lies beyond its extreme pixel centre.
+
+    A pixel is orange when its centre is on the band, so the edge lies between the extreme
+    orange pixel centre and the nearest non-orange pixel centre beyond it along the tool's
+    image direction (within a pixel across): half that gap is the unbiased estimate. For a
+    tool square to the pixel grid the gap is one pixel; tilted, the rows' phases differ and it
+    is smaller. The gap in pixels becomes metres with the image's rate of motion along u_C at
+    p_CE: f |u_xy - u_z p_xy / z| / z pixels per metre."""
+    x, y, z = p_CE
+    d = np.array([u_C[0] - u_C[2] * x / z, u_C[1] - u_C[2] * y / z]) * sign
+    image_rate = f * np.linalg.norm(d) / z
+    d /= np.linalg.norm(d)
+    u, v = int(pixel[0]), int(pixel[1])
+    gap = 1.0
+    height, width = mask.shape
+    for dv in range(-2, 3):
+        for du in range(-2, 3):
+            uu, vv = u + du, v + dv
+            if not (0 <= uu < width and 0 <= vv < height) or mask[vv, uu]:
+                continue
+            along = du * d[0] + dv * d[1]
+            if 1e-9 < along < gap and abs(-du * d[1] + dv * d[0]) <= 1.0:
+                gap = along
+    return 0.5 * gap / image_rate
 
 
 def _touches_border(blob: Blob, width: int, height: int) -> str:
@@ -327,15 +375,8 @@ def _touches_border(blob: Blob, width: int, height: int) -> str:
     return " and ".join(sides)
 
 
-def back_project(info: CameraInfo, pixel, depth: float) -> np.ndarray:
-    """p_CP: the point at `depth` (m, along the optical axis) seen at `pixel` (u, v)."""
-    u, v = pixel
-    return np.array([(u - info.center_x()) * depth / info.focal_x(),
-                     (v - info.center_y()) * depth / info.focal_y(), depth])
-
-
 def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraInfo,
-                 view: ViewSpec, depth_percentile: float = DEPTH_PERCENTILE) -> ViewMeasurement:
+                 view: ViewSpec) -> ViewMeasurement:
     """Measures the tool in one view (both the depth and the pixel variant).
 
     color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
@@ -347,7 +388,8 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     if color_image.shape[:2] != (info.height(), info.width()):
         raise ValueError(f"color image is {color_image.shape[1]} x {color_image.shape[0]} px; "
                          f"the camera gives {info.width()} x {info.height()} px")
-    blobs = find_blobs(orange_mask(color_image))
+    mask = orange_mask(color_image)
+    blobs = find_blobs(mask)
     out = ViewMeasurement(view=view.name, accepted=False, blob_count=len(blobs))
     f = info.focal_x()
     grip_px = np.asarray(view.grip_pixel, float)
@@ -377,47 +419,89 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
             out.reason = (f"the {name} touches the image's {side} border: it may be cut off "
                           "(out of frame)")
             return out
-    depths = [_marker_depth(b, depth, depth_percentile) for b in (grip, tip)]
-    out.marker_depths = depths
-    for name, d in zip(("grip marker", "tip marker"), depths):
-        if not math.isfinite(d):
-            out.reason = f"the {name} has no valid depth (outside the depth range)"
+    # The paper's pixel variant: upright (tool-aligned) boxes, the outer ends in the image.
+    d = tip.centroid - grip.centroid
+    d /= np.linalg.norm(d)
+    grip_end, grip_box = _outer_end(grip, d, -1.0)
+    tip_end, tip_box = _outer_end(tip, d, +1.0)
+    out.ends_px = [grip_end.tolist(), tip_end.tolist()]
+    out.boxes = [np.array(grip_box).tolist(), np.array(tip_box).tolist()]
+    out.length_pixel = float(np.linalg.norm(tip_end - grip_end) * view.grip_depth / f)
+    # The depth variant: each marker's pixels back-projected to 3-D; the outer ends are the
+    # markers' extreme points along the tool's 3-D axis. Unlike one outer-end pixel at one
+    # depth, this holds when the tool is tilted in depth and the grip end's face is in view.
+    clouds = [_marker_points(b, depth, info) for b in (grip, tip)]
+    points = [c[0] for c in clouds]
+    for name, pts in zip(("grip marker", "tip marker"), points):
+        if len(pts) < MIN_BLOB_AREA_PX:
+            out.reason = (f"the {name} has no valid depth ({len(pts)} pixels inside the depth "
+                          "range)")
             return out
-    physical_area = [b.area_px * d * d for b, d in zip((grip, tip), depths)]
+    out.marker_depths = [float(np.median(p[:, 2])) for p in points]
+    physical_area = [b.area_px * z * z for b, z in zip((grip, tip), out.marker_depths)]
     ratio = min(physical_area) / max(physical_area)
     if ratio < MIN_AREA_RATIO:
         small = "grip marker" if physical_area[0] < physical_area[1] else "tip marker"
         out.reason = (f"the {small} looks partly hidden: its area is {ratio * 100:.0f} % of the "
                       f"other marker's (at least {MIN_AREA_RATIO * 100:.0f} % expected)")
         return out
-    d = tip.centroid - grip.centroid
-    d /= np.linalg.norm(d)
-    grip_end, grip_box = _outer_end(grip, d, -1.0)
-    tip_end, tip_box = _outer_end(tip, d, +1.0)
-    p_CA = back_project(info, grip_end, depths[0])
-    p_CB = back_project(info, tip_end, depths[1])
-    out.ends_px = [grip_end.tolist(), tip_end.tolist()]
+    u_C = points[1].mean(axis=0) - points[0].mean(axis=0)
+    u_C /= np.linalg.norm(u_C)
+    grip_along, tip_along = points[0] @ u_C, points[1] @ u_C
+    i, j = np.argmin(grip_along), np.argmax(tip_along)
+    p_CA, p_CB = points[0][i], points[1][j]
+    grip_out = _end_correction(mask, clouds[0][1][i], p_CA, u_C, -1.0, f)
+    tip_out = _end_correction(mask, clouds[1][1][j], p_CB, u_C, +1.0, f)
+    p_CA, p_CB = p_CA - grip_out * u_C, p_CB + tip_out * u_C
     out.ends_C = [p_CA.tolist(), p_CB.tolist()]
-    out.boxes = [np.array(grip_box).tolist(), np.array(tip_box).tolist()]
-    out.length_depth = float(np.linalg.norm(p_CB - p_CA))
-    out.length_pixel = float(np.linalg.norm(tip_end - grip_end) * view.grip_depth / f)
+    out.length_depth = float(tip_along[j] - grip_along[i] + grip_out + tip_out)
     out.accepted = True
     return out
 
 
-def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement) -> np.ndarray:
-    """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box, the
-    measured segment between the outer ends, and the result (or why the view was dropped)."""
+def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement,
+                  info: CameraInfo | None = None) -> np.ndarray:
+    """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box (blue),
+    the segment between the boxes' outer ends (red: the pixel variant), the 3-D outer ends
+    projected back (yellow: the depth variant; needs `info`), 6x insets of the two markers in
+    the top right corner, and the result (or why the view was dropped)."""
     bgr = cv2.cvtColor(np.ascontiguousarray(color_image[:, :, :3]), cv2.COLOR_RGB2BGR)
     mask = orange_mask(color_image) > 0
     bgr[mask] = (0.5 * bgr[mask] + 0.5 * np.array([0, 255, 0])).astype(np.uint8)
+    base = bgr.copy()
     for box in measurement.boxes:
         cv2.polylines(bgr, [np.rint(np.array(box)).astype(np.int32)], True, (255, 0, 0), 1)
     if len(measurement.ends_px) == 2:
         a, b = (tuple(int(round(x)) for x in e) for e in measurement.ends_px)
         cv2.line(bgr, a, b, (0, 0, 255), 1)
-        for p in (a, b):
-            cv2.circle(bgr, p, 4, (0, 0, 255), 1)
+    ends_3d = []
+    if info is not None:
+        ends_3d = [(info.center_x() + info.focal_x() * x / d,
+                    info.center_y() + info.focal_y() * y / d) for x, y, d in measurement.ends_C]
+    zoom, half = 6, 16  # each inset: a 33 x 33 px window at 6x, drawn at that scale
+    side = (2 * half + 1) * zoom
+    for i, end in enumerate(measurement.ends_px):
+        u0 = min(max(int(round(end[0])), half), bgr.shape[1] - half - 1) - half
+        v0 = min(max(int(round(end[1])), half), bgr.shape[0] - half - 1) - half
+        inset = cv2.resize(base[v0:v0 + side // zoom, u0:u0 + side // zoom], (side, side),
+                           interpolation=cv2.INTER_NEAREST)
+
+        def z(p):
+            return (int(round((p[0] - u0 + 0.5) * zoom)), int(round((p[1] - v0 + 0.5) * zoom)))
+
+        for box in measurement.boxes:
+            cv2.polylines(inset, [np.array([z(c) for c in box], np.int32)], True, (255, 0, 0), 2)
+        cv2.line(inset, z(measurement.ends_px[0]), z(measurement.ends_px[1]), (0, 0, 255), 2)
+        for p in ends_3d:
+            cv2.circle(inset, z(p), 5, (0, 220, 255), -1)
+        x0 = bgr.shape[1] - (len(measurement.ends_px) - i) * (side + 10)
+        if x0 >= 0 and side + 40 <= bgr.shape[0]:
+            bgr[40:40 + side, x0:x0 + side] = inset
+            cv2.rectangle(bgr, (x0, 40), (x0 + side - 1, 40 + side - 1), (0, 0, 0), 1)
+            cv2.rectangle(bgr, (x0 + 1, 40 + side - 22), (x0 + 110, 40 + side - 2),
+                          (255, 255, 255), -1)
+            cv2.putText(bgr, ("grip", "tip")[i] + f" marker x{zoom}", (x0 + 4, 40 + side - 7),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     if measurement.accepted:
         text = (f"{measurement.view}: depth {measurement.length_depth * 1000:.1f} mm, "
                 f"pixel {measurement.length_pixel * 1000:.1f} mm")
@@ -458,19 +542,19 @@ class ToolLengthEstimator(LeafSystem):
         info: the camera's intrinsics (`camera_info(scenario.camera)`).
         views: the views in capture order (what the robot knows of each, see ViewSpec).
         first_capture, capture_period: capture schedule (s).
-        method: "depth" (3-D distance of the back-projected ends) or "pixel" (the paper's
-            pixel distance x a fixed metres per pixel).
+        method: "depth" (the markers' outer ends found in 3-D with the depth image) or
+            "pixel" (the paper's pixel distance x a fixed metres per pixel); both are in the
+            `measurement` output either way.
     """
 
     def __init__(self, info: CameraInfo, views, first_capture: float, capture_period: float,
-                 method: str = "depth", depth_percentile: float = DEPTH_PERCENTILE):
+                 method: str = "depth"):
         super().__init__()
         self._info = info
         self._views = list(views)
         if not self._views:
             raise ValueError("views is empty; give at least one ViewSpec")
         self._method = check_one_of(method, METHODS, "method")
-        self._percentile = check_in_range(depth_percentile, 0.0, 100.0, "depth_percentile")
         check_in_range(first_capture, 0.0, math.inf, "first_capture", unit="s")
         check_in_range(capture_period, 1e-3, math.inf, "capture_period", unit="s")
         w, h = info.width(), info.height()
@@ -499,7 +583,7 @@ class ToolLengthEstimator(LeafSystem):
             return
         color = self._color.Eval(context).data
         depth = self._depth.Eval(context).data
-        result = measure_view(color, depth, self._info, self._views[k], self._percentile)
+        result = measure_view(color, depth, self._info, self._views[k])
         updated = copy.copy(measurement)
         updated.views = measurement.views + [result]
         state.get_mutable_abstract_state(self._state).set_value(updated)

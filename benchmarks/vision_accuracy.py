@@ -1,0 +1,114 @@
+"""Tool-length measurement accuracy: the three-view measurement (`drake_tooluse.measure`) of
+tools of known length, with clean images and with Gaussian colour noise, in the depth variant
+and the paper's pixel variant, and the time of a whole measurement (IK plan, diagram build,
+dynamic simulation through the three views, rendering, estimation).
+
+    python benchmarks/vision_accuracy.py [--lengths ...] [--noise 5] [--noise-seeds 3]
+
+Goals: the depth variant's error of the three-view mean within 1 mm, and every single view
+within 3 mm, per length with clean images; within 3 mm with noise; at most 5 s per
+measurement. Prints a Markdown table and the goals met or missed, and writes the figures as
+JSON to docs/results/vision_accuracy.json. Errors are measured minus true, mm.
+"""
+
+import argparse
+import platform
+import time
+from pathlib import Path
+
+import numpy as np
+
+from drake_tooluse.io import atomic_write_json
+from drake_tooluse.measure import measure_tool
+from drake_tooluse.scenario import Scenario, with_tool_length
+
+OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "vision_accuracy.json"
+LENGTHS = (0.05, 0.10, 0.125, 0.175, 0.25, 0.35, 0.50)
+GOAL_CLEAN_MEAN_MM = 1.0
+GOAL_CLEAN_VIEW_MM = 3.0
+GOAL_NOISY_MM = 3.0
+GOAL_TIME_S = 5.0
+
+
+def run(length: float, sigma: float, seed: int) -> dict:
+    scenario = with_tool_length(Scenario(), length)
+    start = time.perf_counter()
+    result = measure_tool(scenario, noise_sigma=sigma, seed=seed)
+    elapsed = time.perf_counter() - start
+    views = {v.view: {"depth_error_mm": (v.length_depth - length) * 1e3,
+                      "pixel_error_mm": (v.length_pixel - length) * 1e3,
+                      "accepted": v.accepted, "reason": v.reason} for v in result.views}
+    return {"tool_length_m": length, "noise_sigma": sigma, "seed": seed,
+            "depth_error_mm": (result.length_by("depth") - length) * 1e3,
+            "pixel_error_mm": (result.length_by("pixel") - length) * 1e3,
+            "spread_mm": result.spread * 1e3, "dropped": result.dropped, "views": views,
+            "time_s": elapsed, "sim_time_s": result.sim_time}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--lengths", type=float, nargs="+", default=list(LENGTHS))
+    ap.add_argument("--noise", type=float, default=5.0, help="colour noise sigma, grey levels")
+    ap.add_argument("--noise-seeds", type=int, default=3, help="noisy runs per length")
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args()
+    rows = []
+    for length in args.lengths:
+        clean = run(length, 0.0, 0)
+        noisy = [run(length, args.noise, seed) for seed in range(args.noise_seeds)]
+        rows.append({"clean": clean, "noisy": noisy})
+
+    print(f"| tool (m) | depth error, clean (mm) | worst view, clean (mm) | spread (mm) | "
+          f"depth error, σ={args.noise:g} (mm, worst of {args.noise_seeds}) | pixel error, clean "
+          f"(mm) | pixel, σ={args.noise:g} (mm, worst) | pixel, 2 square views (mm) | "
+          "time (s) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    times = []
+    for r in rows:
+        c, n = r["clean"], r["noisy"]
+        worst_view = max((v["depth_error_mm"] for v in c["views"].values()), key=abs)
+        worst_noisy = max((x["depth_error_mm"] for x in n), key=abs)
+        worst_noisy_pixel = max((x["pixel_error_mm"] for x in n), key=abs)
+        square = np.mean([c["views"][k]["pixel_error_mm"] for k in ("grip_right",
+                                                                     "grip_bottom")])
+        r.update(worst_view_clean_mm=worst_view, worst_noisy_mm=worst_noisy,
+                 pixel_square_views_clean_mm=float(square))
+        run_times = [c["time_s"]] + [x["time_s"] for x in n]
+        times += run_times
+        print(f"| {c['tool_length_m']:.3f} | {c['depth_error_mm']:+.2f} | {worst_view:+.2f} | "
+              f"{c['spread_mm']:.2f} | {worst_noisy:+.2f} | {c['pixel_error_mm']:+.1f} | "
+              f"{worst_noisy_pixel:+.1f} | {square:+.1f} | "
+              f"{np.median(run_times):.2f} |")
+    dropped = [(r["clean"]["tool_length_m"], d) for r in rows
+               for x in [r["clean"], *r["noisy"]] for d in x["dropped"]]
+    goals = {
+        "clean_mean_within_1mm": all(abs(r["clean"]["depth_error_mm"]) <= GOAL_CLEAN_MEAN_MM
+                                     for r in rows),
+        "clean_every_view_within_3mm": all(abs(r["worst_view_clean_mm"]) <= GOAL_CLEAN_VIEW_MM
+                                           for r in rows),
+        "noisy_within_3mm": all(abs(r["worst_noisy_mm"]) <= GOAL_NOISY_MM for r in rows),
+        "time_within_5s": max(times) <= GOAL_TIME_S,
+    }
+    clean_errors = np.array([r["clean"]["depth_error_mm"] for r in rows])
+    summary = {"clean_mean_abs_error_mm": float(np.mean(np.abs(clean_errors))),
+               "clean_max_abs_error_mm": float(np.max(np.abs(clean_errors))),
+               "time_first_s": times[0], "time_median_s": float(np.median(times)),
+               "time_max_s": float(max(times)), "measurements": len(times),
+               "dropped_views": [{"tool_length_m": L, **d} for L, d in dropped]}
+    print(f"\nclean, depth variant: mean |error| {summary['clean_mean_abs_error_mm']:.2f} mm, "
+          f"max {summary['clean_max_abs_error_mm']:.2f} mm; time per measurement: first "
+          f"{times[0]:.2f} s, median {summary['time_median_s']:.2f} s, "
+          f"max {summary['time_max_s']:.2f} s over {len(times)}; dropped views: "
+          f"{len(dropped)}")
+    for name, met in goals.items():
+        print(f"goal {name}: {'met' if met else 'NOT met'}")
+    atomic_write_json(args.out, {
+        "command": "python benchmarks/vision_accuracy.py --lengths "
+                   + " ".join(f"{x:g}" for x in args.lengths)
+                   + f" --noise {args.noise:g} --noise-seeds {args.noise_seeds}",
+        "machine": platform.platform(), "goals": goals, "summary": summary, "results": rows})
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,225 @@
+"""Tool length from the head camera: the estimator on synthetic and rendered images, dropped
+views, the no-marker error, robustness, and the IK with the measured length."""
+
+import argparse
+import dataclasses as dc
+import math
+
+import numpy as np
+import pytest
+from pydrake.math import RigidTransform
+from pydrake.systems.sensors import CameraInfo
+
+from drake_tooluse.ik import ToolTipIK
+from drake_tooluse.measure import (
+    MEASUREMENT_VIEWS,
+    add_measure_parser,
+    build_measurement_diagram,
+    cmd_measure,
+    measure_tool,
+    occluder,
+    orange_distractor,
+    plan_measurement,
+)
+from drake_tooluse.scenario import (
+    CameraConfig,
+    Scenario,
+    ToolConfig,
+    validate_scenario,
+    with_tool_length,
+)
+from drake_tooluse.scene import TOOL_DOWN_RPY, make_robot_model
+from drake_tooluse.vision import ViewSpec, add_color_noise, measure_view
+
+# The views' layout depends on the robot only: plan once for the whole file.
+PLAN = plan_measurement(Scenario())
+
+
+def _measure(length, **kwargs):
+    return measure_tool(with_tool_length(Scenario(), length), plan=PLAN, **kwargs)
+
+
+# -- the estimator on synthetic images -------------------------------------------------------
+
+
+def _synthetic_view(width=640, height=400, depth=0.5):
+    """Two orange bands 20 px long on a grey background at one depth: columns 100-119 and
+    400-419, rows 190-209."""
+    color = np.full((height, width, 4), 128, np.uint8)
+    for u0 in (100, 400):
+        color[190:210, u0:u0 + 20, :3] = (255, 115, 0)
+    return color, np.full((height, width), depth, np.float32)
+
+
+def test_synthetic_bands_measure_their_outer_ends():
+    info = CameraInfo(640, 400, 1.0)
+    color, depth = _synthetic_view()
+    view = ViewSpec("synthetic", grip_pixel=(110.0, 200.0), grip_depth=0.5)
+    m = measure_view(color, depth, info, view)
+    assert m.accepted, m.reason
+    # The outer edges are at u = 99.5 and 419.5 (pixel centres at integers): 320 px.
+    expected = 320 * 0.5 / info.focal_x()
+    assert m.length_pixel == pytest.approx(expected, abs=1e-9)
+    assert m.length_depth == pytest.approx(expected, abs=1e-9)
+    assert np.allclose(m.ends_px, [[99.5, 199.5], [419.5, 199.5]])
+
+
+def test_a_small_blob_beside_the_bands_is_not_a_marker():
+    info = CameraInfo(640, 400, 1.0)
+    color, depth = _synthetic_view()
+    color[50:55, 300:305, :3] = (255, 115, 0)  # 25 px: a distractor smaller than a band
+    m = measure_view(color, depth, info, ViewSpec("s", (110.0, 200.0), 0.5))
+    assert m.accepted and m.blob_count == 3
+    assert m.length_depth == pytest.approx(320 * 0.5 / info.focal_x(), abs=1e-9)
+
+
+@pytest.mark.parametrize("edit, reason", [
+    (lambda c: c[190:210, 400:420, :3].__setitem__(..., 128), "the tip marker is missing"),
+    (lambda c: c[190:210, 100:120, :3].__setitem__(..., 128), "the grip marker is missing"),
+    (lambda c: c[:, :, :3].__setitem__(..., 128), "no orange marker found"),
+    (lambda c: c[190:210, 620:640, :3].__setitem__(..., (255, 115, 0)), "right border"),
+    (lambda c: c[190:204, 400:420, :3].__setitem__(..., 128), "tip marker looks partly hidden"),
+])
+def test_a_view_without_both_whole_markers_is_dropped_with_the_reason(edit, reason):
+    info = CameraInfo(640, 400, 1.0)
+    color, depth = _synthetic_view()
+    if "border" in reason:  # move the tip band to the image's right edge
+        color[190:210, 400:420, :3] = 128
+    edit(color)
+    m = measure_view(color, depth, info, ViewSpec("s", (110.0, 200.0), 0.5))
+    assert not m.accepted
+    assert reason in m.reason
+    assert math.isnan(m.length_depth)
+
+
+# -- rendered views --------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def rendered():
+    """Measurements of three tools with their images (rendered once for the module)."""
+    return {length: _measure(length, keep_images=True) for length in (0.05, 0.175, 0.45)}
+
+
+@pytest.mark.parametrize("length", [0.05, 0.175, 0.45])
+def test_rendered_views_measure_the_true_length(rendered, length):
+    result = rendered[length]
+    assert [v.view for v in result.views] == [v.name for v in MEASUREMENT_VIEWS]
+    assert not result.dropped
+    assert abs(result.length - length) < 1.5e-3
+    for view in result.views:
+        assert abs(view.length_depth - length) < 3e-3, view.as_dict()
+    # The pixel variant holds where the tool is square to the optical axis.
+    for view in result.views[:2]:
+        assert abs(view.length_pixel - length) < 0.02 * length + 2e-3, view.as_dict()
+    assert result.spread == pytest.approx(
+        max(v.length_depth for v in result.views) - min(v.length_depth for v in result.views))
+
+
+def test_colour_noise_and_dimmer_light_keep_the_estimate(rendered):
+    info = CameraInfo(1280, 800, 1.0)
+    result = rendered[0.175]
+    for k, (view, (color, depth)) in enumerate(zip(result.views, result.images)):
+        noisy = add_color_noise(color, 8.0, seed=k)
+        m = measure_view(noisy, depth, info, PLAN.views[k].spec)
+        assert m.accepted, m.reason
+        assert abs(m.length_depth - view.length_depth) < 1.5e-3
+        dim = (color.astype(float) * [0.45, 0.45, 0.45, 1.0]).astype(np.uint8)
+        m = measure_view(dim, depth, info, PLAN.views[k].spec)
+        assert m.accepted and abs(m.length_depth - 0.175) < 3e-3
+
+
+def test_distractor_noise_and_side_light_in_the_simulation():
+    result = _measure(0.25, noise_sigma=5.0, lighting="dim_side",
+                      scene_objects=[orange_distractor()])
+    assert not result.dropped
+    assert all(v.blob_count >= 3 for v in result.views)  # the distractor was in view
+    assert abs(result.length - 0.25) < 3e-3
+
+
+def test_an_occluded_view_is_dropped_and_named():
+    # A plate in front of where the vertical view holds a 0.30 m tool's tip.
+    result = _measure(0.30, scene_objects=[occluder((0.15, 0.0, 0.55))])
+    assert result.dropped == [{"view": "grip_bottom", "reason": "only one orange marker found: "
+                               "the tip marker is missing (hidden or out of frame)"}]
+    assert math.isnan(result.views[1].length_depth)
+    assert abs(result.length - 0.30) < 3e-3  # the mean of the two other views
+
+
+def test_a_marker_out_of_frame_drops_that_view():
+    scenario = dc.replace(with_tool_length(Scenario(), 0.60), camera=CameraConfig(fov_y=0.9))
+    result = measure_tool(scenario)  # narrower view: a new plan, same poses
+    assert [d["view"] for d in result.dropped] == ["grip_left"]
+    assert "tip marker is missing" in result.dropped[0]["reason"]
+    assert abs(result.length - 0.60) < 3e-3
+
+
+def test_no_marker_in_any_view_is_an_error_naming_view_and_marker():
+    scenario = dc.replace(Scenario(), tool=ToolConfig(attached=False))
+    with pytest.raises(ValueError, match=r"view 'grip_right': no orange marker found: both the "
+                                         r"grip marker and the tip marker are missing"):
+        measure_tool(scenario, plan=PLAN)
+
+
+def test_estimator_output_is_nan_before_the_first_capture():
+    built = build_measurement_diagram(with_tool_length(Scenario(), 0.2), PLAN)
+    context = built.diagram.CreateDefaultContext()
+    assert math.isnan(built.diagram.GetOutputPort("tool_length").Eval(context)[0])
+    assert built.diagram.GetOutputPort("measurement").Eval(context).views == []
+
+
+# -- the measured length in use --------------------------------------------------------------
+
+
+def test_measured_length_gives_an_ik_that_reaches_the_target(rendered):
+    true_length = 0.175
+    measured = rendered[true_length].length
+    ik = ToolTipIK(measured)
+    from pydrake.math import RollPitchYaw
+
+    X_WT = RigidTransform(RollPitchYaw(*TOOL_DOWN_RPY), [0.65, -0.25, -0.10])
+    result = ik.solve(X_WT)
+    assert result.success
+    # The true tool's tip, at those joint angles, is where the robot wanted it (to within the
+    # measurement error).
+    truth = make_robot_model(true_length)
+    context = truth.CreateDefaultContext()
+    truth.SetPositions(context, result.q)
+    p_WT = truth.GetFrameByName("tool_tip").CalcPoseInWorld(context).translation()
+    assert np.linalg.norm(p_WT - X_WT.translation()) < 2e-3
+
+
+# -- inputs ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("fov_y", 3.0, r"camera.fov_y=3 rad is outside the allowed range \[0.1, 2.5\]"),
+    ("width", 10, r"camera.width=10 must be an integer in \[16, 4096\]"),
+    ("depth_max", 50.0, r"camera.depth_max=50 m is outside"),
+    ("noise_sigma", -1.0, r"camera.noise_sigma=-1 grey levels is outside"),
+])
+def test_bad_camera_values_name_value_and_range(field, value, message):
+    scenario = dc.replace(Scenario(), camera=dc.replace(CameraConfig(), **{field: value}))
+    with pytest.raises(ValueError, match=message):
+        validate_scenario(scenario)
+
+
+def test_bad_method_and_noise_are_errors():
+    scenario = with_tool_length(Scenario(), 0.2)
+    with pytest.raises(ValueError, match=r"method='meters' is not allowed"):
+        measure_tool(scenario, method="meters", plan=PLAN)
+    with pytest.raises(ValueError, match=r"noise sigma=-2 grey levels is outside"):
+        measure_tool(scenario, noise_sigma=-2, plan=PLAN)
+
+
+def test_cli_command_measures_and_saves_annotated_views(tmp_path):
+    parser = argparse.ArgumentParser()
+    add_measure_parser(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["measure", "--tool-length", "0.125", "--method", "pixel",
+                              "--save-images", str(tmp_path)])
+    out = cmd_measure(args)
+    assert out["method"] == "pixel"
+    assert out["tool_length_m"] == pytest.approx(out["length_pixel_m"])
+    assert abs(out["length_depth_m"] - 0.125) < 1.5e-3
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "measure_grip_bottom.png", "measure_grip_left.png", "measure_grip_right.png"]
