@@ -23,6 +23,7 @@ from pydrake.geometry import (
     Box,
     CollisionFilterDeclaration,
     Cylinder,
+    HalfSpace,
     ProximityProperties,
     Sphere,
 )
@@ -57,7 +58,7 @@ ORANGE = np.array([1.0, 0.45, 0.0, 1.0])
 TOOL_RGBA = np.array([0.55, 0.6, 0.68, 1.0])
 WOOD_RGBA = np.array([0.72, 0.53, 0.33, 1.0])
 TABLE_RGBA = np.array([0.45, 0.33, 0.22, 1.0])
-FLOOR_Z = -0.95  # the floor under Baxter's pedestal, in W (m); visual only
+FLOOR_Z = -0.95  # the floor under Baxter's pedestal, in W (m)
 # Point contact: the box stands on spheres at its bottom corners (stable pushing, see FACTS).
 BOX_CORNER_SPHERE_RADIUS = 0.003
 
@@ -162,7 +163,10 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
         AddCompliantHydroelasticProperties(0.01, 1e7, props)
     plant.RegisterCollisionGeometry(table, RigidTransform(), shape, "table_collision", props)
     plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
-    # Legs down to the floor Baxter's pedestal stands on (visual only).
+    # The floor Baxter's pedestal stands on: a box pushed off the table lands there.
+    plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform([0.0, 0.0, FLOOR_Z]),
+                                    HalfSpace(), "floor_collision", props)
+    # Legs down to the floor (visual only).
     leg = tb.top_z - tb.thickness - FLOOR_Z
     for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
         p = [cx * (sx / 2 - 0.04), cy * (sy / 2 - 0.04), -tb.thickness / 2 - leg / 2]
