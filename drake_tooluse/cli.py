@@ -87,7 +87,7 @@ def cmd_ik(args) -> dict:
 
     measured = {}
     if args.measure:
-        measured = _measured_length(_scenario(args))
+        measured = _measured_length(scenario_from_args(args))
         length = measured["measured_tool_length_m"]
     else:
         length = _tool_length(args)
@@ -117,7 +117,15 @@ def _parse_waypoint(text: str):
     return RigidTransform(RollPitchYaw(rpy), values[:3])
 
 
-def _scenario(args):
+def add_scenario_args(p) -> None:
+    """--scenario FILE and --tool-length L (the world's true tool), shared by commands."""
+    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="scenario YAML")
+    p.add_argument("--tool-length", type=float, metavar="L",
+                   help="override the scenario's true tool length (m, in (0, 0.60])")
+
+
+def scenario_from_args(args):
+    """The scenario of `add_scenario_args`' options, validated."""
     from drake_tooluse.scenario import load_scenario, with_tool_length
 
     scenario = load_scenario(args.scenario)
@@ -129,7 +137,7 @@ def _scenario(args):
 def cmd_simulate(args) -> dict:
     from drake_tooluse.simulation import simulate_waypoints
 
-    scenario = _scenario(args)
+    scenario = scenario_from_args(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
     start = time.perf_counter()
     measured = {}
@@ -324,9 +332,7 @@ def make_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("simulate", help="move the tool tip through waypoints in the dynamic "
                                         "simulation with the IK in the loop")
-    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="scenario YAML")
-    p.add_argument("--tool-length", type=float, metavar="L",
-                   help="override the scenario's true tool length (m)")
+    add_scenario_args(p)
     p.add_argument("--believed-tool-length", type=float, metavar="L",
                    help="tool length the robot model believes (m); default the true one")
     p.add_argument("--tip-waypoints", nargs="+", required=True, metavar="X,Y,Z[,R,P,Y]",

@@ -58,7 +58,7 @@ from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial, PiecewisePose
 
 from drake_tooluse.ik import ToolTipIK
-from drake_tooluse.scenario import Scenario, load_scenario, with_tool_length
+from drake_tooluse.scenario import Scenario
 from drake_tooluse.scene import World, add_world
 from drake_tooluse.validation import check_in_range, check_one_of
 from drake_tooluse.vision import (
@@ -443,13 +443,11 @@ def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | 
 def add_measure_parser(subparsers):
     """Adds `measure` to the CLI's subparsers (`--json` comes from the CLI's common loop: call
     this before it). Returns the parser."""
-    from drake_tooluse.cli import DEFAULT_SCENARIO
+    from drake_tooluse.cli import add_scenario_args
 
     p = subparsers.add_parser("measure", help="measure the tool's length with the head camera "
                                               "(three views, OpenCV + depth)")
-    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO, help="scenario YAML")
-    p.add_argument("--tool-length", type=float, metavar="L",
-                   help="override the scenario's true tool length (m, in (0, 0.60])")
+    add_scenario_args(p)
     p.add_argument("--save-images", type=Path, metavar="DIR",
                    help="write each view annotated as DIR/measure_<view>.png")
     p.add_argument("--noise", type=float, metavar="SIGMA",
@@ -478,9 +476,9 @@ def format_measurement(out: dict) -> str:
 
 def cmd_measure(args) -> dict:
     """`drake-tooluse measure`: the result as a dict (see MeasurementResult.as_dict)."""
-    scenario = load_scenario(args.scenario)
-    if args.tool_length is not None:
-        scenario = with_tool_length(scenario, args.tool_length)
+    from drake_tooluse.cli import scenario_from_args
+
+    scenario = scenario_from_args(args)
     result = measure_tool(scenario, save_images_dir=args.save_images, noise_sigma=args.noise,
                           method=args.method, lighting=args.lighting)
     out = {"scenario": str(args.scenario)}
