@@ -14,6 +14,9 @@ import numpy as np
 REPO_DIR = Path(__file__).resolve().parent.parent
 DIAGRAMS_DIR = REPO_DIR / "diagrams"
 DEFAULT_SCENARIO = DIAGRAMS_DIR / "push.yaml"
+SHIPPED_POLICY = REPO_DIR / "models" / "policies" / "ppo_toolpush"
+# The policy for other tools: it observes the task in tool-tip space only (see task.py).
+TRANSFER_POLICY = REPO_DIR / "models" / "policies" / "ppo_toolpush"
 
 
 class UsageError(ValueError):
@@ -259,6 +262,18 @@ def _cmd_measure(args) -> dict:
     return cmd_measure(args)
 
 
+def _cmd_transfer(args) -> dict:
+    from drake_tooluse.transfer import cmd_transfer
+
+    return cmd_transfer(args)
+
+
+def _cmd_demo(args) -> dict:
+    from drake_tooluse.demo import cmd_demo
+
+    return cmd_demo(args)
+
+
 def _print_human(name: str, out: dict) -> None:
     if name == "fk":
         t = out["tip"]
@@ -283,6 +298,14 @@ def _print_human(name: str, out: dict) -> None:
         from drake_tooluse.measure import format_measurement
 
         print(format_measurement(out))
+    elif name == "transfer":
+        from drake_tooluse.transfer import format_transfer
+
+        print(format_transfer(out))
+    elif name == "demo":
+        from drake_tooluse.demo import format_demo
+
+        print(format_demo(out))
     elif name == "sweep":
         print(out["table"], end="")
     elif name == "evaluate":
@@ -301,7 +324,8 @@ def _print_human(name: str, out: dict) -> None:
 COMMANDS = {"fk": cmd_fk, "ik": cmd_ik, "simulate": cmd_simulate,
             "generate-models": cmd_generate_models, "render-diagrams": cmd_render_diagrams,
             "train": cmd_train, "evaluate": cmd_evaluate, "sweep": cmd_sweep,
-            "trajectory": cmd_trajectory, "export-csv": cmd_export_csv, "measure": _cmd_measure}
+            "trajectory": cmd_trajectory, "export-csv": cmd_export_csv, "measure": _cmd_measure,
+            "transfer": _cmd_transfer, "demo": _cmd_demo}
 
 
 def make_parser() -> argparse.ArgumentParser:
@@ -401,6 +425,14 @@ def make_parser() -> argparse.ArgumentParser:
     from drake_tooluse.measure import add_measure_parser
 
     add_measure_parser(sub)
+
+    from drake_tooluse.transfer import add_transfer_parser
+
+    add_transfer_parser(sub)
+
+    from drake_tooluse.demo import add_demo_parser
+
+    add_demo_parser(sub)
 
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")

@@ -1,12 +1,16 @@
 """Tool-tip control wired into a world: action → desired tool-tip pose → IK → joint targets.
 
 ```
-action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem (full)            ──q*──► [q*, 0] ──► plant
-              ▲                     └► DifferentialIKIntegrator (differential)                 │
-              └───────────────────────── measured arm state ◄─────────────────────────────────┘
+action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem (full)            ──q*──► [q*, 0] ──► (delay) ──► plant
+              ▲                     └► DifferentialIKIntegrator (differential)                             │
+              └───────────────────────── measured arm state ◄──────────────────────────────────────────────┘
+
+TrajectorySource (tool-tip poses) ──X_WT*──► ToolTipIKSystem ──q*──► [q*, 0] ──► (delay) ──► plant
 ```
 
-Used by the Gymnasium envs and by the policy diagram, so both run the same controller.
+Tip control is used by the Gymnasium envs and by the policy diagram, so both run the same
+controller; trajectory control is the paper's open-loop transfer. The optional delay is the
+scenario's `control.actuation_delay`.
 """
 
 from __future__ import annotations
@@ -16,10 +20,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource, Multiplexer
+from pydrake.systems.primitives import (
+    ConstantValueSource,
+    ConstantVectorSource,
+    DiscreteTimeDelay,
+    Multiplexer,
+)
 
 from drake_tooluse.actions import TipTargetSystem, Workspace
 from drake_tooluse.ik import (
+    Q_LOWER_CONSERVATIVE,
+    Q_UPPER_CONSERVATIVE,
     ToolTipIK,
     ToolTipIKSystem,
     add_differential_ik,
@@ -34,17 +45,24 @@ IK_MODES = ("full", "differential")
 
 @dataclass
 class TipControl:
-    target: TipTargetSystem
+    target: TipTargetSystem | None  # None under trajectory control
     ik: ToolTipIK
     q0: np.ndarray
     ik_system: ToolTipIKSystem | None = None  # ik_mode "full"
     differential: object = None  # ik_mode "differential"
+    delay: DiscreteTimeDelay | None = None  # the actuation delay, if any
 
     def reset(self, root_context) -> None:
-        """Puts the IK's state back at the home configuration (episode start)."""
+        """Puts the IK's state back at the home configuration (episode start), and fills the
+        actuation delay's buffer with the home target (not zeros: the arm would jump)."""
         if self.differential is not None:
             self.differential.SetPositions(
                 self.differential.GetMyMutableContextFromRoot(root_context), self.q0)
+        if self.delay is not None:
+            delay_context = self.delay.GetMyMutableContextFromRoot(root_context)
+            size = delay_context.get_discrete_state_vector().size()
+            delay_context.SetDiscreteState(np.resize(np.concatenate([self.q0, np.zeros(7)]),
+                                                     size))
 
     def ik_ok(self, root_context) -> bool:
         if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
@@ -62,7 +80,27 @@ def add_world_at_home(builder, scenario, believed_tool_length: float | None,
     q0 = home_configuration(scenario, believed_tool_length)
     for joint, q in zip(world.arm_joints(), q0):
         joint.set_default_angle(q)
-    return world, ToolTipIK(believed_tool_length, max_attempts=ik_attempts), q0
+    limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+              if scenario.robot.conservative_limits else {})
+    return world, ToolTipIK(believed_tool_length, max_attempts=ik_attempts, **limits), q0
+
+
+def _command_joints(builder, world: World, q_commanded, control: "TipControl") -> None:
+    """Desired state [q*, 0] (joint targets held over the control period, zero velocity) to
+    the plant's PD controllers, through the actuation delay if the scenario has one."""
+    s = world.scenario
+    zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+    desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
+    builder.Connect(q_commanded, desired_state.get_input_port(0))
+    builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
+    command = desired_state.get_output_port()
+    steps = round(s.control.actuation_delay / s.plant.time_step)
+    if steps > 0:
+        control.delay = builder.AddNamedSystem(
+            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps, 14))
+        builder.Connect(command, control.delay.get_input_port())
+        command = control.delay.get_output_port()
+    builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
 
 
 def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
@@ -97,11 +135,18 @@ def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
         builder.Connect(use_measured.get_output_port(),
                         control.differential.GetInputPort("use_robot_state"))
         q_commanded = control.differential.GetOutputPort("joint_positions")
-    # Desired state [q*, 0]: joint targets held over the control period, zero velocity.
-    zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
-    desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
-    builder.Connect(q_commanded, desired_state.get_input_port(0))
-    builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
-    builder.Connect(desired_state.get_output_port(),
-                    world.plant.get_desired_state_input_port(world.baxter))
+    _command_joints(builder, world, q_commanded, control)
+    return control
+
+
+def add_trajectory_control(builder, world: World, ik: ToolTipIK, q0, tip_source) -> TipControl:
+    """Open loop: the 7-vector [p_WT, quaternion wxyz] output of `tip_source` (a Drake
+    TrajectorySource, see `trajectory.tip_trajectory_source`) through the full tool-tip IK to
+    the plant."""
+    control = TipControl(None, ik, np.asarray(q0, float))
+    period = world.scenario.control.control_period
+    control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
+    builder.Connect(tip_source.get_output_port(),
+                    control.ik_system.GetInputPort("tip_pose_desired"))
+    _command_joints(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
     return control

@@ -21,8 +21,32 @@ def _tip_control_diagram(diagrams_dir: Path):
     return build_tip_control_diagram(scenario, tip_pose_trajectory(X, [X], 1.0, 0.0)).diagram
 
 
+def _policy_reality_diagram(diagrams_dir: Path):
+    """The transfer's closed loop: the shipped policy in the reality (with its delay)."""
+    from drake_tooluse.cli import TRANSFER_POLICY
+    from drake_tooluse.policy import build_policy_diagram
+    from drake_tooluse.scenario import load_scenario
+
+    scenario = load_scenario(diagrams_dir / "reality.yaml")
+    return build_policy_diagram(scenario, TRANSFER_POLICY, believed_tool_length=0.125).diagram
+
+
+def _trajectory_reality_diagram(diagrams_dir: Path):
+    """The transfer's open loop (the paper's): a tool-tip trajectory through the IK."""
+    from drake_tooluse.scenario import load_scenario
+    from drake_tooluse.scene import home_tip_pose
+    from drake_tooluse.trajectory import TipTrajectory
+    from drake_tooluse.transfer import build_trajectory_diagram
+
+    scenario = load_scenario(diagrams_dir / "reality.yaml")
+    X = home_tip_pose(scenario)
+    traj = TipTrajectory([0.0], [X.translation()], [X.rotation().ToQuaternion().wxyz()])
+    return build_trajectory_diagram(scenario, traj, believed_tool_length=0.125)[0]
+
+
 # name -> builder of the diagram drawn as diagrams/<name>.dot/.svg
-DIAGRAMS = {"tip_control": _tip_control_diagram}
+DIAGRAMS = {"tip_control": _tip_control_diagram, "policy_reality": _policy_reality_diagram,
+            "trajectory_reality": _trajectory_reality_diagram}
 
 
 def render_all(diagrams_dir: Path, check: bool = False) -> dict:

@@ -32,9 +32,15 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.actions import ACTION_MODES, check_action
 from drake_tooluse.control import IK_MODES, add_tip_control, add_world_at_home
-from drake_tooluse.scenario import Scenario, load_scenario, tool_length_or_none, with_tool_length
+from drake_tooluse.scenario import (
+    Scenario,
+    draw_randomization,
+    load_scenario,
+    tool_length_or_none,
+    with_tool_length,
+)
 from drake_tooluse.scene import GRASP_FRAME, goal_position, initial_box_pose
-from drake_tooluse.task import OBSERVATION_SIZE, PushMetricsReader, ToolPushObservation
+from drake_tooluse.task import OBSERVATION_SIZES, PushMetricsReader, ToolPushObservation
 from drake_tooluse.validation import check_in_range, check_one_of
 
 REWARD_TYPES = ("tool_and_box", "box")
@@ -50,6 +56,7 @@ class EnvConfig:
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "paper"
     include_tool_length: bool = False
+    observation_mode: str = "paper"  # "paper" or "tip" (see task.py)
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
     # "full": Drake InverseKinematics on the tool tip, warm-started, every control period;
@@ -69,6 +76,7 @@ def _config(kwargs) -> EnvConfig:
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
     check_one_of(config.ik_mode, IK_MODES, "ik_mode")
+    check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     return config
 
@@ -92,6 +100,7 @@ class ToolPushEnv(DrakeGymEnv):
 
     Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
     "box"), goal_extra, action_mode ("paper", "pose", "position"), include_tool_length,
+    observation_mode ("paper", "tip"),
     randomize, render_mode (None, "rgb_array", "human"), meshcat.
     """
 
@@ -102,7 +111,7 @@ class ToolPushEnv(DrakeGymEnv):
         self.config = config
         self.scenario = _scenario(config)
         self._build(config)
-        n_obs = OBSERVATION_SIZE + int(config.include_tool_length)
+        n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
         # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
         self.metadata = dict(type(self).metadata)
         super().__init__(
@@ -129,7 +138,8 @@ class ToolPushEnv(DrakeGymEnv):
                                        config.ik_mode)
         self.ik_system = self.control.ik_system
         observation = builder.AddNamedSystem("observation", ToolPushObservation(
-            world, ik.plant, goal_position(s), config.include_tool_length, believed))
+            world, ik.plant, goal_position(s), config.include_tool_length, believed,
+            config.observation_mode))
         builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
         builder.ExportInput(self.control.target.GetInputPort("action"), "action")
         builder.ExportOutput(observation.get_output_port(), "observation")
@@ -157,19 +167,15 @@ class ToolPushEnv(DrakeGymEnv):
         plant_context = plant.GetMyMutableContextFromRoot(context)
         X_WB = initial_box_pose(s)
         if self.config.randomize:
-            r, rng = s.randomization, self.np_random
-            dxy = rng.uniform(-r.box_xy, r.box_xy, 2)
-            yaw = rng.uniform(-r.box_yaw, r.box_yaw)
-            X_WB = RigidTransform(RotationMatrix.MakeZRotation(s.box.yaw + yaw),
-                                  X_WB.translation() + np.array([dxy[0], dxy[1], 0.0]))
-            self.world.box.SetMass(plant_context, s.box.mass * rng.uniform(*r.box_mass_scale))
-            self._set_box_friction(context, s.box.friction * rng.uniform(*r.box_friction_scale))
+            d = draw_randomization(s, self.np_random)
+            X_WB = RigidTransform(RotationMatrix.MakeZRotation(s.box.yaw + d.box_dyaw),
+                                  X_WB.translation() + np.array([*d.box_dxy, 0.0]))
+            self.world.box.SetMass(plant_context, s.box.mass * d.box_mass_scale)
+            self._set_box_friction(context, s.box.friction * d.box_friction_scale)
             if self.world.tool is not None:
-                along = rng.uniform(-r.grasp_along, r.grasp_along)
-                across = rng.uniform(-r.grasp_across, r.grasp_across)
                 plant.GetFrameByName(GRASP_FRAME).SetPoseInParentFrame(
-                    plant_context, RigidTransform([s.tool.grasp_offset_across + across, 0.0,
-                                                   s.tool.grasp_offset_along + along]))
+                    plant_context, RigidTransform([s.tool.grasp_offset_across + d.grasp_across,
+                                                   0.0, s.tool.grasp_offset_along + d.grasp_along]))
         plant.SetFreeBodyPose(plant_context, self.world.box, X_WB)
         self.control.reset(context)
         box_start = X_WB.translation()
@@ -238,6 +244,13 @@ class ToolPushEnv(DrakeGymEnv):
         from drake_tooluse.viz import save_recording
 
         return save_recording(self.config.meshcat, self.visualizer, path)
+
+    def believed_poses(self):
+        """(X_WT, X_WG): the tool tip's and the gripper's poses in W on the robot model (the
+        believed tool) at the arm's current joint angles — what the robot thinks."""
+        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
+        q = [joint.get_angle(plant_context) for joint in self.world.arm_joints()]
+        return self.control.ik.fk(q), self.control.ik.fk_gripper(q)
 
     def _read_metrics(self):
         plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())

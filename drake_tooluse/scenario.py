@@ -89,6 +89,9 @@ class ControlConfig:
     kd: list[float] = dc.field(
         default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
     control_period: float = 0.04
+    # Joint targets reach the motors this late (s): a real robot's command latency. A multiple
+    # of plant.time_step, in [0, 0.2].
+    actuation_delay: float = 0.0
 
 
 @dc.dataclass
@@ -104,6 +107,9 @@ class RobotConfig:
     # The left arm is welded at this pose (s0 … w2), rad: tucked beside the body.
     left_arm_q: list[float] = dc.field(
         default_factory=lambda: [-0.6, -1.0, 0.0, 2.0, 0.0, 0.6, 0.0])
+    # True: the robot's IK keeps s1 in [-1.35, 1.0] rad, the range a real Baxter beside a
+    # table can use safely (the paper's conservative limits), instead of Baxter's full range.
+    conservative_limits: bool = False
 
 
 @dc.dataclass
@@ -195,6 +201,12 @@ def validate_scenario(s: Scenario) -> Scenario:
             check_in_range(g, 0.0, 1e5, f"control.{name}[{i}]")
     check_in_range(s.control.control_period, s.plant.time_step, 1.0, "control.control_period",
                    unit="s")
+    delay = check_in_range(s.control.actuation_delay, 0.0, 0.2, "control.actuation_delay",
+                           unit="s")
+    steps = delay / s.plant.time_step
+    if abs(steps - round(steps)) > 1e-6:
+        raise ValueError(f"control.actuation_delay={delay} s must be a multiple of "
+                         f"plant.time_step={s.plant.time_step} s")
     check_finite_vector(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
     check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
     check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
@@ -247,6 +259,51 @@ def scenario_to_yaml(scenario: Scenario) -> str:
 def tool_length_or_none(scenario: Scenario) -> float | None:
     """The scenario's tool length (m), or None when no tool is attached."""
     return scenario.tool.length if scenario.tool.attached else None
+
+
+@dc.dataclass
+class RandomDraw:
+    """One draw of the scenario's `randomization`: offsets and scales around its nominal
+    values."""
+
+    box_dxy: list[float]  # m
+    box_dyaw: float  # rad
+    box_mass_scale: float
+    box_friction_scale: float
+    grasp_along: float  # m, added to tool.grasp_offset_along
+    grasp_across: float  # m, added to tool.grasp_offset_across
+
+
+def draw_randomization(scenario: Scenario, rng) -> RandomDraw:
+    """Draws from `scenario.randomization` with the numpy Generator `rng` (uniform, in this
+    order: box xy, box yaw, mass, friction, then the grasp if a tool is attached)."""
+    r = scenario.randomization
+    dxy = rng.uniform(-r.box_xy, r.box_xy, 2)
+    dyaw = rng.uniform(-r.box_yaw, r.box_yaw)
+    mass = rng.uniform(*r.box_mass_scale)
+    friction = rng.uniform(*r.box_friction_scale)
+    along = across = 0.0
+    if scenario.tool.attached:
+        along = rng.uniform(-r.grasp_along, r.grasp_along)
+        across = rng.uniform(-r.grasp_across, r.grasp_across)
+    return RandomDraw([float(dxy[0]), float(dxy[1])], float(dyaw), float(mass), float(friction),
+                      float(along), float(across))
+
+
+def apply_draw(scenario: Scenario, draw: RandomDraw, box_pose_only: bool = False) -> Scenario:
+    """A copy of `scenario` with the draw built in: the box's start pose, and (unless
+    `box_pose_only`) its mass and friction and the grasp."""
+    b = scenario.box
+    box = dc.replace(b, position=[b.position[0] + draw.box_dxy[0],
+                                  b.position[1] + draw.box_dxy[1], b.position[2]],
+                     yaw=b.yaw + draw.box_dyaw)
+    tool = scenario.tool
+    if not box_pose_only:
+        box = dc.replace(box, mass=b.mass * draw.box_mass_scale,
+                         friction=b.friction * draw.box_friction_scale)
+        tool = dc.replace(tool, grasp_offset_along=tool.grasp_offset_along + draw.grasp_along,
+                          grasp_offset_across=tool.grasp_offset_across + draw.grasp_across)
+    return validate_scenario(dc.replace(scenario, box=box, tool=tool))
 
 
 def with_tool_length(scenario: Scenario, length: float) -> Scenario:

@@ -1,6 +1,7 @@
 """The push task: observations (what the robot can know) and metrics (the truth).
 
-Observation, in the paper's order (30 values, float32; 31 with the tool length):
+Two observation modes. `paper`: the paper's observation, in its order (30 values, float32; 31
+with the tool length):
 
 | slice | what | units |
 | --- | --- | --- |
@@ -13,6 +14,19 @@ Observation, in the paper's order (30 values, float32; 31 with the tool length):
 | 23:30 | right-arm joint velocities | rad/s |
 | 30 | believed tool length (optional) | m |
 
+`tip`: the task in tool-tip space only (12 values; 13 with the tool length). The paper's
+observation holds the gripper pose and the joint angles, which change with the tool for the
+same tip pose, so a policy trained on it meets unseen inputs with another tool; this one is
+the same for any tool the IK tracks:
+
+| slice | what | units |
+| --- | --- | --- |
+| 0:3 | goal box position x* | m, W |
+| 3:6 | box position x | m, W |
+| 6:9 | tool-tip position y (robot model: believed length) | m, W |
+| 9:12 | tool-tip velocity (robot model: J(q) v) | m/s, W |
+| 12 | believed tool length (optional) | m |
+
 The metrics (reward, success, info) are computed from the world plant, i.e. the true tool.
 """
 
@@ -21,11 +35,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.scene import GRIPPER_FRAME, TIP_FRAME, World
+from drake_tooluse.validation import check_one_of
 
-OBSERVATION_SIZE = 30
+OBSERVATION_SIZES = {"paper": 30, "tip": 12}
+OBSERVATION_SIZE = OBSERVATION_SIZES["paper"]
 SUCCESS_DISTANCE = 0.05  # m: d(x, x*) + d(x, y) at or below this is a success
 
 
@@ -35,13 +52,15 @@ class ToolPushObservation(LeafSystem):
     Input ports:
         plant_state: the world plant's full state [q (14), v (13)].
     Output ports:
-        observation: 30 (or 31 with the tool length) values.
+        observation: by mode, 30 or 12 values (one more with the tool length).
     Parameters: the goal x* (3, m), set per episode.
     """
 
     def __init__(self, world: World, robot_model, goal, include_tool_length: bool,
-                 believed_tool_length: float | None):
+                 believed_tool_length: float | None, mode: str = "paper"):
         super().__init__()
+        check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
+        self._mode = mode
         plant = world.plant
         nq = plant.num_positions()
         self._nq = nq
@@ -57,7 +76,7 @@ class ToolPushObservation(LeafSystem):
         self._state = self.DeclareVectorInputPort(
             "plant_state", plant.num_positions() + plant.num_velocities())
         self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        size = OBSERVATION_SIZE + len(self._tool_length)
+        size = OBSERVATION_SIZES[mode] + len(self._tool_length)
         self.DeclareVectorOutputPort("observation", size, self._calc,
                                      prerequisites_of_calc={self.all_input_ports_ticket(),
                                                             self.all_parameters_ticket()})
@@ -75,6 +94,14 @@ class ToolPushObservation(LeafSystem):
         """The observation from the plant state x and the goal."""
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
+        if self._mode == "tip":
+            world_frame = self._model.world_frame()
+            J = self._model.CalcJacobianTranslationalVelocity(
+                self._model_context, JacobianWrtVariable.kV, self._tip, np.zeros(3),
+                world_frame, world_frame)
+            return np.concatenate([goal, x[self._box_p],
+                                   self._tip.CalcPoseInWorld(self._model_context).translation(),
+                                   J @ x[self._arm_v], self._tool_length])
         X_WG = self._gripper.CalcPoseInWorld(self._model_context)
         p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
         return np.concatenate([

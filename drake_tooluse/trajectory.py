@@ -157,6 +157,27 @@ def filter_reachable(traj: TipTrajectory, tool_length: float | None,
     return ReachabilityReport(len(traj), len(keep), kept, np.array(qs), dropped)
 
 
+def tip_trajectory_source(traj: TipTrajectory, lead: float = 0.0):
+    """A Drake TrajectorySource of the 7-vector [p_WT (3), quaternion wxyz (4)], linear between
+    the samples (the IK normalizes the quaternion) and held after the last one; time starts
+    at 0 with the sample at `traj.times[0] + lead` (a recorded trajectory holds where the tip
+    *was*: lead by a control period to command where it goes next)."""
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    quaternions = traj.quaternions.copy()
+    for i in range(1, len(quaternions)):  # one hemisphere, so interpolation takes the short way
+        if quaternions[i] @ quaternions[i - 1] < 0:
+            quaternions[i] = -quaternions[i]
+    values = np.hstack([traj.positions, quaternions]).T
+    times = traj.times - traj.times[0] - lead
+    if len(times) == 1:
+        polynomial = PiecewisePolynomial(values[:, :1])
+    else:
+        polynomial = PiecewisePolynomial.FirstOrderHold(times, values)
+    return TrajectorySource(polynomial)
+
+
 # -- Baxter SDK playback CSV ------------------------------------------------------------------
 Q_LOWER = np.array([ARM_LIMITS[s][0] for s in ARM_JOINT_SUFFIXES])
 Q_UPPER = np.array([ARM_LIMITS[s][1] for s in ARM_JOINT_SUFFIXES])
@@ -221,9 +242,17 @@ class Extraction:
     successes: int
 
 
+def _pose_row(env) -> np.ndarray:
+    """[p_WT (3), quaternion wxyz of the tip (4), p_WG (3)] as the robot believes them."""
+    X_WT, X_WG = env.unwrapped.believed_poses()
+    return np.concatenate([X_WT.translation(), X_WT.rotation().ToQuaternion().wxyz(),
+                           X_WG.translation()])
+
+
 def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None):
     """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
-    each control step (from the observation) and the number of successes."""
+    each control step (the robot's belief: forward kinematics of its model) and the number of
+    successes."""
     import gymnasium as gym
 
     import drake_tooluse  # noqa: F401  (registers the envs)
@@ -239,17 +268,17 @@ def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=N
     tips, quats, grippers, successes = [], [], [], 0
     for ep in range(episodes):
         obs, _ = env.reset(seed=seed + ep)
-        rows = [obs]
+        rows = [_pose_row(env)]
         while True:
             obs, _, terminated, truncated, info = env.step(policy.act(obs))
-            rows.append(obs)
+            rows.append(_pose_row(env))
             if terminated or truncated:
                 break
         successes += bool(info["is_success"])
         rows = np.array(rows, float)
-        tips.append(rows[:, 6:9])
-        grippers.append(rows[:, 9:12])
-        quats.append(rows[:, 12:16])  # the tool is rigid in the hand: tip orientation
+        tips.append(rows[:, 0:3])
+        quats.append(rows[:, 3:7])
+        grippers.append(rows[:, 7:10])
     return pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes
 
 

@@ -162,3 +162,29 @@ def test_subproc_vec_env_with_two_workers():
         assert rewards.shape == (2,) and all("is_success" in i for i in infos)
     finally:
         vec.close()
+
+
+def test_tip_observation_is_the_same_for_any_tool():
+    """`observation_mode="tip"`: goal, box, tip position and velocity — nothing that changes
+    with the tool for the same tip motion (unlike the paper's joint angles)."""
+    from drake_tooluse.task import OBSERVATION_SIZES
+
+    observations = {}
+    for length in (0.125, 0.175):
+        env = gym.make("drake_tooluse/ToolPush-v0", observation_mode="tip", action_mode="position",
+                       tool_length=length)
+        obs, _ = env.reset(seed=0)
+        assert obs.shape == (OBSERVATION_SIZES["tip"],) == env.observation_space.shape
+        X_WT, _ = env.unwrapped.believed_poses()
+        np.testing.assert_allclose(obs[6:9], X_WT.translation(), atol=1e-6)
+        np.testing.assert_allclose(obs[9:12], 0.0, atol=1e-6)  # at rest
+        obs, *_ = env.step(np.array([0.0, 1.0, 0.0], np.float32))
+        assert obs[10] > 0.01  # moving along +y
+        observations[length] = obs
+    # Same tip target, same task state: the observations agree to tracking differences.
+    np.testing.assert_allclose(observations[0.125][:9], observations[0.175][:9], atol=5e-3)
+
+
+def test_unknown_observation_mode_is_refused():
+    with pytest.raises(ValueError, match="observation_mode='joint'.*paper.*tip"):
+        gym.make("drake_tooluse/ToolPush-v0", observation_mode="joint")

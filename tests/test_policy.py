@@ -56,3 +56,17 @@ def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
     (other / "policy.json").write_text(json.dumps(meta))
     with pytest.raises(ValueError, match="do not fit the action mode 'paper'"):
         build_policy_diagram(Scenario(), other)
+
+
+def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
+    out = tmp_path_factory.mktemp("tip_policy") / "run"
+    overrides = {"n_steps": 128, "batch_size": 64, "n_epochs": 1, "eval_freq": 10_000_000,
+                 "eval_episodes": 1, "checkpoint_freq": 10_000_000,
+                 "env_kwargs": {"action_mode": "position", "ik_mode": "differential",
+                                "observation_mode": "tip"}}
+    train(resolve_config("drake_tooluse/ToolPush-v0", "ppo", 128, 1, 0, overrides=overrides),
+          out, progress_bar=False)
+    built = build_policy_diagram(Scenario(), out / "final", ik_mode="differential")
+    assert built.observation.get_output_port().size() == 12
+    run = run_policy(built, max_steps=5)
+    assert run.steps == 5 and np.all(np.isfinite(run.tip_path))

@@ -1,0 +1,219 @@
+"""`drake-tooluse demo`: the whole loop once, in the perturbed "reality".
+
+1. Draw a reality (`diagrams/reality.yaml`, seeded): a tool the robot has never trained with,
+   held with a shifted grasp; box mass and friction off; delayed actuation; noisy camera.
+2. Measure the tool with the head camera (three views, OpenCV).
+3. Push the box with the shipped policy closed-loop, its IK holding the measured length,
+   recorded in Meshcat.
+4. Write `runs/demo-<time>/`: `recording.html` (open it in a browser), `metrics.json`,
+   `trajectory.png` (tool tip and box from above and from the side), `summary.png`,
+   `camera/measure_<view>.png` (the annotated camera views) and `final_scene.png`.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import io
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from drake_tooluse.io import atomic_write_bytes, atomic_write_json
+
+DEFAULT_TOOL = 0.125  # m: the paper's short tool; the shipped policy trained with 0.175 m
+
+
+def _log(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    return buffer.getvalue()
+
+
+def _plot_top(ax, run, scenario) -> None:
+    """Tool tip and box seen from above, with the box's start and the goal."""
+    from matplotlib.patches import Circle
+
+    from drake_tooluse.scene import goal_position, initial_box_pose
+    from drake_tooluse.task import SUCCESS_DISTANCE
+
+    tip, box = run.tip_path, run.box_path
+    goal = goal_position(scenario)
+    start = initial_box_pose(scenario).translation()
+    ax.plot(tip[:, 1], tip[:, 0], color="tab:red", lw=1.5, label="tool tip")
+    ax.plot(box[:, 1], box[:, 0], color="tab:brown", lw=2.5, label="box")
+    ax.scatter([start[1]], [start[0]], color="tab:brown", marker="s", s=40, label="box start")
+    ax.add_patch(Circle((goal[1], goal[0]), SUCCESS_DISTANCE / 2, fill=False, color="tab:green",
+                        lw=1.5))
+    ax.scatter([goal[1]], [goal[0]], color="tab:green", marker="x", s=40, label="goal")
+    ax.set_xlabel("y (m)")
+    ax.set_ylabel("x (m)")
+    ax.invert_xaxis()  # seen from above with the robot's forward x up: +y is to the left
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_title("from above", fontsize=9)
+    ax.legend(fontsize=7, loc="best")
+
+
+def _plot_time(ax, run, scenario) -> None:
+    """Tip height above the table and box travel over time."""
+    from drake_tooluse.scene import initial_box_pose
+
+    start = initial_box_pose(scenario).translation()
+    t = np.arange(len(run.tip_path)) * scenario.control.control_period
+    ax.plot(t, run.tip_path[:, 2] - scenario.table.top_z, color="tab:red",
+            label="tip height above the table")
+    ax.plot(t, np.linalg.norm(run.box_path[:, :2] - start[:2], axis=1), color="tab:brown",
+            label="box travel")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("m")
+    ax.set_title("over time", fontsize=9)
+    ax.legend(fontsize=7)
+
+
+def write_figures(out: Path, run, scenario, camera_files, final_image) -> dict:
+    """trajectory.png, final_scene.png and summary.png (camera view, scene, paths)."""
+    import cv2
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = {}
+    fig, (ax_top, ax_time) = plt.subplots(1, 2, figsize=(9, 4))
+    _plot_top(ax_top, run, scenario)
+    _plot_time(ax_time, run, scenario)
+    fig.tight_layout()
+    files["trajectory"] = atomic_write_bytes(out / "trajectory.png", _png(fig))
+    plt.close(fig)
+    if final_image is not None:
+        ok, png = cv2.imencode(".png", cv2.cvtColor(final_image[:, :, :3], cv2.COLOR_RGB2BGR))
+        if ok:
+            files["final_scene"] = atomic_write_bytes(out / "final_scene.png", png.tobytes())
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    if camera_files:
+        view = cv2.imread(str(camera_files[0]))
+        axes[0].imshow(cv2.cvtColor(view, cv2.COLOR_BGR2RGB))
+        axes[0].set_title(f"head camera: {Path(camera_files[0]).stem}", fontsize=9)
+    axes[0].axis("off")
+    if final_image is not None:
+        axes[1].imshow(final_image[:, :, :3])
+        axes[1].set_title("the push, at the end", fontsize=9)
+    axes[1].axis("off")
+    _plot_top(axes[2], run, scenario)
+    fig.tight_layout()
+    files["summary"] = atomic_write_bytes(out / "summary.png", _png(fig))
+    plt.close(fig)
+    return {k: str(v) for k, v in files.items()}
+
+
+def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = DEFAULT_TOOL,
+             seed: int = 0, max_steps: int = 100, progress: bool = True) -> dict:
+    """Runs the demo (see the module docstring) and returns its metrics (also in
+    `out_dir/metrics.json`)."""
+    from tqdm import tqdm
+
+    from drake_tooluse.cli import DIAGRAMS_DIR, TRANSFER_POLICY
+    from drake_tooluse.measure import measure_tool
+    from drake_tooluse.policy import build_policy_diagram, run_policy
+    from drake_tooluse.scenario import (
+        apply_draw,
+        draw_randomization,
+        load_scenario,
+        with_tool_length,
+    )
+    from drake_tooluse.train import load_policy
+    from drake_tooluse.viz import save_recording, start_meshcat
+
+    start = time.perf_counter()
+    log = _log if progress else (lambda text: None)
+    policy_dir = Path(policy_dir or TRANSFER_POLICY)
+    load_policy(policy_dir)  # a bad policy fails before anything is written
+    base = with_tool_length(load_scenario(scenario_path or DIAGRAMS_DIR / "reality.yaml"),
+                            tool_length)
+    if not isinstance(max_steps, int) or not 1 <= max_steps <= 1000:
+        raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
+    out = Path(out_dir)
+    if out.exists() and any(out.iterdir()):
+        raise FileExistsError(f"{str(out)!r} exists and is not empty; give a new directory")
+    draw = draw_randomization(base, np.random.default_rng(seed))
+    scenario = apply_draw(base, draw)
+    times = {}
+
+    log(f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
+        "unknown to the robot) …")
+    t0 = time.perf_counter()
+    measurement = measure_tool(scenario, save_images_dir=out / "camera", seed=seed)
+    times["measure_s"] = time.perf_counter() - t0
+    measured = measurement.length
+    log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm) "
+        f"in {times['measure_s']:.1f} s")
+
+    log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured length …")
+    t0 = time.perf_counter()
+    meshcat = start_meshcat()
+    built = build_policy_diagram(scenario, policy_dir, measured, meshcat=meshcat,
+                                 scene_camera=True)
+    with tqdm(total=max_steps, desc="      control steps", unit="step", file=sys.stderr,
+              disable=not progress, leave=False) as bar:
+        run = run_policy(built, max_steps=max_steps, record=True,
+                         on_step=lambda step: bar.update(1))
+    recording = save_recording(meshcat, built.visualizer, out / "recording.html")
+    times["push_s"] = time.perf_counter() - t0
+    log(f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
+        f"{run.steps} steps ({run.steps * scenario.control.control_period:.2f} s simulated) in "
+        f"{times['push_s']:.1f} s")
+
+    log("[3/3] writing figures and metrics …")
+    figures = write_figures(out, run, scenario, measurement.image_files, run.final_image)
+    times["total_s"] = time.perf_counter() - start
+    metrics = {
+        "policy": str(policy_dir), "scenario": str(scenario_path or DIAGRAMS_DIR / "reality.yaml"),
+        "seed": seed,
+        "tool": {"true_length_m": tool_length, "measured_length_m": measured,
+                 "measurement_error_m": measured - tool_length,
+                 "per_view_m": measurement.as_dict()["per_view_m"],
+                 "dropped_views": measurement.dropped},
+        "perturbation": dc.asdict(draw),
+        "push": run.as_dict(), "times": times,
+        "files": {"recording": str(recording), "metrics": str(out / "metrics.json"),
+                  "camera_views": [str(f) for f in measurement.image_files], **figures}}
+    atomic_write_json(out / "metrics.json", metrics)
+    return metrics
+
+
+def format_demo(m: dict) -> str:
+    push, tool = m["push"], m["tool"]
+    return "\n".join([
+        f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "
+        f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm)",
+        f"push: {'success' if push['success'] else 'no success'} in {push['steps']} steps; box "
+        f"moved {push['box_travel_m'] * 100:.1f} cm, ends {push['final_box_to_goal_m'] * 100:.1f} cm "
+        f"from the goal",
+        f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
+        f"({m['times']['total_s']:.0f} s)"])
+
+
+# -- command line ----------------------------------------------------------------------------
+def add_demo_parser(subparsers):
+    p = subparsers.add_parser("demo", help="measure an unseen tool, push the box with the shipped "
+                                           "policy in the perturbed reality, record it")
+    p.add_argument("--tool-length", type=float, default=DEFAULT_TOOL, metavar="L",
+                   help=f"the true tool (m, in (0, 0.60]; default {DEFAULT_TOOL})")
+    p.add_argument("--policy", type=Path, help="policy directory (default: the shipped "
+                                               "tool-tip policy)")
+    p.add_argument("--scenario", type=Path, help="reality scenario (default diagrams/reality.yaml)")
+    p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
+    p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
+    p.add_argument("--no-progress", action="store_true")
+    return p
+
+
+def cmd_demo(args) -> dict:
+    out = args.out or Path("runs") / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
+    return run_demo(out, args.policy, args.scenario, args.tool_length, args.seed,
+                    progress=not args.no_progress)

@@ -1,0 +1,321 @@
+"""The sim-to-"reality" transfer experiment: a skill learned with one tool, used with others.
+
+For each tool and each run (seeded), one draw of `diagrams/reality.yaml`'s randomization makes
+two worlds:
+
+- **nominal**: the simulation the policy knows (`diagrams/push.yaml`) with the run's box start
+  pose and the true tool length given to the robot;
+- **reality**: the same box start, plus the draw's grasp shift, box mass and friction, the
+  reality's actuation delay, conservative joint limits and noisy camera. The robot measures the
+  tool with the head camera and its IK holds the measured length; it knows nothing else.
+
+Both run in one of two modes:
+
+- `closed-loop`: the policy inside the diagram (`policy.build_policy_diagram`), until the box is
+  at the goal or 100 control steps;
+- `open-loop` (the paper's): a tool-tip trajectory averaged from the policy's episodes in the
+  nominal simulation (`trajectory.extract`), replayed through a TrajectorySource and the IK
+  with the measured length, in full, then 1 s to settle.
+
+The result has per tool and world the box travel (mean, std, each run) and the final box–goal
+distance, the reality/nominal travel ratio and the two tools' travel difference (the goals:
+ratio ≥ 0.9, difference ≤ 1 cm), and a box plot like the paper's.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import io
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+from pydrake.systems.framework import DiagramBuilder
+
+from drake_tooluse.control import add_trajectory_control, add_world_at_home
+from drake_tooluse.io import atomic_write_bytes, atomic_write_json
+from drake_tooluse.policy import PushRun, build_policy_diagram, run_push, run_policy
+from drake_tooluse.scenario import (
+    Scenario,
+    apply_draw,
+    check_tool_length,
+    draw_randomization,
+    load_scenario,
+    with_tool_length,
+)
+from drake_tooluse.trajectory import TipTrajectory, tip_trajectory_source
+from drake_tooluse.validation import check_one_of
+
+MODES = ("closed-loop", "open-loop")
+WORLDS = ("nominal", "reality")
+MAX_STEPS = 100  # control steps of a closed-loop run (the env's episode)
+SETTLE_TIME = 1.0  # s after an open-loop trajectory ends
+TRAVEL_RATIO_GOAL = 0.9
+TOOL_DIFFERENCE_GOAL = 0.01  # m
+
+
+@dc.dataclass
+class TransferRun:
+    world: str  # "nominal" or "reality"
+    tool_length: float  # m, the truth
+    believed_length: float  # m, what the robot's IK holds (measured in reality)
+    seed: int
+    push: PushRun
+    draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
+
+    def as_dict(self) -> dict:
+        return {"world": self.world, "seed": self.seed, "tool_length_m": self.tool_length,
+                "believed_length_m": self.believed_length, **self.push.as_dict(),
+                "perturbation": self.draw}
+
+
+def run_worlds(nominal: Scenario, reality: Scenario, tool_length: float, seed: int):
+    """The run's two worlds for a tool of `tool_length` m: (nominal, reality, draw)."""
+    reality = with_tool_length(reality, tool_length)
+    draw = draw_randomization(reality, np.random.default_rng(seed))
+    return (apply_draw(with_tool_length(nominal, tool_length), draw, box_pose_only=True),
+            apply_draw(reality, draw), draw)
+
+
+def build_trajectory_diagram(scenario: Scenario, trajectory: TipTrajectory,
+                             believed_tool_length: float, meshcat=None):
+    """World (truth) + the open-loop trajectory through the tool-tip IK with
+    `believed_tool_length`. Returns (diagram, world, control, visualizer)."""
+    builder = DiagramBuilder()
+    world, ik, q0 = add_world_at_home(builder, scenario, believed_tool_length)
+    source = builder.AddNamedSystem("tip_trajectory", tip_trajectory_source(
+        trajectory, lead=scenario.control.control_period))
+    control = add_trajectory_control(builder, world, ik, q0, source)
+    visualizer = None
+    if meshcat is not None:
+        from drake_tooluse.viz import add_meshcat_visualizer
+
+        visualizer = add_meshcat_visualizer(builder, world.scene_graph, meshcat)
+    diagram = builder.Build()
+    diagram.set_name("trajectory_control")
+    return diagram, world, control, visualizer
+
+
+def run_open_loop(scenario: Scenario, trajectory: TipTrajectory,
+                  believed_tool_length: float) -> PushRun:
+    """Replays the whole trajectory, then lets the world settle for SETTLE_TIME."""
+    diagram, world, control, _ = build_trajectory_diagram(scenario, trajectory,
+                                                          believed_tool_length)
+    duration = trajectory.times[-1] - trajectory.times[0] + SETTLE_TIME
+    steps = math.ceil(duration / scenario.control.control_period)
+    return run_push(diagram, world, control, steps, stop_at_success=False)
+
+
+def run_closed_loop(scenario: Scenario, policy_dir, believed_tool_length: float) -> PushRun:
+    built = build_policy_diagram(scenario, policy_dir, believed_tool_length)
+    return run_policy(built, max_steps=MAX_STEPS)
+
+
+def _stats(runs: list[TransferRun]) -> dict:
+    travel = np.array([r.push.box_travel for r in runs])
+    final = np.array([r.push.final_box_to_goal for r in runs])
+    return {"runs": len(runs), "box_travel_mean_m": float(travel.mean()),
+            "box_travel_std_m": float(travel.std()),
+            "final_box_to_goal_mean_m": float(final.mean()),
+            "final_box_to_goal_std_m": float(final.std()),
+            "success_rate": float(np.mean([r.push.success for r in runs])),
+            "per_run": [r.as_dict() for r in runs]}
+
+
+def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
+    check_one_of(mode, MODES, "mode")
+    if not isinstance(runs, int) or runs < 1:
+        raise ValueError(f"runs={runs!r} must be an integer >= 1")
+    tools = [check_tool_length(t, "tool length") for t in tools]
+    if not tools:
+        raise ValueError("give at least one tool length")
+    return tools
+
+
+def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "closed-loop",
+                 seed: int = 0, nominal_scenario: Scenario | None = None,
+                 reality_scenario: Scenario | None = None,
+                 trajectory: TipTrajectory | None = None, log=None) -> dict:
+    """The experiment (see the module docstring). `trajectory` is the open-loop one (required
+    in open-loop mode). `log(text)` receives a line per run (default: stderr)."""
+    from drake_tooluse.cli import DIAGRAMS_DIR
+    from drake_tooluse.measure import measure_tool
+    from drake_tooluse.train import load_policy
+
+    tools = check_transfer_args(tools, runs, mode)
+    load_policy(policy_dir)  # a clear error now, not per run
+    if mode == "open-loop" and trajectory is None:
+        raise ValueError("open-loop transfer needs a trajectory (trajectory.extract or "
+                         "TipTrajectory.load)")
+    log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+    nominal_scenario = nominal_scenario or load_scenario(DIAGRAMS_DIR / "push.yaml")
+    reality_scenario = reality_scenario or load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    start = time.perf_counter()
+    per_tool = []
+    for tool in tools:
+        results = {w: [] for w in WORLDS}
+        measured = []
+        for i in range(runs):
+            run_seed = seed + i
+            nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool,
+                                                run_seed)
+            t0 = time.perf_counter()
+            length = measure_tool(reality, seed=run_seed).length
+            measured.append(length)
+            for world, scenario, believed in (("nominal", nominal, tool),
+                                              ("reality", reality, length)):
+                if mode == "closed-loop":
+                    push = run_closed_loop(scenario, policy_dir, believed)
+                else:
+                    push = run_open_loop(scenario, trajectory, believed)
+                results[world].append(TransferRun(world, tool, believed, run_seed, push,
+                                                  dc.asdict(draw)))
+            n, r = results["nominal"][-1].push, results["reality"][-1].push
+            log(f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {length:.4f} m; box travel "
+                f"nominal {n.box_travel * 100:.1f} cm, reality {r.box_travel * 100:.1f} cm "
+                f"({time.perf_counter() - t0:.1f} s)")
+        entry = {"tool_length_m": tool,
+                 "measured_length_mean_m": float(np.mean(measured)),
+                 "measured_length_std_m": float(np.std(measured)),
+                 **{w: _stats(results[w]) for w in WORLDS}}
+        nominal_travel = entry["nominal"]["box_travel_mean_m"]
+        entry["travel_ratio"] = (entry["reality"]["box_travel_mean_m"] / nominal_travel
+                                 if nominal_travel > 0 else None)
+        per_tool.append(entry)
+    ratios = [t["travel_ratio"] for t in per_tool]
+    travels = [t["reality"]["box_travel_mean_m"] for t in per_tool]
+    difference = float(max(travels) - min(travels)) if len(travels) > 1 else None
+    goals = {"travel_ratio_min": None if None in ratios else float(min(ratios)),
+             "travel_ratio_goal": TRAVEL_RATIO_GOAL,
+             "tool_travel_difference_m": difference,
+             "tool_travel_difference_goal_m": TOOL_DIFFERENCE_GOAL}
+    goals["travel_ratio_met"] = (goals["travel_ratio_min"] is not None
+                                 and goals["travel_ratio_min"] >= TRAVEL_RATIO_GOAL)
+    goals["tool_difference_met"] = (difference is not None
+                                    and difference <= TOOL_DIFFERENCE_GOAL)
+    return {"policy": str(policy_dir), "mode": mode, "runs": runs, "seed": seed,
+            "tools": per_tool, "goals": goals, "wall_time_s": time.perf_counter() - start}
+
+
+def plot_transfer(result: dict, path) -> Path:
+    """Box plot of the box travel per tool, nominal simulation beside reality (the paper's
+    figure 7)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(1.6 + 1.9 * len(result["tools"]), 3.8))
+    data, positions, colors, ticks, labels = [], [], [], [], []
+    for i, tool in enumerate(result["tools"]):
+        for j, (world, color) in enumerate((("nominal", "tab:blue"), ("reality", "tab:orange"))):
+            data.append([r["box_travel_m"] * 100 for r in tool[world]["per_run"]])
+            positions.append(3 * i + j)
+            colors.append(color)
+        ticks.append(3 * i + 0.5)
+        labels.append(f"tool {tool['tool_length_m'] * 100:.1f} cm")
+    parts = ax.boxplot(data, positions=positions, widths=0.7, patch_artist=True)
+    for patch, color in zip(parts["boxes"], colors):
+        patch.set_facecolor(color)
+        patch.set_alpha(0.6)
+    ax.set_xticks(ticks, labels)
+    ax.set_ylabel("box travel (cm)")
+    ax.set_title(f"{result['mode']}, {result['runs']} runs per tool", fontsize=10)
+    ax.legend([parts["boxes"][0], parts["boxes"][1]], ["nominal simulation", "reality"],
+              fontsize=8, loc="lower right")
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=120)
+    plt.close(fig)
+    return atomic_write_bytes(path, buffer.getvalue())
+
+
+# -- command line ----------------------------------------------------------------------------
+def add_transfer_parser(subparsers):
+    """Adds `transfer` to the CLI's subparsers. Returns the parser."""
+    from drake_tooluse.cli import DIAGRAMS_DIR, TRANSFER_POLICY
+
+    p = subparsers.add_parser("transfer", help="use a learned skill with other tools in the "
+                                               "perturbed 'reality' world (diagrams/reality.yaml)")
+    p.add_argument("--policy", type=Path, default=TRANSFER_POLICY, help="policy directory")
+    p.add_argument("--tools", type=float, nargs="+", default=[0.125, 0.175], metavar="L",
+                   help="true tool lengths (m)")
+    p.add_argument("--runs", type=int, default=10, help="runs per tool (seeds seed … seed+runs-1)")
+    p.add_argument("--mode", default="closed-loop", help=f"one of {list(MODES)}")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--trajectory", type=Path, metavar="NPZ",
+                   help="open loop: replay this trajectory (default: extract one from the "
+                        "policy's --episodes episodes)")
+    p.add_argument("--episodes", type=int, default=100,
+                   help="open loop: episodes averaged into the trajectory (default 100)")
+    p.add_argument("--nominal", type=Path, default=DIAGRAMS_DIR / "push.yaml",
+                   help="nominal scenario YAML")
+    p.add_argument("--reality", type=Path, default=DIAGRAMS_DIR / "reality.yaml",
+                   help="reality scenario YAML")
+    p.add_argument("--out", type=Path, help="directory for transfer.json and the box plot "
+                                            "(default runs/transfer-<mode>-<time>)")
+    return p
+
+
+def cmd_transfer(args) -> dict:
+    """`drake-tooluse transfer`: runs the experiment, writes DIR/transfer.json and
+    DIR/transfer_boxplot.png, returns the result."""
+    tools = check_transfer_args(args.tools, args.runs, args.mode)
+    nominal = load_scenario(args.nominal)
+    reality = load_scenario(args.reality)
+    out = args.out or Path("runs") / f"transfer-{args.mode}-{time.strftime('%Y%m%d-%H%M%S')}"
+    trajectory, extraction = None, None
+    if args.mode == "open-loop":
+        if args.trajectory is not None:
+            trajectory = TipTrajectory.load(args.trajectory)
+        else:
+            from drake_tooluse.trajectory import extract, plot_extraction
+
+            print(f"extracting the trajectory from {args.episodes} episodes …", file=sys.stderr,
+                  flush=True)
+            ex = extract(args.policy, episodes=args.episodes, seed=args.seed,
+                         tool_length=max(tools))
+            trajectory = ex.reachability.kept
+            trajectory.save(Path(out) / "trajectory.npz")
+            plot_extraction(ex, Path(out) / "trajectory.png")
+            extraction = {"episodes": args.episodes, "successes": ex.successes,
+                          "poses": ex.reachability.poses,
+                          "reachable": ex.reachability.reachable,
+                          "file": str(Path(out) / "trajectory.npz")}
+    result = run_transfer(args.policy, tools, args.runs, args.mode, args.seed, nominal, reality,
+                          trajectory)
+    result["nominal_scenario"] = str(args.nominal)
+    result["reality_scenario"] = str(args.reality)
+    if args.mode == "open-loop":
+        result["trajectory"] = extraction or {"file": str(args.trajectory),
+                                              "poses": len(trajectory)}
+    result["figure"] = str(plot_transfer(result, Path(out) / "transfer_boxplot.png"))
+    result["json"] = str(Path(out) / "transfer.json")
+    atomic_write_json(result["json"], result)
+    return result
+
+
+def format_transfer(out: dict) -> str:
+    lines = [f"{out['mode']}, {out['runs']} runs per tool:"]
+    for t in out["tools"]:
+        n, r = t["nominal"], t["reality"]
+        ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"
+        lines.append(
+            f"  tool {t['tool_length_m']:.3f} m (measured {t['measured_length_mean_m']:.4f} ± "
+            f"{t['measured_length_std_m'] * 1000:.2f} mm): box travel nominal "
+            f"{n['box_travel_mean_m'] * 100:.1f} ± {n['box_travel_std_m'] * 100:.1f} cm, reality "
+            f"{r['box_travel_mean_m'] * 100:.1f} ± {r['box_travel_std_m'] * 100:.1f} cm ({ratio} "
+            f"of nominal); final box-goal {r['final_box_to_goal_mean_m'] * 100:.1f} cm; success "
+            f"nominal {n['success_rate'] * 100:.0f} %, reality {r['success_rate'] * 100:.0f} %")
+    g = out["goals"]
+    if g["tool_travel_difference_m"] is not None:
+        lines.append(f"  tools' mean travel differ by {g['tool_travel_difference_m'] * 100:.2f} cm "
+                     f"(goal <= 1 cm: {'met' if g['tool_difference_met'] else 'not met'})")
+    if g["travel_ratio_min"] is not None:
+        lines.append(f"  lowest reality/nominal travel {g['travel_ratio_min'] * 100:.0f} % (goal >= "
+                     f"90 %: {'met' if g['travel_ratio_met'] else 'not met'})")
+    lines.append(f"  {out['json']}, {out['figure']} ({out['wall_time_s']:.0f} s)")
+    return "\n".join(lines)

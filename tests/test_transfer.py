@@ -1,0 +1,151 @@
+"""The perturbed "reality", the open-loop trajectory source and `drake-tooluse transfer`."""
+
+import dataclasses as dc
+import json
+import re
+
+import numpy as np
+import pytest
+
+from drake_tooluse.cli import DIAGRAMS_DIR, SHIPPED_POLICY, main
+from drake_tooluse.scenario import (
+    Scenario,
+    apply_draw,
+    draw_randomization,
+    load_scenario,
+    validate_scenario,
+)
+from drake_tooluse.trajectory import TipTrajectory, tip_trajectory_source
+from drake_tooluse.transfer import run_transfer, run_worlds
+
+
+def test_reality_is_perturbed_and_the_nominal_world_is_not():
+    nominal = load_scenario(DIAGRAMS_DIR / "push.yaml")
+    reality = load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    assert reality.control.actuation_delay > 0 and reality.robot.conservative_limits
+    assert reality.camera.noise_sigma > 0
+    n, r, draw = run_worlds(nominal, reality, 0.15, seed=3)
+    assert n.tool.length == r.tool.length == 0.15
+    # The same box start in both worlds; the rest of the draw only in reality.
+    assert n.box.position == r.box.position and n.box.yaw == r.box.yaw
+    assert n.box.position != nominal.box.position
+    assert (n.box.mass, n.box.friction) == (nominal.box.mass, nominal.box.friction)
+    assert r.box.mass == pytest.approx(nominal.box.mass * draw.box_mass_scale)
+    assert r.tool.grasp_offset_along == pytest.approx(draw.grasp_along)
+    assert abs(draw.grasp_along) <= 0.01 and abs(draw.grasp_across) <= 0.005
+    assert 0.7 <= draw.box_mass_scale <= 1.3 and 0.7 <= draw.box_friction_scale <= 1.3
+    assert n.control.actuation_delay == 0.0 and not n.robot.conservative_limits
+    # Seeded: the same draw again.
+    assert run_worlds(nominal, reality, 0.15, seed=3)[2] == draw
+
+
+def test_draws_cover_the_ranges():
+    s = Scenario()
+    rng = np.random.default_rng(0)
+    draws = [draw_randomization(s, rng) for _ in range(300)]
+    along = np.array([d.grasp_along for d in draws])
+    assert along.min() < -0.009 and along.max() > 0.009
+    assert apply_draw(s, draws[0], box_pose_only=True).tool == s.tool
+
+
+@pytest.mark.parametrize("delay, match", [(0.03, "multiple of plant.time_step"),
+                                          (0.5, r"control.actuation_delay=0.5.*\[0, 0.2\]")])
+def test_bad_actuation_delay_is_refused(delay, match):
+    s = Scenario()
+    with pytest.raises(ValueError, match=match):
+        validate_scenario(dc.replace(s, control=dc.replace(s.control, actuation_delay=delay)))
+
+
+def test_delayed_arm_holds_still_at_the_start():
+    """The delay's buffer starts at the home target, not zeros (which would fling the arm)."""
+    import gymnasium as gym
+
+    import drake_tooluse  # noqa: F401
+
+    env = gym.make("drake_tooluse/ToolPush-v0", scenario=DIAGRAMS_DIR / "reality.yaml",
+                   action_mode="position")
+    obs, _ = env.reset(seed=0)
+    for _ in range(5):
+        obs2, *_ = env.step(np.zeros(3))
+    assert np.linalg.norm(obs2[6:9] - obs[6:9]) < 0.01
+
+
+def test_tip_trajectory_source_interpolates_holds_and_leads():
+    q = np.array([0.0, 1.0, 0.0, 0.0])
+    traj = TipTrajectory([0.0, 0.1, 0.2], [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0]], [q, -q, q])
+    source = tip_trajectory_source(traj, lead=0.1)
+    context = source.CreateDefaultContext()
+
+    def at(t):
+        context.SetTime(t)
+        return source.get_output_port().Eval(context)
+
+    np.testing.assert_allclose(at(0.0)[:3], [0.1, 0, 0], atol=1e-12)  # led by 0.1 s
+    np.testing.assert_allclose(at(0.05)[:3], [0.15, 0, 0], atol=1e-12)
+    np.testing.assert_allclose(at(5.0)[:3], [0.2, 0, 0], atol=1e-12)  # held after the end
+    np.testing.assert_allclose(np.abs(at(0.05)[3:]), q, atol=1e-12)  # no flip through zero
+
+
+def test_transfer_closed_loop_json(tmp_path, capsys):
+    assert main(["transfer", "--runs", "1", "--tools", "0.15", "--out", str(tmp_path / "t"),
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["mode"] == "closed-loop" and out["runs"] == 1
+    (tool,) = out["tools"]
+    assert tool["tool_length_m"] == 0.15
+    assert abs(tool["measured_length_mean_m"] - 0.15) < 0.002  # the camera, with noise
+    for world in ("nominal", "reality"):
+        (run,) = tool[world]["per_run"]
+        assert run["world"] == world and run["seed"] == 0
+        assert 0.0 <= run["box_travel_m"] < 0.5 and run["final_box_to_goal_m"] >= 0.0
+        assert tool[world]["box_travel_mean_m"] == run["box_travel_m"]
+    assert tool["nominal"]["per_run"][0]["believed_length_m"] == 0.15
+    assert tool["reality"]["per_run"][0]["believed_length_m"] == tool["measured_length_mean_m"]
+    assert out["goals"]["tool_travel_difference_m"] is None  # one tool
+    assert json.loads((tmp_path / "t" / "transfer.json").read_text())["tools"] == out["tools"]
+    assert (tmp_path / "t" / "transfer_boxplot.png").stat().st_size > 1000
+
+
+def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
+    from drake_tooluse.scene import home_tip_pose
+
+    X = home_tip_pose(Scenario())
+    p0 = X.translation()
+    quat = X.rotation().ToQuaternion().wxyz()
+    # Down to the table beside the box, then along +y through it.
+    times = np.arange(0, 2.0, 0.04)
+    path = np.array([p0 + [0.08, 0.0, -0.08 * min(1, t)] if t < 1 else
+                     p0 + [0.08, 0.25 * (t - 1), -0.08] for t in times])
+    traj = TipTrajectory(times, path, np.tile(quat, (len(times), 1)))
+    result = run_transfer(SHIPPED_POLICY, tools=[0.175], runs=1, mode="open-loop",
+                          trajectory=traj, log=lambda text: None)
+    (tool,) = result["tools"]
+    for world in ("nominal", "reality"):
+        assert tool[world]["per_run"][0]["steps"] == int(np.ceil((1.96 + 1.0) / 0.04))
+    assert tool["nominal"]["box_travel_mean_m"] > 0.02  # the scripted sweep hit the box
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--mode", "sideways"], r"mode='sideways'.*closed-loop"),
+    (["--tools", "0.7"], r"0.7.*\(0, 0.6\]"),
+    (["--runs", "0"], "runs=0 must be an integer >= 1"),
+])
+def test_transfer_bad_input(argv, match, capsys, tmp_path):
+    assert main(["transfer", "--out", str(tmp_path / "t"), *argv]) == 2
+    err = capsys.readouterr().err
+    assert re.search(match, err), err
+    assert not (tmp_path / "t").exists()
+
+
+def test_open_loop_needs_a_trajectory():
+    with pytest.raises(ValueError, match="open-loop transfer needs a trajectory"):
+        run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, mode="open-loop")
+
+
+def test_malformed_trajectory_file_is_refused(tmp_path, capsys):
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, times=[0.0, 1.0], positions=[[0, 0, 0]])
+    assert main(["transfer", "--mode", "open-loop", "--trajectory", str(bad), "--out",
+                 str(tmp_path / "t")]) == 2
+    assert "malformed trajectory file" in capsys.readouterr().err
+    assert not (tmp_path / "t").exists()
