@@ -6,6 +6,7 @@ command, evaluated with `drake-tooluse evaluate` over 100 seeded episodes.
 Runs (budgets are this machine's, smaller than the paper's 1.25 M steps; see docs/TRAINING.md):
   ppo_env1            PPO on Env1, position action, first-order (differential) IK in the loop
   ppo_env1_fullik     the same with the full tool-tip InverseKinematics in the loop
+  ppo_env1_tip        ppo_env1_fullik observing the task in tool-tip space only (the transfer policy)
   ppo_env1_paper      PPO on Env1, the paper's 7-d action (tip position + quaternion change)
   trpo_env1, a2c_env1, ddpg_env1   the other three algorithms on Env1, position action
   ppo_env2            PPO on Env2 (reward -d(box, goal) only): tool or gripper?
@@ -32,9 +33,12 @@ ENV1, ENV2, ENV3 = ("drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPushBoxRewar
 PAPER_ACTION = ('{"env_kwargs": {"action_mode": "paper", "ik_mode": "differential", '
                 '"randomize": true}}')
 FULL_IK = '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", "randomize": true}}'
+TIP_OBSERVATION = ('{"env_kwargs": {"action_mode": "position", "ik_mode": "full", '
+                   '"randomize": true, "observation_mode": "tip"}}')
 RUNS = {
     "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=500_000),
     "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=FULL_IK),
+    "ppo_env1_tip": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=TIP_OBSERVATION),
     "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=200_000),
     "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=200_000),
     "ppo_env3_finetune": dict(env=ENV3, algo="ppo", timesteps=100_000, init_from="ppo_env1"),

@@ -41,7 +41,8 @@ def main() -> None:
                                         cwd=ROOT).stdout)
     summary = json.loads((args.run / "summary.json").read_text())
     atomic_write_json(target / "metrics.json", {
-        "trained_with": meta["command"],  # as run (cwd: the repository) "trained_timesteps": meta["trained_timesteps"],
+        "trained_with": meta["command"],  # as run (cwd: the repository)
+        "trained_timesteps": meta["trained_timesteps"],
         "training_wall_time_s": summary["wall_time_s"], "evaluated_with": " ".join(evaluate),
         "evaluation": metrics})
     print(f"shipped {args.run / 'best'} -> {target}: final box-goal mean "

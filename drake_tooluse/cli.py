@@ -16,7 +16,7 @@ DIAGRAMS_DIR = REPO_DIR / "diagrams"
 DEFAULT_SCENARIO = DIAGRAMS_DIR / "push.yaml"
 SHIPPED_POLICY = REPO_DIR / "models" / "policies" / "ppo_toolpush"
 # The policy for other tools: it observes the task in tool-tip space only (see task.py).
-TRANSFER_POLICY = REPO_DIR / "models" / "policies" / "ppo_toolpush"
+TRANSFER_POLICY = REPO_DIR / "models" / "policies" / "ppo_toolpush_tip"
 
 
 class UsageError(ValueError):

@@ -224,7 +224,7 @@ def plot_transfer(result: dict, path) -> Path:
     ax.set_ylabel("box travel (cm)")
     ax.set_title(f"{result['mode']}, {result['runs']} runs per tool", fontsize=10)
     ax.legend([parts["boxes"][0], parts["boxes"][1]], ["nominal simulation", "reality"],
-              fontsize=8, loc="lower right")
+              fontsize=8, loc="best")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     buffer = io.BytesIO()

@@ -1,4 +1,8 @@
-"""The shipped policy (models/policies/ppo_toolpush) loads, acts, and reproduces its metrics."""
+"""The shipped policies (models/policies/) load, act, and reproduce their metrics.
+
+- ppo_toolpush: the paper's observation (30 values);
+- ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy.
+"""
 
 import json
 from pathlib import Path
@@ -8,31 +12,42 @@ import pytest
 
 from drake_tooluse.train import evaluate, load_policy
 
-SHIPPED = Path(__file__).resolve().parent.parent / "models" / "policies" / "ppo_toolpush"
-METRICS = json.loads((SHIPPED / "metrics.json").read_text())["evaluation"]
+POLICIES = Path(__file__).resolve().parent.parent / "models" / "policies"
+SHIPPED = {"ppo_toolpush": 30, "ppo_toolpush_tip": 12}  # name -> observation size
 
 
-def test_shipped_policy_loads_and_meets_the_goals_it_claims():
-    policy = load_policy(SHIPPED)
+def _metrics(name):
+    return json.loads((POLICIES / name / "metrics.json").read_text())["evaluation"]
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
+    policy = load_policy(POLICIES / name)
     assert policy.meta.env_id == "drake_tooluse/ToolPush-v0"
     assert policy.meta.env_kwargs["ik_mode"] == "full"  # InverseKinematics in the loop
-    action = policy.act(np.zeros(30, np.float32))
+    assert policy.meta.observation_shape == [SHIPPED[name]]
+    action = policy.act(np.zeros(SHIPPED[name], np.float32))
     assert action.shape == (3,) and np.all(np.abs(action) <= 1.0)
-    assert METRICS["episodes"] == 100
-    assert METRICS["final_box_to_goal_mean_m"] <= 0.04 and METRICS["success_rate"] >= 0.8
+    metrics = _metrics(name)
+    assert metrics["episodes"] == 100
+    assert metrics["final_box_to_goal_mean_m"] <= 0.04 and metrics["success_rate"] >= 0.8
 
 
-def test_evaluate_reproduces_the_first_shipped_episodes():
-    result = evaluate(SHIPPED, episodes=3, seed=METRICS["seed"])
-    for ours, shipped in zip(result.per_episode, METRICS["per_episode"][:3]):
+@pytest.mark.parametrize("name", SHIPPED)
+def test_evaluate_reproduces_the_first_shipped_episodes(name):
+    metrics = _metrics(name)
+    result = evaluate(POLICIES / name, episodes=3, seed=metrics["seed"])
+    for ours, shipped in zip(result.per_episode, metrics["per_episode"][:3]):
         assert ours["seed"] == shipped["seed"] and ours["success"] == shipped["success"]
         assert ours["final_box_to_goal_m"] == pytest.approx(shipped["final_box_to_goal_m"],
                                                             abs=1e-6)
 
 
 @pytest.mark.slow
-def test_evaluate_reproduces_all_shipped_metrics():
-    result = evaluate(SHIPPED, episodes=METRICS["episodes"], seed=METRICS["seed"])
-    assert result.final_box_to_goal_mean_m == pytest.approx(METRICS["final_box_to_goal_mean_m"],
+@pytest.mark.parametrize("name", SHIPPED)
+def test_evaluate_reproduces_all_shipped_metrics(name):
+    metrics = _metrics(name)
+    result = evaluate(POLICIES / name, episodes=metrics["episodes"], seed=metrics["seed"])
+    assert result.final_box_to_goal_mean_m == pytest.approx(metrics["final_box_to_goal_mean_m"],
                                                             abs=1e-6)
-    assert result.success_rate == METRICS["success_rate"]
+    assert result.success_rate == metrics["success_rate"]
