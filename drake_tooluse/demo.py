@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_tooluse.io import atomic_write_bytes, atomic_write_json
+from drake_tooluse.io import atomic_write_bytes, atomic_write_json, staged_dir
 
 DEFAULT_TOOL = 0.125  # m: the paper's short tool; the shipped policy trained with 0.175 m
 
@@ -138,51 +138,56 @@ def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = 
     if not isinstance(max_steps, int) or not 1 <= max_steps <= 1000:
         raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
     out = Path(out_dir)
-    if out.exists() and any(out.iterdir()):
-        raise FileExistsError(f"{str(out)!r} exists and is not empty; give a new directory")
     draw = draw_randomization(base, np.random.default_rng(seed))
     scenario = apply_draw(base, draw)
     times = {}
+    # Written into a staging directory that becomes `out` only when everything is there.
+    with staged_dir(out) as work:
+        log(f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
+            "unknown to the robot) …")
+        t0 = time.perf_counter()
+        measurement = measure_tool(scenario, save_images_dir=work / "camera", seed=seed)
+        times["measure_s"] = time.perf_counter() - t0
+        measured = measurement.length
+        log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm) "
+            f"in {times['measure_s']:.1f} s")
 
-    log(f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
-        "unknown to the robot) …")
-    t0 = time.perf_counter()
-    measurement = measure_tool(scenario, save_images_dir=out / "camera", seed=seed)
-    times["measure_s"] = time.perf_counter() - t0
-    measured = measurement.length
-    log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm) "
-        f"in {times['measure_s']:.1f} s")
+        log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured length …")
+        t0 = time.perf_counter()
+        meshcat = start_meshcat()
+        built = build_policy_diagram(scenario, policy_dir, measured, meshcat=meshcat,
+                                     scene_camera=True)
+        with tqdm(total=max_steps, desc="      control steps", unit="step", file=sys.stderr,
+                  disable=not progress, leave=False) as bar:
+            run = run_policy(built, max_steps=max_steps, record=True,
+                             on_step=lambda step: bar.update(1))
+        save_recording(meshcat, built.visualizer, work / "recording.html")
+        times["push_s"] = time.perf_counter() - t0
+        log(f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
+            f"{run.steps} steps ({run.steps * scenario.control.control_period:.2f} s simulated)"
+            f" in {times['push_s']:.1f} s")
 
-    log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured length …")
-    t0 = time.perf_counter()
-    meshcat = start_meshcat()
-    built = build_policy_diagram(scenario, policy_dir, measured, meshcat=meshcat,
-                                 scene_camera=True)
-    with tqdm(total=max_steps, desc="      control steps", unit="step", file=sys.stderr,
-              disable=not progress, leave=False) as bar:
-        run = run_policy(built, max_steps=max_steps, record=True,
-                         on_step=lambda step: bar.update(1))
-    recording = save_recording(meshcat, built.visualizer, out / "recording.html")
-    times["push_s"] = time.perf_counter() - t0
-    log(f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
-        f"{run.steps} steps ({run.steps * scenario.control.control_period:.2f} s simulated) in "
-        f"{times['push_s']:.1f} s")
+        log("[3/3] writing figures and metrics …")
+        figures = write_figures(work, run, scenario, measurement.image_files, run.final_image)
+        times["total_s"] = time.perf_counter() - start
 
-    log("[3/3] writing figures and metrics …")
-    figures = write_figures(out, run, scenario, measurement.image_files, run.final_image)
-    times["total_s"] = time.perf_counter() - start
-    metrics = {
-        "policy": str(policy_dir), "scenario": str(scenario_path or DIAGRAMS_DIR / "reality.yaml"),
-        "seed": seed,
-        "tool": {"true_length_m": tool_length, "measured_length_m": measured,
-                 "measurement_error_m": measured - tool_length,
-                 "per_view_m": measurement.as_dict()["per_view_m"],
-                 "dropped_views": measurement.dropped},
-        "perturbation": dc.asdict(draw),
-        "push": run.as_dict(), "times": times,
-        "files": {"recording": str(recording), "metrics": str(out / "metrics.json"),
-                  "camera_views": [str(f) for f in measurement.image_files], **figures}}
-    atomic_write_json(out / "metrics.json", metrics)
+        def final(path) -> str:  # where a file will be once the directory is in place
+            return str(out / Path(path).relative_to(work))
+
+        metrics = {
+            "policy": str(policy_dir),
+            "scenario": str(scenario_path or DIAGRAMS_DIR / "reality.yaml"), "seed": seed,
+            "tool": {"true_length_m": tool_length, "measured_length_m": measured,
+                     "measurement_error_m": measured - tool_length,
+                     "per_view_m": measurement.as_dict()["per_view_m"],
+                     "dropped_views": measurement.dropped},
+            "perturbation": dc.asdict(draw),
+            "push": run.as_dict(), "times": times,
+            "files": {"recording": str(out / "recording.html"),
+                      "metrics": str(out / "metrics.json"),
+                      "camera_views": [final(f) for f in measurement.image_files],
+                      **{k: final(v) for k, v in figures.items()}}}
+        atomic_write_json(work / "metrics.json", metrics)
     return metrics
 
 

@@ -349,16 +349,21 @@ class ToolTipIKSystem(LeafSystem):
 
 def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
     """Right-arm joint angles of the scenario's home pose for a tool of `tool_length` m (None:
-    no tool), warm-started from its posture seed. Raises if unreachable."""
+    no tool), warm-started from its posture seed, within the conservative limits if the
+    scenario's robot keeps them. Raises if unreachable."""
     from drake_tooluse.scene import home_tip_pose
 
-    ik = ToolTipIK(tool_length)
+    limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+              if scenario.robot.conservative_limits else {})
+    ik = ToolTipIK(tool_length, **limits)
     result = ik.solve(home_tip_pose(scenario), q_seed=scenario.robot.posture_seed)
     if not result.success:
         raise ValueError(
             f"the scenario's home pose (tip at {home_tip_pose(scenario).translation().tolist()}"
             f" m) is unreachable with tool length {tool_length} m: residual {result.position_error:.3g} m,"
-            f" {result.orientation_error:.3g} rad; move robot.home_tip_xy / home_tip_height")
+            f" {result.orientation_error:.3g} rad"
+            f"{' within the conservative joint limits' if limits else ''}; move "
+            "robot.home_tip_xy / home_tip_height")
     return result.q
 
 

@@ -35,7 +35,7 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.control import add_trajectory_control, add_world_at_home
-from drake_tooluse.io import atomic_write_bytes, atomic_write_json
+from drake_tooluse.io import atomic_write_bytes, atomic_write_json, staged_dir
 from drake_tooluse.policy import PushRun, build_policy_diagram, run_push, run_policy
 from drake_tooluse.scenario import (
     Scenario,
@@ -266,35 +266,38 @@ def cmd_transfer(args) -> dict:
     tools = check_transfer_args(args.tools, args.runs, args.mode)
     nominal = load_scenario(args.nominal)
     reality = load_scenario(args.reality)
-    out = args.out or Path("runs") / f"transfer-{args.mode}-{time.strftime('%Y%m%d-%H%M%S')}"
-    trajectory, extraction = None, None
-    if args.mode == "open-loop":
-        if args.trajectory is not None:
-            trajectory = TipTrajectory.load(args.trajectory)
-        else:
-            from drake_tooluse.trajectory import extract, plot_extraction
+    out = Path(args.out or Path("runs") / f"transfer-{args.mode}-{time.strftime('%Y%m%d-%H%M%S')}")
+    # Written into a staging directory that becomes `out` only when everything is there.
+    with staged_dir(out) as work:
+        trajectory, extraction = None, None
+        if args.mode == "open-loop":
+            if args.trajectory is not None:
+                trajectory = TipTrajectory.load(args.trajectory)
+            else:
+                from drake_tooluse.trajectory import extract, plot_extraction
 
-            print(f"extracting the trajectory from {args.episodes} episodes …", file=sys.stderr,
-                  flush=True)
-            ex = extract(args.policy, episodes=args.episodes, seed=args.seed,
-                         tool_length=max(tools))
-            trajectory = ex.reachability.kept
-            trajectory.save(Path(out) / "trajectory.npz")
-            plot_extraction(ex, Path(out) / "trajectory.png")
-            extraction = {"episodes": args.episodes, "successes": ex.successes,
-                          "poses": ex.reachability.poses,
-                          "reachable": ex.reachability.reachable,
-                          "file": str(Path(out) / "trajectory.npz")}
-    result = run_transfer(args.policy, tools, args.runs, args.mode, args.seed, nominal, reality,
-                          trajectory)
-    result["nominal_scenario"] = str(args.nominal)
-    result["reality_scenario"] = str(args.reality)
-    if args.mode == "open-loop":
-        result["trajectory"] = extraction or {"file": str(args.trajectory),
-                                              "poses": len(trajectory)}
-    result["figure"] = str(plot_transfer(result, Path(out) / "transfer_boxplot.png"))
-    result["json"] = str(Path(out) / "transfer.json")
-    atomic_write_json(result["json"], result)
+                print(f"extracting the trajectory from {args.episodes} episodes …",
+                      file=sys.stderr, flush=True)
+                ex = extract(args.policy, episodes=args.episodes, seed=args.seed,
+                             tool_length=max(tools))
+                trajectory = ex.reachability.kept
+                trajectory.save(work / "trajectory.npz")
+                plot_extraction(ex, work / "trajectory.png")
+                extraction = {"episodes": args.episodes, "successes": ex.successes,
+                              "poses": ex.reachability.poses,
+                              "reachable": ex.reachability.reachable,
+                              "file": str(out / "trajectory.npz")}
+        result = run_transfer(args.policy, tools, args.runs, args.mode, args.seed, nominal,
+                              reality, trajectory)
+        result["nominal_scenario"] = str(args.nominal)
+        result["reality_scenario"] = str(args.reality)
+        if args.mode == "open-loop":
+            result["trajectory"] = extraction or {"file": str(args.trajectory),
+                                                  "poses": len(trajectory)}
+        plot_transfer(result, work / "transfer_boxplot.png")
+        result["figure"] = str(out / "transfer_boxplot.png")
+        result["json"] = str(out / "transfer.json")
+        atomic_write_json(work / "transfer.json", result)
     return result
 
 

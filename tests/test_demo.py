@@ -40,3 +40,16 @@ def test_demo_refuses_a_used_directory_and_bad_input(tmp_path):
     with pytest.raises(FileNotFoundError):
         run_demo(tmp_path / "new", policy_dir=tmp_path / "no_policy", progress=False)
     assert not (tmp_path / "new").exists()
+
+
+def test_a_failed_demo_leaves_nothing(tmp_path, monkeypatch):
+    """A failure half-way (here: the push) leaves no half-written run directory."""
+    import drake_tooluse.policy
+
+    def fail(*args, **kwargs):
+        raise RuntimeError("simulated failure during the push")
+
+    monkeypatch.setattr(drake_tooluse.policy, "run_policy", fail)
+    with pytest.raises(RuntimeError, match="simulated failure"):
+        run_demo(tmp_path / "demo", progress=False)
+    assert list(tmp_path.iterdir()) == []
