@@ -85,7 +85,7 @@ def add_world_at_home(builder, scenario, believed_tool_length: float | None,
     return world, ToolTipIK(believed_tool_length, max_attempts=ik_attempts, **limits), q0
 
 
-def _command_joints(builder, world: World, q_commanded, control: "TipControl") -> None:
+def add_joint_command(builder, world: World, q_commanded, control: "TipControl") -> None:
     """Desired state [q*, 0] (joint targets held over the control period, zero velocity) to
     the plant's PD controllers, through the actuation delay if the scenario has one."""
     s = world.scenario
@@ -96,8 +96,11 @@ def _command_joints(builder, world: World, q_commanded, control: "TipControl") -
     command = desired_state.get_output_port()
     steps = round(s.control.actuation_delay / s.plant.time_step)
     if steps > 0:
+        # A DiscreteTimeDelay of N updates, sampled on the plant's own ticks, reaches the
+        # plant's step N + 1 ticks late (its update reads the delay's output from before the
+        # same tick): N = steps - 1 gives `actuation_delay` exactly (tested).
         control.delay = builder.AddNamedSystem(
-            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps, 14))
+            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps - 1, 14))
         builder.Connect(command, control.delay.get_input_port())
         command = control.delay.get_output_port()
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
@@ -135,7 +138,7 @@ def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
         builder.Connect(use_measured.get_output_port(),
                         control.differential.GetInputPort("use_robot_state"))
         q_commanded = control.differential.GetOutputPort("joint_positions")
-    _command_joints(builder, world, q_commanded, control)
+    add_joint_command(builder, world, q_commanded, control)
     return control
 
 
@@ -148,5 +151,5 @@ def add_trajectory_control(builder, world: World, ik: ToolTipIK, q0, tip_source)
     control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
     builder.Connect(tip_source.get_output_port(),
                     control.ik_system.GetInputPort("tip_pose_desired"))
-    _command_joints(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
+    add_joint_command(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
     return control

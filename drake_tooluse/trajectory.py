@@ -159,8 +159,8 @@ def filter_reachable(traj: TipTrajectory, tool_length: float | None,
 
 def tip_trajectory_source(traj: TipTrajectory, lead: float = 0.0):
     """A Drake TrajectorySource of the 7-vector [p_WT (3), quaternion wxyz (4)], linear between
-    the samples (the IK normalizes the quaternion) and held after the last one; time starts
-    at 0 with the sample at `traj.times[0] + lead` (a recorded trajectory holds where the tip
+    the samples (the IK normalizes the quaternion), held before the first and after the last;
+    at time t it gives the trajectory at `t + lead` (a recorded trajectory holds where the tip
     *was*: lead by a control period to command where it goes next)."""
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
@@ -170,7 +170,7 @@ def tip_trajectory_source(traj: TipTrajectory, lead: float = 0.0):
         if quaternions[i] @ quaternions[i - 1] < 0:
             quaternions[i] = -quaternions[i]
     values = np.hstack([traj.positions, quaternions]).T
-    times = traj.times - traj.times[0] - lead
+    times = traj.times - lead
     if len(times) == 1:
         polynomial = PiecewisePolynomial(values[:, :1])
     else:

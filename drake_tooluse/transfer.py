@@ -103,7 +103,7 @@ def run_open_loop(scenario: Scenario, trajectory: TipTrajectory,
     """Replays the whole trajectory, then lets the world settle for SETTLE_TIME."""
     diagram, world, control, _ = build_trajectory_diagram(scenario, trajectory,
                                                           believed_tool_length)
-    duration = trajectory.times[-1] - trajectory.times[0] + SETTLE_TIME
+    duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
     steps = math.ceil(duration / scenario.control.control_period)
     return run_push(diagram, world, control, steps, stop_at_success=False)
 
@@ -122,6 +122,23 @@ def _stats(runs: list[TransferRun]) -> dict:
             "final_box_to_goal_std_m": float(final.std()),
             "success_rate": float(np.mean([r.push.success for r in runs])),
             "per_run": [r.as_dict() for r in runs]}
+
+
+def check_same_task(nominal: Scenario, reality: Scenario) -> None:
+    """The two worlds must pose the same task (box, goal, table, robot home) for their
+    comparison to mean anything; raises ValueError naming what differs."""
+    differ = []
+    for name in ("box.size", "box.position", "box.yaw", "box.on_table", "goal_offset",
+                 "table", "robot.home_tip_xy", "robot.home_tip_height", "randomization.box_xy",
+                 "randomization.box_yaw"):
+        a, b = nominal, reality
+        for part in name.split("."):
+            a, b = getattr(a, part), getattr(b, part)
+        if a != b:
+            differ.append(f"{name}: nominal {a!r}, reality {b!r}")
+    if differ:
+        raise ValueError("the nominal and reality scenarios pose different tasks: "
+                         + "; ".join(differ))
 
 
 def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
@@ -152,6 +169,7 @@ def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "
     log = log or (lambda text: print(text, file=sys.stderr, flush=True))
     nominal_scenario = nominal_scenario or load_scenario(DIAGRAMS_DIR / "push.yaml")
     reality_scenario = reality_scenario or load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    check_same_task(nominal_scenario, reality_scenario)
     start = time.perf_counter()
     per_tool = []
     for tool in tools:
@@ -170,8 +188,11 @@ def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "
                     push = run_closed_loop(scenario, policy_dir, believed)
                 else:
                     push = run_open_loop(scenario, trajectory, believed)
+                # The nominal world takes only the box's start from the draw.
+                perturbation = (dc.asdict(draw) if world == "reality" else
+                                {"box_dxy": draw.box_dxy, "box_dyaw": draw.box_dyaw})
                 results[world].append(TransferRun(world, tool, believed, run_seed, push,
-                                                  dc.asdict(draw)))
+                                                  perturbation))
             n, r = results["nominal"][-1].push, results["reality"][-1].push
             log(f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {length:.4f} m; box travel "
                 f"nominal {n.box_travel * 100:.1f} cm, reality {r.box_travel * 100:.1f} cm "
@@ -274,18 +295,23 @@ def cmd_transfer(args) -> dict:
             if args.trajectory is not None:
                 trajectory = TipTrajectory.load(args.trajectory)
             else:
-                from drake_tooluse.trajectory import extract, plot_extraction
+                from drake_tooluse.trajectory import extract, filter_reachable, plot_extraction
 
                 print(f"extracting the trajectory from {args.episodes} episodes …",
                       file=sys.stderr, flush=True)
                 ex = extract(args.policy, episodes=args.episodes, seed=args.seed,
-                             tool_length=max(tools))
-                trajectory = ex.reachability.kept
+                             tool_length=tools[0])
+                # Keep the poses every tool reaches under the conservative limits.
+                trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
+                for tool in tools[1:]:
+                    report = filter_reachable(trajectory, tool)
+                    trajectory, reachable[tool] = report.kept, report.reachable
                 trajectory.save(work / "trajectory.npz")
                 plot_extraction(ex, work / "trajectory.png")
                 extraction = {"episodes": args.episodes, "successes": ex.successes,
                               "poses": ex.reachability.poses,
-                              "reachable": ex.reachability.reachable,
+                              "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
+                              "kept": len(trajectory),
                               "file": str(out / "trajectory.npz")}
         result = run_transfer(args.policy, tools, args.runs, args.mode, args.seed, nominal,
                               reality, trajectory)

@@ -149,3 +149,46 @@ def test_malformed_trajectory_file_is_refused(tmp_path, capsys):
                  str(tmp_path / "t")]) == 2
     assert "malformed trajectory file" in capsys.readouterr().err
     assert not (tmp_path / "t").exists()
+
+
+@pytest.mark.parametrize("delay", [0.02, 0.04])
+def test_actuation_delay_is_the_configured_time(delay):
+    """A step in the joint target moves the arm exactly `delay` later than without a delay."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from drake_tooluse.control import TipControl, add_joint_command, add_world_at_home
+
+    def first_motion(actuation_delay):
+        s = Scenario()
+        s = dc.replace(s, control=dc.replace(s.control, actuation_delay=actuation_delay))
+        builder = DiagramBuilder()
+        world, ik, q0 = add_world_at_home(builder, s, 0.175)
+        q1 = q0.copy()
+        q1[0] += 0.1
+        step = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
+            [0.0, 0.21, 5.0], np.array([q0, q1, q1]).T)))
+        control = TipControl(None, ik, q0)
+        add_joint_command(builder, world, step.get_output_port(), control)
+        simulator = Simulator(builder.Build())
+        control.reset(simulator.get_mutable_context())
+        simulator.Initialize()
+        plant_context = world.plant.GetMyContextFromRoot(simulator.get_context())
+        for k in range(1, 40):
+            simulator.AdvanceTo(k * s.plant.time_step)
+            if abs(world.arm_joints()[0].get_angular_rate(plant_context)) > 1e-4:
+                return k * s.plant.time_step
+        raise AssertionError("the arm never moved")
+
+    assert first_motion(delay) - first_motion(0.0) == pytest.approx(delay)
+
+
+def test_worlds_posing_different_tasks_are_refused():
+    nominal = load_scenario(DIAGRAMS_DIR / "push.yaml")
+    reality = load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    moved = dc.replace(reality, box=dc.replace(reality.box, position=[0.65, -0.25, 0.0]))
+    with pytest.raises(ValueError, match=r"different tasks: box.position: nominal \[0.7"):
+        run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, nominal_scenario=nominal,
+                     reality_scenario=moved)
