@@ -53,6 +53,7 @@ TIP_FRAME = "tool_tip"
 GRASP_FRAME = "tool_grasp"
 # The rod reaches this far into the closed fingers behind the grasp point (m).
 TOOL_HANDLE_DEPTH = 0.03
+TIP_COLLISION_LENGTH = 0.04  # m, the tool's tip end as a collision geometry of its own
 ORANGE = np.array([1.0, 0.45, 0.0, 1.0])
 TOOL_RGBA = np.array([0.55, 0.6, 0.68, 1.0])
 WOOD_RGBA = np.array([0.72, 0.53, 0.33, 1.0])
@@ -142,9 +143,16 @@ def add_tool(plant: MultibodyPlant, instance, scenario: Scenario, with_geometry:
                                          Cylinder(t.radius * 1.15, m), name, ORANGE)
         props = ProximityProperties()
         AddContactMaterial(friction=CoulombFriction(0.4, 0.4), properties=props)
-        # Collision only in front of the fingers: the handle part is inside the hand.
-        plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, L / 2]),
-                                        Cylinder(t.radius, L), "tool_collision", props)
+        # Collision only in front of the fingers: the handle part is inside the hand. The tip
+        # end, which does the pushing, is a short cylinder of its own: a single long thin
+        # cylinder gives FCL's penetration query wrong normals (a 0.40 m tool pressed into
+        # the box's side came out through its top face and pinned the box to the table).
+        tip = min(L, TIP_COLLISION_LENGTH)
+        plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, L - tip / 2]),
+                                        Cylinder(t.radius, tip), "tool_tip_collision", props)
+        if L > tip:
+            plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, (L - tip) / 2]),
+                                            Cylinder(t.radius, L - tip), "tool_collision", props)
     return tool
 
 
