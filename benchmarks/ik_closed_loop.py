@@ -5,7 +5,8 @@ of table-top targets 2 cm above the table; after each move it settles and the tr
 is measured in the world plant. The box is moved out of the way. A second condition shifts the
 true grasp (default 5 mm along and 2 mm across the tool) while the robot believes the nominal
 grasp: the error the camera issue's measurement must remove; a third condition has the robot
-model hold the length the head camera measured (with the same shifted grasp).
+model hold the length the head camera measured (with the same shifted grasp), and a fourth
+adds the camera's estimate of the grasp shift along the tool.
 
     python benchmarks/ik_closed_loop.py [--grid 5] [--settle 1.5] [--grasp-shift 0.005 0.002]
 
@@ -51,24 +52,31 @@ def targets(scenario: Scenario, grid: int) -> list[RigidTransform]:
             for y in np.linspace(-0.45, -0.05, grid)]
 
 
-def run_condition(length, along, across, args, measure: bool = False) -> dict:
+def run_condition(length, along, across, args, measure: bool = False,
+                  grasp_estimate: bool = False) -> dict:
     scenario = scenario_for(length, along, across)
-    believed = None
+    believed, grasp = None, (0.0, 0.0)
     if measure:  # the robot model holds the length the head camera measured
         from drake_tooluse.measure import measure_tool
 
-        believed = measure_tool(scenario).length
+        measurement = measure_tool(scenario)
+        believed = measurement.length
+        if grasp_estimate:  # and where the camera saw the hand hold it along the tool
+            grasp = (0.0, measurement.grasp_along)
     start = time.perf_counter()
     run = simulate_waypoints(scenario, targets(scenario, args.grid), move_time=args.move_time,
-                             dwell=args.settle, believed_tool_length=believed)
+                             dwell=args.settle, believed_tool_length=believed,
+                             believed_grasp=grasp)
     wall = time.perf_counter() - start
     e = np.array([r.position_error for r in run.results]) * 1e3
     rot = np.array([r.orientation_error for r in run.results])
     tool = "no tool" if length is None else f"{length:.3f} m"
-    grasp = "nominal" if not (along or across) else f"shifted {along * 1e3:g}/{across * 1e3:g} mm"
+    label = "nominal" if not (along or across) else f"shifted {along * 1e3:g}/{across * 1e3:g} mm"
     if measure:
-        grasp += f", measured length {believed * 1e3:.2f} mm"
-    return {"tool": tool, "grasp": grasp, "targets": len(e), "mean_mm": float(e.mean()),
+        label += f", measured length {believed * 1e3:.2f} mm"
+    if grasp_estimate:
+        label += f" and grasp {grasp[1] * 1e3:+.2f} mm along"
+    return {"tool": tool, "grasp": label, "targets": len(e), "mean_mm": float(e.mean()),
             "median_mm": float(np.median(e)), "max_mm": float(e.max()),
             "orientation_max_rad": float(rot.max()),
             "ik_failures": int(sum(not r.ik_success for r in run.results)),
@@ -91,6 +99,9 @@ def main() -> None:
     # The camera measures the tool as held (marker to marker, the grasp shift included).
     results += [run_condition(L, along, across, args, measure=True) for L in TOOLS
                 if L is not None]
+    # ... and where the hand holds it along the tool (the grip marker's end in the gripper).
+    results += [run_condition(L, along, across, args, measure=True, grasp_estimate=True)
+                for L in TOOLS if L is not None]
     print("| tool | grasp (along/across) | targets | tip error mean / median / max (mm) | "
           "orientation max (rad) | IK failures | simulated / wall (s) |")
     print("| --- | --- | --- | --- | --- | --- | --- |")

@@ -8,6 +8,8 @@ diagrams/reality.yaml against the nominal simulation) for
 
 - `tip`: models/policies/ppo_toolpush_tip (observes the task in tool-tip space only);
 - `paper`: models/policies/ppo_toolpush (the paper's observation: gripper pose, joint angles);
+- `tip-length-only`: `tip` with the robot's model taking only the measured length, not the
+  camera's estimate of the grasp along the tool (the paper's measurement);
 
 each closed-loop and open-loop (the paper's: the policy's averaged trajectory replayed), writing
 docs/results/transfer/<name>_<mode>/ (transfer.json, transfer_boxplot.png, and for open loop
@@ -23,8 +25,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 # Relative to ROOT (the script runs there), so the JSON files hold repo paths.
 OUT = Path("docs") / "results" / "transfer"
-POLICIES = {"tip": Path("models") / "policies" / "ppo_toolpush_tip",
-            "paper": Path("models") / "policies" / "ppo_toolpush"}
+TIP = Path("models") / "policies" / "ppo_toolpush_tip"
+PAPER = Path("models") / "policies" / "ppo_toolpush"
+# name -> (policy, extra `transfer` arguments)
+POLICIES = {"tip": (TIP, []), "paper": (PAPER, []),
+            "tip-length-only": (TIP, ["--length-only"])}
 MODES = ("closed-loop", "open-loop")
 
 
@@ -32,8 +37,9 @@ def run(name: str, mode: str, runs: int, episodes: int, seed: int) -> dict:
     from drake_tooluse.cli import main
 
     out = OUT / f"{name}_{mode}"
-    argv = ["transfer", "--policy", str(POLICIES[name]), "--mode", mode, "--runs", str(runs),
-            "--episodes", str(episodes), "--seed", str(seed), "--out", str(out)]
+    policy, extra = POLICIES[name]
+    argv = ["transfer", "--policy", str(policy), "--mode", mode, "--runs", str(runs),
+            "--episodes", str(episodes), "--seed", str(seed), "--out", str(out), *extra]
     print("drake-tooluse " + " ".join(argv), file=sys.stderr, flush=True)
     if main(argv) != 0:
         raise SystemExit(f"transfer {name} {mode} failed")

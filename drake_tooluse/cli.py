@@ -76,26 +76,30 @@ def _target_pose(args):
     return RigidTransform(RollPitchYaw(rpy), p)
 
 
-def _measured_length(scenario) -> dict:
-    """Measures the scenario's (true) tool with the head camera."""
+def _measured_tool(scenario) -> dict:
+    """Measures the scenario's (true) tool with the head camera: its length and where the hand
+    holds it along it."""
     from drake_tooluse.measure import measure_tool
 
     result = measure_tool(scenario)
     return {"measured_tool_length_m": result.length, "true_tool_length_m": scenario.tool.length,
+            "measured_grasp_along_m": result.grasp_along,
+            "true_grasp_along_m": scenario.tool.grasp_offset_along,
             "measurement_spread_m": result.spread, "measurement_time_s": result.wall_time}
 
 
 def cmd_ik(args) -> dict:
     from drake_tooluse.ik import ToolTipIK
 
-    measured = {}
+    measured, grasp = {}, (0.0, 0.0)
     if args.measure:
-        measured = _measured_length(scenario_from_args(args))
+        measured = _measured_tool(scenario_from_args(args))
         length = measured["measured_tool_length_m"]
+        grasp = (0.0, measured["measured_grasp_along_m"])
     else:
         length = _tool_length(args)
     X = _target_pose(args)
-    ik = ToolTipIK(length)
+    ik = ToolTipIK(length, grasp_offset=grasp)
     seed = None if args.seed_q is None else ik.check_q(args.seed_q, "--seed-q")
     result = ik.solve(X, seed)
     out = {"tool_length_m": length, **measured, "target": _pose_dict(X)}
@@ -143,15 +147,17 @@ def cmd_simulate(args) -> dict:
     scenario = scenario_from_args(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
     start = time.perf_counter()
-    measured = {}
+    measured, grasp = {}, (0.0, 0.0)
     believed = args.believed_tool_length
     if args.measure:
         if believed is not None:
             raise UsageError("give either --measure or --believed-tool-length, not both")
-        measured = _measured_length(scenario)
+        measured = _measured_tool(scenario)
         believed = measured["measured_tool_length_m"]
+        grasp = (0.0, measured["measured_grasp_along_m"])
     run = simulate_waypoints(scenario, waypoints, move_time=args.move_time, dwell=args.dwell,
-                             believed_tool_length=believed, record=args.record)
+                             believed_tool_length=believed, record=args.record,
+                             believed_grasp=grasp)
     errors = [r.position_error for r in run.results]
     return {"scenario": str(args.scenario), "tool_length_m": scenario.tool.length,
             "believed_tool_length_m": believed or scenario.tool.length, **measured,
@@ -350,7 +356,7 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--measure", action="store_true",
                    help="measure the tool with the head camera first (the world's tool: "
                         "--scenario, with --tool-length as its true length) and solve for the "
-                        "measured length")
+                        "measured tool (length and grasp along it)")
     p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO,
                    help="scenario YAML (with --measure)")
 
@@ -367,7 +373,7 @@ def make_parser() -> argparse.ArgumentParser:
                    help="write a Meshcat recording (standalone HTML)")
     p.add_argument("--measure", action="store_true",
                    help="measure the tool with the head camera first; the robot model then "
-                        "holds the measured length")
+                        "holds the measured length and grasp along the tool")
 
     from drake_tooluse.registration import ENV_IDS
 

@@ -73,16 +73,18 @@ class TipControl:
 
 
 def add_world_at_home(builder, scenario, believed_tool_length: float | None,
-                      ik_attempts: int = 3):
+                      ik_attempts: int = 3, believed_grasp=(0.0, 0.0)):
     """The world, started at the home configuration the robot computes for the tool it
-    believes it holds, and the IK on that belief. Returns (world, ik, q0)."""
+    believes it holds (length, and grasp (across, along) offset, m), and the IK on that
+    belief. Returns (world, ik, q0)."""
     world = add_world(builder, scenario)
-    q0 = home_configuration(scenario, believed_tool_length)
+    q0 = home_configuration(scenario, believed_tool_length, believed_grasp)
     for joint, q in zip(world.arm_joints(), q0):
         joint.set_default_angle(q)
     limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
               if scenario.robot.conservative_limits else {})
-    return world, ToolTipIK(believed_tool_length, max_attempts=ik_attempts, **limits), q0
+    return world, ToolTipIK(believed_tool_length, grasp_offset=believed_grasp,
+                            max_attempts=ik_attempts, **limits), q0
 
 
 def add_joint_command(builder, world: World, q_commanded, control: "TipControl") -> None:

@@ -3,8 +3,8 @@
 1. Draw a reality (`diagrams/reality.yaml`, seeded): a tool the robot has never trained with,
    held with a shifted grasp; box mass and friction off; delayed actuation; noisy camera.
 2. Measure the tool with the head camera (three views, OpenCV).
-3. Push the box with the shipped policy closed-loop, its IK holding the measured length,
-   recorded in Meshcat.
+3. Push the box with the shipped policy closed-loop, its IK holding the measured tool (its
+   length, and where the hand holds it along it), recorded in Meshcat.
 4. Write `runs/demo-<time>/`: `recording.html` (open it in a browser), `metrics.json`,
    `trajectory.png` (tool tip and box from above and from the side), `summary.png`,
    `camera/measure_<view>.png` (the annotated camera views) and `final_scene.png`.
@@ -148,15 +148,16 @@ def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = 
         t0 = time.perf_counter()
         measurement = measure_tool(scenario, save_images_dir=work / "camera", seed=seed)
         times["measure_s"] = time.perf_counter() - t0
-        measured = measurement.length
-        log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm) "
-            f"in {times['measure_s']:.1f} s")
+        measured, along = measurement.length, measurement.grasp_along
+        log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm), "
+            f"held {along * 1000:+.1f} mm along it (truth "
+            f"{scenario.tool.grasp_offset_along * 1000:+.1f} mm) in {times['measure_s']:.1f} s")
 
-        log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured length …")
+        log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured tool …")
         t0 = time.perf_counter()
         meshcat = start_meshcat()
         built = build_policy_diagram(scenario, policy_dir, measured, meshcat=meshcat,
-                                     scene_camera=True)
+                                     scene_camera=True, believed_grasp=(0.0, along))
         with tqdm(total=max_steps, desc="      control steps", unit="step", file=sys.stderr,
                   disable=not progress, leave=False) as bar:
             run = run_policy(built, max_steps=max_steps, record=True,
@@ -179,6 +180,8 @@ def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = 
             "scenario": str(scenario_path or DIAGRAMS_DIR / "reality.yaml"), "seed": seed,
             "tool": {"true_length_m": tool_length, "measured_length_m": measured,
                      "measurement_error_m": measured - tool_length,
+                     "measured_grasp_along_m": along,
+                     "true_grasp_along_m": scenario.tool.grasp_offset_along,
                      "per_view_m": measurement.as_dict()["per_view_m"],
                      "dropped_views": measurement.dropped},
             "perturbation": dc.asdict(draw),
@@ -195,7 +198,9 @@ def format_demo(m: dict) -> str:
     push, tool = m["push"], m["tool"]
     return "\n".join([
         f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "
-        f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm)",
+        f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm); "
+        f"held {tool['measured_grasp_along_m'] * 1000:+.1f} mm along it (truth "
+        f"{tool['true_grasp_along_m'] * 1000:+.1f} mm)",
         f"push: {'success' if push['success'] else 'no success'} in {push['steps']} steps; box "
         f"moved {push['box_travel_m'] * 100:.1f} cm, ends {push['final_box_to_goal_m'] * 100:.1f} cm "
         f"from the goal",

@@ -114,16 +114,21 @@ class ToolTipIK:
 
     Args:
         tool_length: believed tool length (m), in (0, 0.60]; None for no tool (T = gripper).
+        grasp_offset: believed (across, along) offset of the grasp point from the gripper
+            frame's origin (m; default 0, 0): with the camera's estimate the IK also knows
+            where the hand holds the tool (see `measure.py`).
         joint_lower, joint_upper: joint limits (rad) s0 … w2; default Baxter's.
         max_attempts: solves tried (the warm start, then deterministic random seeds).
         library_size: configurations in the central seed library (drawn with a fixed seed,
             so the same call gives the same result); the full-range library has half as many.
     """
 
-    def __init__(self, tool_length: float | None = None, *, joint_lower=None, joint_upper=None,
-                 max_attempts: int = 16, library_size: int = 4000):
+    def __init__(self, tool_length: float | None = None, *, grasp_offset=(0.0, 0.0),
+                 joint_lower=None, joint_upper=None, max_attempts: int = 16,
+                 library_size: int = 4000):
         self.tool_length = tool_length
-        self.plant = make_robot_model(tool_length)
+        self.grasp_offset = tuple(float(v) for v in grasp_offset)
+        self.plant = make_robot_model(tool_length, grasp_offset=self.grasp_offset)
         self.context = self.plant.CreateDefaultContext()
         self.tip_frame = self.plant.GetFrameByName(TIP_FRAME)
         self.gripper_frame = self.plant.GetFrameByName(GRIPPER_FRAME)
@@ -347,7 +352,8 @@ class ToolTipIKSystem(LeafSystem):
         output.SetFromVector(context.get_discrete_state(self._state).get_value()[7:])
 
 
-def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
+def home_configuration(scenario, tool_length: float | None,
+                       grasp_offset=(0.0, 0.0)) -> np.ndarray:
     """Right-arm joint angles of the scenario's home pose for a tool of `tool_length` m (None:
     no tool), warm-started from its posture seed, within the conservative limits if the
     scenario's robot keeps them. Raises if unreachable."""
@@ -355,7 +361,7 @@ def home_configuration(scenario, tool_length: float | None) -> np.ndarray:
 
     limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
               if scenario.robot.conservative_limits else {})
-    ik = ToolTipIK(tool_length, **limits)
+    ik = ToolTipIK(tool_length, grasp_offset=grasp_offset, **limits)
     result = ik.solve(home_tip_pose(scenario), q_seed=scenario.robot.posture_seed)
     if not result.success:
         raise ValueError(

@@ -346,6 +346,11 @@ class MeasurementResult:
     scenario_tool_length: float  # m, the truth in the world (for comparison only)
     images: list | None = None  # [(color RGBA, depth)] per view when asked for
     image_files: list = dc.field(default_factory=list)
+    # Where the hand holds the tool along it (m from the gripper frame's origin, as
+    # `tool.grasp_offset_along`), from the grip marker's outer end seen in 3-D; NaN if no
+    # view gave it (see `estimate_grasp_along`).
+    grasp_along: float = math.nan
+    scenario_grasp_along: float = math.nan  # the truth, for comparison only
 
     @property
     def dropped(self) -> list[dict]:
@@ -368,8 +373,22 @@ class MeasurementResult:
                 "views": [v.as_dict() for v in self.views],
                 "scenario_tool_length_m": f(self.scenario_tool_length),
                 "error_m": f(self.length - self.scenario_tool_length),
+                "grasp_along_m": f(self.grasp_along),
+                "scenario_grasp_along_m": f(self.scenario_grasp_along),
                 "wall_time_s": self.wall_time, "sim_time_s": self.sim_time,
                 "image_files": [str(p) for p in self.image_files]}
+
+
+def estimate_grasp_along(views, X_GC) -> float:
+    """Where the hand holds the tool along its axis: the grasp point's z in the gripper frame
+    (m, as `tool.grasp_offset_along`), the mean over the accepted views. The grip marker's
+    outer end (the depth variant's `ends_C[0]`) is the grasp point; `X_GC` is each view's
+    camera pose in the gripper frame. Only the component along the tool: the marker points lie
+    on the rod's surface facing the camera, a radius (~7 mm) off its axis across it, which
+    is as large as the shifts across to be found, so those are not estimated."""
+    along = [(X @ np.asarray(view.ends_C[0], float))[2] for view, X in zip(views, X_GC)
+             if view.accepted and len(view.ends_C) == 2]
+    return float(np.mean(along)) if along else math.nan
 
 
 def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | None = None,
@@ -406,9 +425,14 @@ def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | 
     context = simulator.get_context()
     diagram = built.diagram
     want_images = keep_images or save_images_dir is not None
-    images = []
+    images, X_GC = [], []
+    plant_context = built.world.plant.GetMyContextFromRoot(context)
     for t in built.capture_times:
         simulator.AdvanceTo(t)
+        # The camera in the gripper frame at the capture: the robot's joint encoders and its
+        # head camera's calibration (the world plant's kinematics are the robot's own).
+        X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
+        X_GC.append(X_WG.inverse() @ head_camera_pose(built.world.plant, plant_context))
         if want_images:  # the images the estimator takes at t (cached, rendered once)
             color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
             depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
@@ -432,7 +456,9 @@ def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | 
         length=measurement.length(), spread=measurement.spread(), method=method,
         views=list(measurement.views), wall_time=time.perf_counter() - start, sim_time=t_end,
         scenario_tool_length=float(scenario.tool.length) if scenario.tool.attached else math.nan,
-        images=images if keep_images else None, image_files=files)
+        images=images if keep_images else None, image_files=files,
+        grasp_along=estimate_grasp_along(measurement.views, X_GC),
+        scenario_grasp_along=scenario.tool.grasp_offset_along)
     measurement.length_or_raise()
     return result
 
@@ -468,6 +494,9 @@ def format_measurement(out: dict) -> str:
              f"{len(out['views']) - len(out['dropped'])} views; pixel variant "
              f"{(out['length_pixel_m'] or float('nan')) * 1e3:.2f} mm)",
              "per view: " + ", ".join(f"{k} {v:.2f} mm" for k, v in mm.items())]
+    if out.get("grasp_along_m") is not None:
+        lines.append(f"held {out['grasp_along_m'] * 1e3:+.2f} mm along the tool from the "
+                     "gripper frame's origin (the grasp point)")
     lines += [f"dropped {d['view']}: {d['reason']}" for d in out["dropped"]]
     lines.append(f"{out['wall_time_s']:.2f} s ({out['sim_time_s']:.1f} s simulated)")
     lines += [f"image: {p}" for p in out["image_files"]]

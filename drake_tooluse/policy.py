@@ -58,10 +58,11 @@ class PolicyDiagram:
 
 def build_policy_diagram(scenario: Scenario, policy_dir, believed_tool_length=None,
                          ik_mode: str = "full", meshcat=None,
-                         scene_camera: bool = False) -> PolicyDiagram:
+                         scene_camera: bool = False, believed_grasp=(0.0, 0.0)) -> PolicyDiagram:
     """World (truth) + the policy closed-loop through tool-tip control on a robot model with
-    `believed_tool_length` (default: the scenario's true length). With `scene_camera`, the
-    diagram exports the `color_image` of a camera looking at the work area."""
+    `believed_tool_length` (default: the scenario's true length) held at `believed_grasp`
+    (across, along) m. With `scene_camera`, the diagram exports the `color_image` of a camera
+    looking at the work area."""
     policy = load_policy(policy_dir)
     kwargs = policy.meta.env_kwargs
     believed = tool_length_or_none(scenario) if believed_tool_length is None else (
@@ -75,7 +76,8 @@ def build_policy_diagram(scenario: Scenario, policy_dir, believed_tool_length=No
                          f"{OBSERVATION_SIZES} (one more with the tool length)")
     include_length = n_obs == size + 1
     builder = DiagramBuilder()
-    world, ik, q0 = add_world_at_home(builder, scenario, believed)
+    world, ik, q0 = add_world_at_home(builder, scenario, believed,
+                                      believed_grasp=believed_grasp)
     control = add_tip_control(builder, world, ik, q0, kwargs.get("action_mode", "paper"), ik_mode)
     observation = builder.AddNamedSystem("observation", ToolPushObservation(
         world, ik.plant, goal_position(scenario), include_length, believed, mode))

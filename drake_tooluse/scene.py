@@ -42,7 +42,7 @@ from pydrake.multibody.tree import (
 )
 
 from drake_tooluse.baxter_model import LEFT_ARM_JOINTS, RIGHT_ARM_JOINTS
-from drake_tooluse.scenario import Scenario, check_tool_length
+from drake_tooluse.scenario import Scenario, check_tool_length, validate_scenario
 
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 BAXTER_URL = "package://drake_tooluse/baxter/baxter.urdf"
@@ -297,10 +297,13 @@ def _filter_robot_self_collisions(plant, scene_graph, baxter) -> None:
         CollisionFilterDeclaration().ExcludeWithin(geometries))
 
 
-def make_robot_model(tool_length: float | None, left_arm_q=None) -> MultibodyPlant:
+def make_robot_model(tool_length: float | None, left_arm_q=None,
+                     grasp_offset=(0.0, 0.0)) -> MultibodyPlant:
     """The robot as the controller believes it: Baxter + a `tool_tip` frame `tool_length` m
-    past the gripper (None: no tool, the tip frame is the gripper frame). Finalized, continuous,
-    no geometry."""
+    past the grasp point (None: no tool, the tip frame is the gripper frame), the grasp point
+    `grasp_offset` = (across, along) m from the gripper frame's origin (as the scenario's
+    `tool.grasp_offset_across/along`; the camera can estimate it, see `measure.py`).
+    Finalized, continuous, no geometry."""
     from drake_tooluse.scenario import RobotConfig, ToolConfig
 
     plant = MultibodyPlant(time_step=0.0)
@@ -310,8 +313,10 @@ def make_robot_model(tool_length: float | None, left_arm_q=None) -> MultibodyPla
         plant.AddFrame(FixedOffsetFrame(TIP_FRAME, gripper, RigidTransform()))
     else:
         length = check_tool_length(tool_length)
-        tool_cfg = ToolConfig(length=length)
-        scenario = Scenario(tool=tool_cfg)
+        across, along = (float(v) for v in grasp_offset)
+        tool_cfg = ToolConfig(length=length, grasp_offset_across=across,
+                              grasp_offset_along=along)
+        scenario = validate_scenario(Scenario(tool=tool_cfg))
         add_tool(plant, baxter, scenario, with_geometry=False)
     plant.Finalize()
     return plant

@@ -57,15 +57,17 @@ class TipControlDiagram:
 
 def build_tip_control_diagram(scenario: Scenario, trajectory: PiecewisePolynomial,
                               believed_tool_length: float | None = None,
-                              meshcat=None) -> TipControlDiagram:
+                              meshcat=None, believed_grasp=(0.0, 0.0)) -> TipControlDiagram:
     """World (true tool) + IK system (robot model with `believed_tool_length`, default the true
-    length) + a TrajectorySource of desired tip poses; Meshcat if given."""
+    length, held at `believed_grasp` (across, along) m) + a TrajectorySource of desired tip
+    poses; Meshcat if given."""
     from drake_tooluse.viz import add_meshcat_visualizer
 
     believed = tool_length_or_none(scenario) if believed_tool_length is None else (
         check_tool_length(believed_tool_length, "believed tool length"))
     builder = DiagramBuilder()
-    world, ik, q0 = add_world_at_home(builder, scenario, believed, ik_attempts=16)
+    world, ik, q0 = add_world_at_home(builder, scenario, believed, ik_attempts=16,
+                                      believed_grasp=believed_grasp)
     ik_system = builder.AddNamedSystem(
         "tool_tip_ik", ToolTipIKSystem(ik, q0, scenario.control.control_period))
     source = builder.AddNamedSystem("tip_trajectory", TrajectorySource(trajectory))
@@ -103,7 +105,8 @@ class WaypointRun:
 
 def simulate_waypoints(scenario: Scenario, waypoints, *, move_time: float = 1.0,
                        dwell: float = 1.5, believed_tool_length: float | None = None,
-                       record: str | Path | None = None) -> WaypointRun:
+                       record: str | Path | None = None,
+                       believed_grasp=(0.0, 0.0)) -> WaypointRun:
     """Moves the tool tip through `waypoints` (RigidTransforms X_WT*) in the dynamic
     simulation and measures the true tip's error at the end of each dwell."""
     from drake_tooluse.viz import save_recording, start_meshcat
@@ -114,7 +117,8 @@ def simulate_waypoints(scenario: Scenario, waypoints, *, move_time: float = 1.0,
     dwell = check_in_range(dwell, 0.0, 60.0, "dwell", unit="s")
     meshcat = start_meshcat() if record is not None else None
     traj = tip_pose_trajectory(home_tip_pose(scenario), waypoints, move_time, dwell)
-    built = build_tip_control_diagram(scenario, traj, believed_tool_length, meshcat)
+    built = build_tip_control_diagram(scenario, traj, believed_tool_length, meshcat,
+                                      believed_grasp)
     simulator = Simulator(built.diagram)
     if built.visualizer is not None:
         built.visualizer.StartRecording(False)

@@ -7,7 +7,9 @@ two worlds:
   pose and the true tool length given to the robot;
 - **reality**: the same box start, plus the draw's grasp shift, box mass and friction, the
   reality's actuation delay, conservative joint limits and noisy camera. The robot measures the
-  tool with the head camera and its IK holds the measured length; it knows nothing else.
+  tool with the head camera — its length and where the hand holds it along its axis (or the
+  length only, `use_grasp_estimate=False`, the paper's measurement) — and its IK holds that
+  model; it knows nothing else.
 
 Both run in one of two modes:
 
@@ -61,13 +63,15 @@ class TransferRun:
     world: str  # "nominal" or "reality"
     tool_length: float  # m, the truth
     believed_length: float  # m, what the robot's IK holds (measured in reality)
+    believed_grasp_along: float  # m, where it believes the hand holds the tool (measured or 0)
     seed: int
     push: PushRun
     draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
 
     def as_dict(self) -> dict:
         return {"world": self.world, "seed": self.seed, "tool_length_m": self.tool_length,
-                "believed_length_m": self.believed_length, **self.push.as_dict(),
+                "believed_length_m": self.believed_length,
+                "believed_grasp_along_m": self.believed_grasp_along, **self.push.as_dict(),
                 "perturbation": self.draw}
 
 
@@ -80,11 +84,13 @@ def run_worlds(nominal: Scenario, reality: Scenario, tool_length: float, seed: i
 
 
 def build_trajectory_diagram(scenario: Scenario, trajectory: TipTrajectory,
-                             believed_tool_length: float, meshcat=None):
+                             believed_tool_length: float, meshcat=None,
+                             believed_grasp_along: float = 0.0):
     """World (truth) + the open-loop trajectory through the tool-tip IK with
     `believed_tool_length`. Returns (diagram, world, control, visualizer)."""
     builder = DiagramBuilder()
-    world, ik, q0 = add_world_at_home(builder, scenario, believed_tool_length)
+    world, ik, q0 = add_world_at_home(builder, scenario, believed_tool_length,
+                                      believed_grasp=(0.0, believed_grasp_along))
     source = builder.AddNamedSystem("tip_trajectory", tip_trajectory_source(
         trajectory, lead=scenario.control.control_period))
     control = add_trajectory_control(builder, world, ik, q0, source)
@@ -99,17 +105,20 @@ def build_trajectory_diagram(scenario: Scenario, trajectory: TipTrajectory,
 
 
 def run_open_loop(scenario: Scenario, trajectory: TipTrajectory,
-                  believed_tool_length: float) -> PushRun:
+                  believed_tool_length: float, believed_grasp_along: float = 0.0) -> PushRun:
     """Replays the whole trajectory, then lets the world settle for SETTLE_TIME."""
     diagram, world, control, _ = build_trajectory_diagram(scenario, trajectory,
-                                                          believed_tool_length)
+                                                          believed_tool_length,
+                                                          believed_grasp_along=believed_grasp_along)
     duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
     steps = math.ceil(duration / scenario.control.control_period)
     return run_push(diagram, world, control, steps, stop_at_success=False)
 
 
-def run_closed_loop(scenario: Scenario, policy_dir, believed_tool_length: float) -> PushRun:
-    built = build_policy_diagram(scenario, policy_dir, believed_tool_length)
+def run_closed_loop(scenario: Scenario, policy_dir, believed_tool_length: float,
+                    believed_grasp_along: float = 0.0) -> PushRun:
+    built = build_policy_diagram(scenario, policy_dir, believed_tool_length,
+                                 believed_grasp=(0.0, believed_grasp_along))
     return run_policy(built, max_steps=MAX_STEPS)
 
 
@@ -154,9 +163,13 @@ def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
 def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "closed-loop",
                  seed: int = 0, nominal_scenario: Scenario | None = None,
                  reality_scenario: Scenario | None = None,
-                 trajectory: TipTrajectory | None = None, log=None) -> dict:
+                 trajectory: TipTrajectory | None = None, log=None,
+                 use_grasp_estimate: bool = True) -> dict:
     """The experiment (see the module docstring). `trajectory` is the open-loop one (required
-    in open-loop mode). `log(text)` receives a line per run (default: stderr)."""
+    in open-loop mode). With `use_grasp_estimate` the robot's model holds the camera's
+    estimate of where the hand holds the tool along it as well as the length; without, the
+    length only (the paper's measurement). `log(text)` receives a line per run (default:
+    stderr)."""
     from drake_tooluse.cli import DIAGRAMS_DIR
     from drake_tooluse.measure import measure_tool
     from drake_tooluse.train import load_policy
@@ -174,32 +187,39 @@ def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "
     per_tool = []
     for tool in tools:
         results = {w: [] for w in WORLDS}
-        measured = []
+        measured, grasp_errors = [], []
         for i in range(runs):
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool,
                                                 run_seed)
             t0 = time.perf_counter()
-            length = measure_tool(reality, seed=run_seed).length
+            measurement = measure_tool(reality, seed=run_seed)
+            length = measurement.length
+            along = measurement.grasp_along if use_grasp_estimate else 0.0
             measured.append(length)
-            for world, scenario, believed in (("nominal", nominal, tool),
-                                              ("reality", reality, length)):
+            grasp_errors.append(along - reality.tool.grasp_offset_along)
+            for world, scenario, believed, grasp in (("nominal", nominal, tool, 0.0),
+                                                     ("reality", reality, length, along)):
                 if mode == "closed-loop":
-                    push = run_closed_loop(scenario, policy_dir, believed)
+                    push = run_closed_loop(scenario, policy_dir, believed, grasp)
                 else:
-                    push = run_open_loop(scenario, trajectory, believed)
+                    push = run_open_loop(scenario, trajectory, believed, grasp)
                 # The nominal world takes only the box's start from the draw.
                 perturbation = (dc.asdict(draw) if world == "reality" else
                                 {"box_dxy": draw.box_dxy, "box_dyaw": draw.box_dyaw})
-                results[world].append(TransferRun(world, tool, believed, run_seed, push,
-                                                  perturbation))
+                results[world].append(TransferRun(world, tool, believed, grasp, run_seed,
+                                                  push, perturbation))
             n, r = results["nominal"][-1].push, results["reality"][-1].push
-            log(f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {length:.4f} m; box travel "
+            log(f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {length:.4f} m, grasp "
+                f"{along * 1000:+.1f} mm along (truth {reality.tool.grasp_offset_along * 1000:+.1f});"
+                f" box travel "
                 f"nominal {n.box_travel * 100:.1f} cm, reality {r.box_travel * 100:.1f} cm "
                 f"({time.perf_counter() - t0:.1f} s)")
         entry = {"tool_length_m": tool,
                  "measured_length_mean_m": float(np.mean(measured)),
                  "measured_length_std_m": float(np.std(measured)),
+                 # what the robot believes of the grasp along the tool minus the truth
+                 "grasp_along_error_max_m": float(np.max(np.abs(grasp_errors))),
                  **{w: _stats(results[w]) for w in WORLDS}}
         nominal_travel = entry["nominal"]["box_travel_mean_m"]
         entry["travel_ratio"] = (entry["reality"]["box_travel_mean_m"] / nominal_travel
@@ -217,6 +237,7 @@ def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "
     goals["tool_difference_met"] = (difference is not None
                                     and difference <= TOOL_DIFFERENCE_GOAL)
     return {"policy": str(policy_dir), "mode": mode, "runs": runs, "seed": seed,
+            "use_grasp_estimate": use_grasp_estimate,
             "tools": per_tool, "goals": goals, "wall_time_s": time.perf_counter() - start}
 
 
@@ -276,6 +297,9 @@ def add_transfer_parser(subparsers):
                    help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=DIAGRAMS_DIR / "reality.yaml",
                    help="reality scenario YAML")
+    p.add_argument("--length-only", action="store_true",
+                   help="the robot's model takes only the measured length (the paper's "
+                        "measurement), not the camera's estimate of the grasp along the tool")
     p.add_argument("--out", type=Path, help="directory for transfer.json and the box plot "
                                             "(default runs/transfer-<mode>-<time>)")
     return p
@@ -314,7 +338,7 @@ def cmd_transfer(args) -> dict:
                               "kept": len(trajectory),
                               "file": str(out / "trajectory.npz")}
         result = run_transfer(args.policy, tools, args.runs, args.mode, args.seed, nominal,
-                              reality, trajectory)
+                              reality, trajectory, use_grasp_estimate=not args.length_only)
         result["nominal_scenario"] = str(args.nominal)
         result["reality_scenario"] = str(args.reality)
         if args.mode == "open-loop":
@@ -328,7 +352,8 @@ def cmd_transfer(args) -> dict:
 
 
 def format_transfer(out: dict) -> str:
-    lines = [f"{out['mode']}, {out['runs']} runs per tool:"]
+    lines = [f"{out['mode']}, {out['runs']} runs per tool, the robot's model from the measured "
+             f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"]
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
         ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"

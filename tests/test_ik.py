@@ -97,3 +97,17 @@ def test_q_of_wrong_size_or_outside_limits():
         ik.check_q([0.0] * 6)
     with pytest.raises(ValueError, match=r"right_s1=2 rad outside \[-2.147, 1.047\]"):
         ik.check_q([0.0, 2.0, 0.0, 0.5, 0.0, 0.0, 0.0])
+
+
+def test_robot_model_with_a_believed_grasp_offset():
+    """The tip frame sits `length` past the grasp point, which sits (across, along) from the
+    gripper frame's origin."""
+    import numpy as np
+
+    from drake_tooluse.ik import ToolTipIK
+
+    ik = ToolTipIK(0.2, grasp_offset=(0.004, -0.01), library_size=1)
+    q = np.array([0.3, -0.5, 0.1, 1.2, 0.2, 0.8, -0.4])
+    X_WG, X_WT = ik.fk_gripper(q), ik.fk(q)
+    np.testing.assert_allclose(X_WG.inverse() @ X_WT.translation(), [0.004, 0.0, 0.19],
+                               atol=1e-12)

@@ -101,6 +101,12 @@ def test_transfer_closed_loop_json(tmp_path, capsys):
         assert tool[world]["box_travel_mean_m"] == run["box_travel_m"]
     assert tool["nominal"]["per_run"][0]["believed_length_m"] == 0.15
     assert tool["reality"]["per_run"][0]["believed_length_m"] == tool["measured_length_mean_m"]
+    # The camera's grasp estimate is in the robot's model, within a millimetre of the truth.
+    assert out["use_grasp_estimate"] and tool["grasp_along_error_max_m"] < 0.001
+    assert tool["nominal"]["per_run"][0]["believed_grasp_along_m"] == 0.0
+    reality_run = tool["reality"]["per_run"][0]
+    assert reality_run["believed_grasp_along_m"] == pytest.approx(
+        reality_run["perturbation"]["grasp_along"], abs=0.001)
     assert out["goals"]["tool_travel_difference_m"] is None  # one tool
     assert json.loads((tmp_path / "t" / "transfer.json").read_text())["tools"] == out["tools"]
     assert (tmp_path / "t" / "transfer_boxplot.png").stat().st_size > 1000
@@ -192,3 +198,10 @@ def test_worlds_posing_different_tasks_are_refused():
     with pytest.raises(ValueError, match=r"different tasks: box.position: nominal \[0.7"):
         run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, nominal_scenario=nominal,
                      reality_scenario=moved)
+
+
+def test_transfer_length_only_is_the_papers_measurement(tmp_path):
+    result = run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, log=lambda text: None,
+                          use_grasp_estimate=False)
+    (run,) = result["tools"][0]["reality"]["per_run"]
+    assert not result["use_grasp_estimate"] and run["believed_grasp_along_m"] == 0.0

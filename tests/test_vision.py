@@ -223,3 +223,21 @@ def test_cli_command_measures_and_saves_annotated_views(tmp_path):
     assert abs(out["length_depth_m"] - 0.125) < 1.5e-3
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "measure_grip_bottom.png", "measure_grip_left.png", "measure_grip_right.png"]
+
+
+@pytest.mark.parametrize("length, along", [(0.125, 0.008), (0.40, -0.01)])
+def test_camera_finds_where_the_hand_holds_the_tool(length, along):
+    """The grip marker's outer end is the grasp point: seen in 3-D and put in the gripper frame
+    with the arm's joint angles, it gives the grasp shift along the tool."""
+    import dataclasses as dc
+
+    from drake_tooluse.measure import measure_tool
+    from drake_tooluse.scenario import Scenario, validate_scenario
+
+    s = Scenario()
+    s = validate_scenario(dc.replace(s, tool=dc.replace(
+        s.tool, length=length, grasp_offset_along=along, grasp_offset_across=0.004)))
+    result = measure_tool(s)
+    assert result.grasp_along == pytest.approx(along, abs=0.001)
+    assert result.as_dict()["grasp_along_m"] == result.grasp_along
+    assert result.length == pytest.approx(length, abs=0.001)
