@@ -198,8 +198,10 @@ def run_transfer(policy_dir, tools=(0.125, 0.175), runs: int = 10, mode: str = "
             along = measurement.grasp_along if use_grasp_estimate else 0.0
             measured.append(length)
             grasp_errors.append(along - reality.tool.grasp_offset_along)
-            for world, scenario, believed, grasp in (("nominal", nominal, tool, 0.0),
-                                                     ("reality", reality, length, along)):
+            # The nominal world's robot knows its true tool, grasp included.
+            for world, scenario, believed, grasp in (
+                    ("nominal", nominal, tool, nominal.tool.grasp_offset_along),
+                    ("reality", reality, length, along)):
                 if mode == "closed-loop":
                     push = run_closed_loop(scenario, policy_dir, believed, grasp)
                 else:
