@@ -233,7 +233,7 @@ def cmd_trajectory(args) -> dict:
 
     length = check_tool_length(args.tool_length, "--tool-length")
     start = time.perf_counter()
-    ex = extract(args.policy, args.episodes, args.seed, args.window, length)
+    ex = extract(args.policy, args.episodes, args.seed, args.window, length, align=args.align)
     path = ex.reachability.kept.save(args.out / "trajectory.npz")
     figure = plot_extraction(ex, args.out / "trajectory.png")
     r = ex.reachability
@@ -417,6 +417,9 @@ def make_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--window", type=int, default=5, help="smoothing window (odd, steps)")
+    p.add_argument("--align", default="start",
+                   help="'start' (the paper's: step by step from the start) or 'contact' "
+                        "(from the tool's first touch of the box)")
     p.add_argument("--tool-length", type=float, default=0.175,
                    help="tool for the reachability filter (m)")
     p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")

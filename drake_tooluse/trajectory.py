@@ -18,7 +18,7 @@ import numpy as np
 
 from drake_tooluse.baxter_model import ARM_JOINT_SUFFIXES, ARM_LIMITS, LEFT_ARM_JOINTS, RIGHT_ARM_JOINTS
 from drake_tooluse.io import atomic_write_bytes, atomic_write_text
-from drake_tooluse.validation import check_finite_vector
+from drake_tooluse.validation import check_finite_vector, check_one_of
 
 
 @dataclass
@@ -249,10 +249,26 @@ def _pose_row(env) -> np.ndarray:
                            X_WG.translation()])
 
 
-def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None):
+ALIGNMENTS = ("start", "contact")
+
+
+def delay_to_event(episodes: list[np.ndarray], events: list) -> list[np.ndarray]:
+    """Delays each episode (repeating its first row) so that its event step (an index, or
+    None) comes at the latest one; episodes without the event stay as they are."""
+    latest = max((e for e in events if e is not None), default=None)
+    if latest is None:
+        return list(episodes)
+    return [ep if e is None else np.vstack([np.repeat(ep[:1], latest - e, axis=0), ep])
+            for ep, e in zip(episodes, events)]
+
+
+def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None,
+                    align: str = "start"):
     """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
     each control step (the robot's belief: forward kinematics of its model) and the number of
-    successes."""
+    successes. `align="start"` (the paper's) stacks the episodes from their first step;
+    `"contact"` delays each so that the tool first touches the box at the same step (an
+    episode that never touches it stays as it is)."""
     import gymnasium as gym
 
     import drake_tooluse  # noqa: F401  (registers the envs)
@@ -260,33 +276,41 @@ def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=N
 
     if episodes < 1:
         raise ValueError(f"episodes={episodes} must be at least 1")
+    check_one_of(align, ALIGNMENTS, "align")
     policy = load_policy(policy_dir)
     kwargs = dict(policy.meta.env_kwargs)
     kwargs.update(env_kwargs or {})
     env = gym.make(policy.meta.env_id, **kwargs)
     check_policy_matches(policy, env)
-    tips, quats, grippers, successes = [], [], [], 0
+    recorded, contacts, successes = [], [], 0
     for ep in range(episodes):
         obs, _ = env.reset(seed=seed + ep)
-        rows = [_pose_row(env)]
+        rows, contact = [_pose_row(env)], None
         while True:
             obs, _, terminated, truncated, info = env.step(policy.act(obs))
             rows.append(_pose_row(env))
+            if contact is None and info["tool_touches_box"]:
+                contact = len(rows) - 1
             if terminated or truncated:
                 break
         successes += bool(info["is_success"])
-        rows = np.array(rows, float)
-        tips.append(rows[:, 0:3])
-        quats.append(rows[:, 3:7])
-        grippers.append(rows[:, 7:10])
+        recorded.append(np.array(rows, float))
+        contacts.append(contact)
+    if align == "contact":
+        recorded = delay_to_event(recorded, contacts)
+    tips = [r[:, 0:3] for r in recorded]
+    quats = [r[:, 3:7] for r in recorded]
+    grippers = [r[:, 7:10] for r in recorded]
     return pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes
 
 
 def extract(policy_dir, episodes: int = 100, seed: int = 0, window: int = 5,
-            tool_length: float | None = 0.175, period: float = 0.04) -> Extraction:
-    """The paper's trajectory for transfer: N episodes, averaged, smoothed, and filtered to the
-    poses reachable under the conservative real-robot limits with `tool_length`."""
-    tips, quats, grippers, successes = record_episodes(policy_dir, episodes, seed)
+            tool_length: float | None = 0.175, period: float = 0.04,
+            align: str = "start") -> Extraction:
+    """The paper's trajectory for transfer: N episodes (aligned by `align`, see
+    `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
+    conservative real-robot limits with `tool_length`."""
+    tips, quats, grippers, successes = record_episodes(policy_dir, episodes, seed, align=align)
     mean = average_episodes(tips, quats, period)
     smoothed = smooth(mean, window)
     report = filter_reachable(smoothed, tool_length)

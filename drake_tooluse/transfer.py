@@ -47,7 +47,7 @@ from drake_tooluse.scenario import (
     load_scenario,
     with_tool_length,
 )
-from drake_tooluse.trajectory import TipTrajectory, tip_trajectory_source
+from drake_tooluse.trajectory import ALIGNMENTS, TipTrajectory, tip_trajectory_source
 from drake_tooluse.validation import check_one_of
 
 MODES = ("closed-loop", "open-loop")
@@ -295,6 +295,10 @@ def add_transfer_parser(subparsers):
                         "policy's --episodes episodes)")
     p.add_argument("--episodes", type=int, default=100,
                    help="open loop: episodes averaged into the trajectory (default 100)")
+    p.add_argument("--align", default="start",
+                   help="open loop: average the episodes step by step from their start "
+                        "('start', the paper's) or from the tool's first touch of the box "
+                        "('contact')")
     p.add_argument("--nominal", type=Path, default=DIAGRAMS_DIR / "push.yaml",
                    help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=DIAGRAMS_DIR / "reality.yaml",
@@ -311,6 +315,7 @@ def cmd_transfer(args) -> dict:
     """`drake-tooluse transfer`: runs the experiment, writes DIR/transfer.json and
     DIR/transfer_boxplot.png, returns the result."""
     tools = check_transfer_args(args.tools, args.runs, args.mode)
+    check_one_of(args.align, ALIGNMENTS, "--align")
     nominal = load_scenario(args.nominal)
     reality = load_scenario(args.reality)
     out = Path(args.out or Path("runs") / f"transfer-{args.mode}-{time.strftime('%Y%m%d-%H%M%S')}")
@@ -326,7 +331,7 @@ def cmd_transfer(args) -> dict:
                 print(f"extracting the trajectory from {args.episodes} episodes …",
                       file=sys.stderr, flush=True)
                 ex = extract(args.policy, episodes=args.episodes, seed=args.seed,
-                             tool_length=tools[0])
+                             tool_length=tools[0], align=args.align)
                 # Keep the poses every tool reaches under the conservative limits.
                 trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
                 for tool in tools[1:]:
@@ -334,7 +339,8 @@ def cmd_transfer(args) -> dict:
                     trajectory, reachable[tool] = report.kept, report.reachable
                 trajectory.save(work / "trajectory.npz")
                 plot_extraction(ex, work / "trajectory.png")
-                extraction = {"episodes": args.episodes, "successes": ex.successes,
+                extraction = {"episodes": args.episodes, "align": args.align,
+                              "successes": ex.successes,
                               "poses": ex.reachability.poses,
                               "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
                               "kept": len(trajectory),

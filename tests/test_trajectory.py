@@ -128,3 +128,22 @@ def test_export_csv_cli_refuses_unreachable_or_malformed_trajectories(tmp_path, 
     assert main(["export-csv", "--trajectory", str(tmp_path / "bad.npz"), "--tool-length",
                  "0.175", "--out", str(tmp_path / "bad.csv")]) == 2
     assert "malformed trajectory file" in capsys.readouterr().err
+
+
+def test_delay_to_event_aligns_the_first_contacts():
+    from drake_tooluse.trajectory import delay_to_event
+
+    a = np.arange(5, dtype=float)[:, None]  # touches at step 1
+    b = np.arange(10, 16, dtype=float)[:, None]  # touches at step 3
+    c = np.zeros((2, 1))  # never touches
+    out = delay_to_event([a, b, c], [1, 3, None])
+    assert out[0][3, 0] == a[1, 0] and out[1][3, 0] == b[3, 0]  # both touch at step 3
+    np.testing.assert_array_equal(out[0][:3, 0], [0, 0, 0])  # held at the start meanwhile
+    assert out[2] is c
+
+
+def test_bad_alignment_is_refused(capsys):
+    from drake_tooluse.cli import main
+
+    assert main(["transfer", "--mode", "open-loop", "--align", "middle"]) == 2
+    assert "align" in capsys.readouterr().err
