@@ -382,12 +382,14 @@ class MeasurementResult:
 def estimate_grasp_along(views, X_GC) -> float:
     """Where the hand holds the tool along its axis: the grasp point's z in the gripper frame
     (m, as `tool.grasp_offset_along`), the mean over the accepted views. The grip marker's
-    outer end (the depth variant's `ends_C[0]`) is the grasp point; `X_GC` is each view's
-    camera pose in the gripper frame. Only the component along the tool: the marker points lie
-    on the rod's surface facing the camera, a radius (~7 mm) off its axis across it, which
-    is as large as the shifts across to be found, so those are not estimated."""
-    along = [(X @ np.asarray(view.ends_C[0], float))[2] for view, X in zip(views, X_GC)
-             if view.accepted and len(view.ends_C) == 2]
+    outer end is the grasp point; `X_GC` is each view's camera pose in the gripper frame. Of
+    the two outer ends (`ends_C`) it takes the one nearer the wrist (smaller z in G): the tip
+    is always further out, while the image may pair the two bands the wrong way round when a
+    short tool's grip band is half inside the fingers. Only the component along the tool: the
+    marker points lie on the rod's surface facing the camera, a radius (~7 mm) off its axis
+    across it, as large as the shifts across to be found, so those are not estimated."""
+    along = [min((X @ np.asarray(p, float))[2] for p in view.ends_C)
+             for view, X in zip(views, X_GC) if view.accepted and len(view.ends_C) == 2]
     return float(np.mean(along)) if along else math.nan
 
 

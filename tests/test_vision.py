@@ -241,3 +241,18 @@ def test_camera_finds_where_the_hand_holds_the_tool(length, along):
     assert result.grasp_along == pytest.approx(along, abs=0.001)
     assert result.as_dict()["grasp_along_m"] == result.grasp_along
     assert result.length == pytest.approx(length, abs=0.001)
+
+
+def test_grasp_estimate_for_a_short_tool_held_deep():
+    """0.05 m tool held 10 mm deeper: its grip band is half inside the fingers and one view
+    pairs the two bands the wrong way round; the grasp is the end nearer the wrist."""
+    import dataclasses as dc
+
+    from drake_tooluse.measure import measure_tool
+    from drake_tooluse.scenario import Scenario, validate_scenario
+
+    s = Scenario()
+    s = validate_scenario(dc.replace(s, tool=dc.replace(s.tool, length=0.05,
+                                                        grasp_offset_along=-0.01),
+                                     camera=dc.replace(s.camera, noise_sigma=5.0)))
+    assert measure_tool(s, seed=0).grasp_along == pytest.approx(-0.01, abs=0.001)
