@@ -29,12 +29,11 @@ from pydrake.systems.primitives import (
 
 from drake_tooluse.actions import TipTargetSystem, Workspace
 from drake_tooluse.ik import (
-    Q_LOWER_CONSERVATIVE,
-    Q_UPPER_CONSERVATIVE,
     ToolTipIK,
     ToolTipIKSystem,
     add_differential_ik,
     home_configuration,
+    joint_limit_kwargs,
     pose_to_vector,
 )
 from drake_tooluse.scene import World, add_world, home_tip_pose
@@ -81,10 +80,9 @@ def add_world_at_home(builder, scenario, believed_tool_length: float | None,
     q0 = home_configuration(scenario, believed_tool_length, believed_grasp)
     for joint, q in zip(world.arm_joints(), q0):
         joint.set_default_angle(q)
-    limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
-              if scenario.robot.conservative_limits else {})
     return world, ToolTipIK(believed_tool_length, grasp_offset=believed_grasp,
-                            max_attempts=ik_attempts, **limits), q0
+                            max_attempts=ik_attempts,
+                            **joint_limit_kwargs(scenario.robot.conservative_limits)), q0
 
 
 def add_joint_command(builder, world: World, q_commanded, control: "TipControl") -> None:

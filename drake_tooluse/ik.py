@@ -34,6 +34,12 @@ Q_MID = (Q_LOWER + Q_UPPER) / 2
 Q_LOWER_CONSERVATIVE = Q_LOWER.copy()
 Q_UPPER_CONSERVATIVE = Q_UPPER.copy()
 Q_LOWER_CONSERVATIVE[1], Q_UPPER_CONSERVATIVE[1] = -1.35, 1.0
+
+
+def joint_limit_kwargs(conservative: bool) -> dict:
+    """`ToolTipIK` keyword arguments for the conservative limits, or none for Baxter's own."""
+    return ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+            if conservative else {})
 # A solution counts as a success when it meets these (checked by forward kinematics).
 POSITION_TOLERANCE = 1e-5  # m
 ORIENTATION_TOLERANCE = 1e-4  # rad
@@ -359,8 +365,7 @@ def home_configuration(scenario, tool_length: float | None,
     scenario's robot keeps them. Raises if unreachable."""
     from drake_tooluse.scene import home_tip_pose
 
-    limits = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
-              if scenario.robot.conservative_limits else {})
+    limits = joint_limit_kwargs(scenario.robot.conservative_limits)
     ik = ToolTipIK(tool_length, grasp_offset=grasp_offset, **limits)
     result = ik.solve(home_tip_pose(scenario), q_seed=scenario.robot.posture_seed)
     if not result.success:

@@ -130,15 +130,9 @@ def filter_reachable(traj: TipTrajectory, tool_length: float | None,
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.math import RigidTransform
 
-    from drake_tooluse.ik import (
-        Q_LOWER_CONSERVATIVE,
-        Q_UPPER_CONSERVATIVE,
-        ToolTipIK,
-    )
+    from drake_tooluse.ik import ToolTipIK, joint_limit_kwargs
 
-    kwargs = ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
-              if conservative else {})
-    ik = ToolTipIK(tool_length, **kwargs)
+    ik = ToolTipIK(tool_length, **joint_limit_kwargs(conservative))
     q_seed = np.asarray(RobotConfig().posture_seed if q_start is None else q_start, float)
     keep, qs, dropped = [], [], []
     for i, (p, quat) in enumerate(zip(traj.positions, traj.quaternions)):

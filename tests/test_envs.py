@@ -74,15 +74,21 @@ def test_rewards_of_env1_env2_env3():
         assert goal[0] == pytest.approx(box[0]) and goal[2] == pytest.approx(box[2])
 
 
-@pytest.mark.parametrize("ik_mode", ["full", "differential"])
-def test_scripted_push_reaches_the_goal_and_terminates(ik_mode):
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode=ik_mode)
+def _scripted_episode(env):
+    """The scripted push from seed 0 until the episode ends: (terminated, truncated, info)."""
     policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
     obs, _ = env.reset(seed=0)
     for _ in range(100):
         obs, reward, terminated, truncated, info = env.step(policy(obs))
         if terminated or truncated:
             break
+    return terminated, truncated, info
+
+
+@pytest.mark.parametrize("ik_mode", ["full", "differential"])
+def test_scripted_push_reaches_the_goal_and_terminates(ik_mode):
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode=ik_mode)
+    terminated, truncated, info = _scripted_episode(env)
     assert terminated and not truncated and info["is_success"]
     assert info["box_to_goal"] + info["tip_to_box"] <= 0.05
     assert info["box_travel"] > 0.15
@@ -95,12 +101,7 @@ def test_scripted_push_works_with_short_and_long_tools(tool_length):
     and out through its top face by the contact query (one long thin collision cylinder),
     pinning the box to the table."""
     env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", tool_length=tool_length)
-    policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
-    obs, _ = env.reset(seed=0)
-    for _ in range(100):
-        obs, reward, terminated, truncated, info = env.step(policy(obs))
-        if terminated or truncated:
-            break
+    _, _, info = _scripted_episode(env)
     assert info["is_success"] and info["box_travel"] > 0.15
 
 
