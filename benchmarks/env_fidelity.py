@@ -27,11 +27,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 import drake_tooluse  # noqa: F401
-from drake_tooluse.actions import MAX_TRANSLATION_STEP, Workspace
-from drake_tooluse.ik import ToolTipIK, add_differential_ik, home_configuration, rotation_angle_between
-from drake_tooluse.io import atomic_write_json
-from drake_tooluse.scenario import Scenario
-from drake_tooluse.scripted import ScriptedPush
+from drake_tooluse.systems.tip_target import MAX_TRANSLATION_STEP, Workspace
+from drake_tooluse.diagrams.control import add_differential_ik, home_configuration
+from drake_tooluse.robot.ik import ToolTipIK, rotation_angle_between
+from drake_tooluse.files import atomic_write_json
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.envs.scripted import ScriptedPush
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_fidelity.json"
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import gymnasium as gym
 
 import drake_tooluse  # noqa: F401
-from drake_tooluse.io import atomic_write_json
+from drake_tooluse.files import atomic_write_json
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results"
 

@@ -19,7 +19,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import drake_tooluse  # noqa: E402,F401
-from drake_tooluse.io import atomic_write_json  # noqa: E402
+from drake_tooluse.files import atomic_write_json  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_throughput.json"
 
@@ -73,9 +73,9 @@ def plant_only_ms(steps: int = 500) -> float:
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource
 
-    from drake_tooluse.ik import home_configuration
-    from drake_tooluse.scenario import Scenario
-    from drake_tooluse.scene import add_world
+    from drake_tooluse.diagrams.control import home_configuration
+    from drake_tooluse.world.scenario import Scenario
+    from drake_tooluse.world.scene import add_world
 
     s = Scenario()
     builder = DiagramBuilder()

@@ -27,10 +27,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from pydrake.math import RigidTransform, RollPitchYaw  # noqa: E402
 
-from drake_tooluse.io import atomic_write_json  # noqa: E402
-from drake_tooluse.scenario import Scenario, validate_scenario  # noqa: E402
-from drake_tooluse.scene import TOOL_DOWN_RPY  # noqa: E402
-from drake_tooluse.simulation import simulate_waypoints  # noqa: E402
+from drake_tooluse.files import atomic_write_json  # noqa: E402
+from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
+from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
+from drake_tooluse.diagrams.trajectory import simulate_waypoints  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 TOOLS = [None, 0.125, 0.175]
@@ -57,7 +57,7 @@ def run_condition(length, along, across, args, measure: bool = False,
     scenario = scenario_for(length, along, across)
     believed, grasp = None, (0.0, 0.0)
     if measure:  # the robot model holds the length the head camera measured
-        from drake_tooluse.measure import measure_tool
+        from drake_tooluse.diagrams.measurement import measure_tool
 
         measurement = measure_tool(scenario)
         believed = measurement.length

@@ -14,8 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_tooluse.ik import Q_LOWER, Q_MID, Q_UPPER, ToolTipIK
-from drake_tooluse.io import atomic_write_json
+from drake_tooluse.robot.baxter_model import Q_LOWER, Q_MID, Q_UPPER
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.files import atomic_write_json
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "ik_kinematic.json"
 

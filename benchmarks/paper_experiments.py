@@ -25,7 +25,7 @@ import sys
 import time
 from pathlib import Path
 
-from drake_tooluse.io import atomic_write_json
+from drake_tooluse.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 ENV1, ENV2, ENV3 = ("drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPushBoxReward-v0",

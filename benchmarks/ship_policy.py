@@ -14,7 +14,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from drake_tooluse.io import atomic_write_json
+from drake_tooluse.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -22,9 +22,9 @@ import dataclasses as dc
 
 import numpy as np
 
-from drake_tooluse.io import atomic_write_json
-from drake_tooluse.measure import measure_tool
-from drake_tooluse.scenario import Scenario, validate_scenario, with_tool_length
+from drake_tooluse.files import atomic_write_json
+from drake_tooluse.diagrams.measurement import measure_tool
+from drake_tooluse.world.scenario import Scenario, validate_scenario, with_tool_length
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "vision_accuracy.json"
 LENGTHS = (0.05, 0.10, 0.125, 0.175, 0.25, 0.35, 0.50)

@@ -5,7 +5,7 @@ import json
 import pytest
 
 from drake_tooluse.cli import main
-from drake_tooluse.demo import run_demo
+from drake_tooluse.experiments.demo import run_demo
 
 
 def test_demo_end_to_end(tmp_path, capsys):
@@ -44,12 +44,12 @@ def test_demo_refuses_a_used_directory_and_bad_input(tmp_path):
 
 def test_a_failed_demo_leaves_nothing(tmp_path, monkeypatch):
     """A failure half-way (here: the push) leaves no half-written run directory."""
-    import drake_tooluse.policy
+    import drake_tooluse.experiments.demo as demo
 
     def fail(*args, **kwargs):
         raise RuntimeError("simulated failure during the push")
 
-    monkeypatch.setattr(drake_tooluse.policy, "run_policy", fail)
+    monkeypatch.setattr(demo, "run_policy", fail)
     with pytest.raises(RuntimeError, match="simulated failure"):
         run_demo(tmp_path / "demo", progress=False)
     assert list(tmp_path.iterdir()) == []

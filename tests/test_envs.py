@@ -8,8 +8,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
 import drake_tooluse  # noqa: F401  (registers the ids)
-from drake_tooluse.registration import ENV_IDS
-from drake_tooluse.scripted import ScriptedPush
+from drake_tooluse.envs.registration import ENV_IDS
+from drake_tooluse.envs.scripted import ScriptedPush
 
 FAST = {"ik_mode": "differential"}
 
@@ -149,7 +149,7 @@ def test_rgb_array_render_from_the_camera():
 
 
 def test_episode_recorded_to_meshcat_html(tmp_path):
-    from drake_tooluse.viz import start_meshcat
+    from drake_tooluse.diagrams.visualization import start_meshcat
 
     env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat(), **FAST)
     env.reset(seed=0)
@@ -183,7 +183,7 @@ def test_subproc_vec_env_with_two_workers():
 def test_tip_observation_is_the_same_for_any_tool():
     """`observation_mode="tip"`: goal, box, tip position and velocity — nothing that changes
     with the tool for the same tip motion (unlike the paper's joint angles)."""
-    from drake_tooluse.task import OBSERVATION_SIZES
+    from drake_tooluse.systems.observation import OBSERVATION_SIZES
 
     observations = {}
     for length in (0.125, 0.175):

@@ -4,14 +4,8 @@ import numpy as np
 import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 
-from drake_tooluse.ik import (
-    Q_LOWER,
-    Q_UPPER,
-    ToolTipIK,
-    gripper_target_from_tip_target,
-    pose_from_vector,
-    rotation_angle_between,
-)
+from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER
+from drake_tooluse.robot.ik import ToolTipIK, gripper_target_from_tip_target, pose_from_vector, rotation_angle_between
 
 LENGTHS = [None, 0.05, 0.125, 0.175, 0.30, 0.60]
 
@@ -104,7 +98,7 @@ def test_robot_model_with_a_believed_grasp_offset():
     gripper frame's origin."""
     import numpy as np
 
-    from drake_tooluse.ik import ToolTipIK
+    from drake_tooluse.robot.ik import ToolTipIK
 
     ik = ToolTipIK(0.2, grasp_offset=(0.004, -0.01), library_size=1)
     q = np.array([0.3, -0.5, 0.1, 1.2, 0.2, 0.8, -0.4])

@@ -7,16 +7,12 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.baxter_model import ARM_LIMITS, RIGHT_ARM_JOINTS, baxter_urdf
-from drake_tooluse.ik import ToolTipIK
-from drake_tooluse.scenario import Scenario, with_tool_length
-from drake_tooluse.scene import (
-    MODELS_DIR,
-    add_world,
-    goal_position,
-    initial_box_pose,
-    make_robot_model,
-)
+from drake_tooluse.robot.baxter_model import ARM_LIMITS, RIGHT_ARM_JOINTS, baxter_urdf
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.world.scenario import Scenario, with_tool_length
+from drake_tooluse.paths import MODELS_DIR
+from drake_tooluse.robot.model import make_robot_model
+from drake_tooluse.world.scene import add_world, goal_position, initial_box_pose
 
 DATA = Path(__file__).parent / "data"
 

@@ -6,9 +6,12 @@ import pytest
 from pydrake.systems.framework import DiagramBuilder
 
 import drake_tooluse  # noqa: F401
-from drake_tooluse.policy import PolicySystem, build_policy_diagram, run_policy
-from drake_tooluse.scenario import Scenario
-from drake_tooluse.train import load_policy, resolve_config, train
+from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
+from drake_tooluse.systems.policy import PolicySystem
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.learning.config import resolve_config
+from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.learning.train import train
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +35,7 @@ def test_policy_system_acts_as_the_policy(policy_dir):
 
 
 def test_policy_diagram_matches_the_env_rollout(policy_dir):
-    built = build_policy_diagram(Scenario(), policy_dir, ik_mode="differential")
+    built = build_policy_diagram(Scenario(), load_policy(policy_dir), ik_mode="differential")
     run = run_policy(built, max_steps=20)
     policy = load_policy(policy_dir)
     env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode="differential")
@@ -55,7 +58,7 @@ def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
     meta["env_kwargs"]["action_mode"] = "paper"
     (other / "policy.json").write_text(json.dumps(meta))
     with pytest.raises(ValueError, match="do not fit the action mode 'paper'"):
-        build_policy_diagram(Scenario(), other)
+        build_policy_diagram(Scenario(), load_policy(other))
 
 
 def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
@@ -66,7 +69,7 @@ def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
                                 "observation_mode": "tip"}}
     train(resolve_config("drake_tooluse/ToolPush-v0", "ppo", 128, 1, 0, overrides=overrides),
           out, progress_bar=False)
-    built = build_policy_diagram(Scenario(), out / "final", ik_mode="differential")
+    built = build_policy_diagram(Scenario(), load_policy(out / "final"), ik_mode="differential")
     assert built.observation.get_output_port().size() == 12
     run = run_policy(built, max_steps=5)
     assert run.steps == 5 and np.all(np.isfinite(run.tip_path))

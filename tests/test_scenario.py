@@ -4,7 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from drake_tooluse.scenario import PAPER_TOOL_LENGTHS, Scenario, load_scenario, validate_scenario
+from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
 
 DIAGRAMS = Path(__file__).resolve().parent.parent / "diagrams"
 

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drake_tooluse.train import evaluate, load_policy
+from drake_tooluse.learning.evaluate import evaluate
+from drake_tooluse.learning.policy_dir import load_policy
 
 POLICIES = Path(__file__).resolve().parent.parent / "models" / "policies"
 SHIPPED = {"ppo_toolpush": 30, "ppo_toolpush_tip": 12}  # name -> observation size

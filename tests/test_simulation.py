@@ -10,10 +10,12 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource
 
-from drake_tooluse.ik import ToolTipIK, ToolTipIKSystem, pose_to_vector
-from drake_tooluse.scenario import Scenario
-from drake_tooluse.scene import TOOL_DOWN_RPY, add_world
-from drake_tooluse.simulation import simulate_waypoints
+from drake_tooluse.robot.ik import ToolTipIK, pose_to_vector
+from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief
+from drake_tooluse.world.scene import add_world
+from drake_tooluse.diagrams.trajectory import simulate_waypoints
 
 DOWN = RollPitchYaw(*TOOL_DOWN_RPY)
 
@@ -81,27 +83,27 @@ def test_believed_length_error_shows_up_at_the_tip():
     # The robot believes 0.165 m but holds 0.175 m, pointing down: the true tip ends 1 cm low.
     target = RigidTransform(DOWN, [0.64, -0.25, -0.12])
     run = simulate_waypoints(Scenario(), [target], move_time=0.6, dwell=0.8,
-                             believed_tool_length=0.165)
+                             belief=RobotBelief(0.165))
     result = run.results[0]
     assert result.reached[2] == pytest.approx(target.translation()[2] - 0.01, abs=1e-3)
 
 
 def test_believed_grasp_reaches_the_ik():
     """A grasp shifted 5 mm along the tool: the tip misses by 5 mm when the robot believes the
-    nominal grasp, and lands when its model holds the shift (`believed_grasp`)."""
+    nominal grasp, and lands when its model holds the shift (the belief's grasp)."""
     import dataclasses as dc
 
     from pydrake.math import RigidTransform, RollPitchYaw
 
-    from drake_tooluse.scenario import Scenario, validate_scenario
-    from drake_tooluse.scene import TOOL_DOWN_RPY
-    from drake_tooluse.simulation import simulate_waypoints
+    from drake_tooluse.world.scenario import Scenario, validate_scenario
+    from drake_tooluse.robot.model import TOOL_DOWN_RPY
+    from drake_tooluse.diagrams.trajectory import simulate_waypoints
 
     s = Scenario()
     s = validate_scenario(dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=0.005)))
     target = [RigidTransform(RollPitchYaw(*TOOL_DOWN_RPY), [0.66, -0.2, -0.12])]
-    naive = simulate_waypoints(s, target, move_time=0.5, dwell=0.5, believed_tool_length=0.175)
-    told = simulate_waypoints(s, target, move_time=0.5, dwell=0.5, believed_tool_length=0.175,
-                              believed_grasp=(0.0, 0.005))
+    naive = simulate_waypoints(s, target, move_time=0.5, dwell=0.5, belief=RobotBelief(0.175))
+    told = simulate_waypoints(s, target, move_time=0.5, dwell=0.5,
+                              belief=RobotBelief(0.175, (0.0, 0.005)))
     assert abs(naive.results[0].position_error - 0.005) < 2e-4
     assert told.results[0].position_error < 2e-4

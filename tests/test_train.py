@@ -11,7 +11,10 @@ from pathlib import Path
 import pytest
 
 from drake_tooluse.cli import main
-from drake_tooluse.train import evaluate, load_policy, resolve_config, train
+from drake_tooluse.learning.config import resolve_config
+from drake_tooluse.learning.evaluate import evaluate
+from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.learning.train import train
 
 ENV = "drake_tooluse/ToolPush-v0"
 TINY = {"eval_freq": 10_000_000, "checkpoint_freq": 512, "eval_episodes": 1}

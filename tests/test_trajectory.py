@@ -5,20 +5,12 @@ import pytest
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
-from drake_tooluse.baxter_model import RIGHT_ARM_JOINTS
-from drake_tooluse.ik import ToolTipIK, rotation_angle_between
-from drake_tooluse.scene import TOOL_DOWN_RPY
-from drake_tooluse.trajectory import (
-    CSV_HEADER,
-    TipTrajectory,
-    average_episodes,
-    average_quaternions,
-    export_baxter_csv,
-    filter_reachable,
-    pad_episodes,
-    read_baxter_csv,
-    smooth,
-)
+from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
+from drake_tooluse.robot.ik import ToolTipIK, rotation_angle_between
+from drake_tooluse.robot.model import TOOL_DOWN_RPY
+from drake_tooluse.experiments.baxter_csv import CSV_HEADER, export_baxter_csv, read_baxter_csv
+from drake_tooluse.experiments.trajectory import average_episodes, average_quaternions, filter_reachable, pad_episodes, smooth
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
 
 
 def _quat(rpy):
@@ -131,7 +123,7 @@ def test_export_csv_cli_refuses_unreachable_or_malformed_trajectories(tmp_path, 
 
 
 def test_delay_to_event_aligns_the_first_contacts():
-    from drake_tooluse.trajectory import delay_to_event
+    from drake_tooluse.experiments.trajectory import delay_to_event
 
     a = np.arange(5, dtype=float)[:, None]  # touches at step 1
     b = np.arange(10, 16, dtype=float)[:, None]  # touches at step 3

@@ -7,21 +7,17 @@ import re
 import numpy as np
 import pytest
 
-from drake_tooluse.cli import DIAGRAMS_DIR, SHIPPED_POLICY, main
-from drake_tooluse.scenario import (
-    Scenario,
-    apply_draw,
-    draw_randomization,
-    load_scenario,
-    validate_scenario,
-)
-from drake_tooluse.trajectory import TipTrajectory, tip_trajectory_source
-from drake_tooluse.transfer import run_transfer, run_worlds
+from drake_tooluse.cli import main
+from drake_tooluse.paths import SCENARIOS_DIR, SHIPPED_POLICY
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
+from drake_tooluse.systems.tip_trajectory import TipTrajectory, tip_trajectory_source
+from drake_tooluse.experiments.transfer import run_transfer, run_worlds
 
 
 def test_reality_is_perturbed_and_the_nominal_world_is_not():
-    nominal = load_scenario(DIAGRAMS_DIR / "push.yaml")
-    reality = load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    nominal = load_scenario(SCENARIOS_DIR / "push.yaml")
+    reality = load_scenario(SCENARIOS_DIR / "reality.yaml")
     assert reality.control.actuation_delay > 0 and reality.robot.conservative_limits
     assert reality.camera.noise_sigma > 0
     n, r, draw = run_worlds(nominal, reality, 0.15, seed=3)
@@ -62,7 +58,7 @@ def test_delayed_arm_holds_still_at_the_start():
 
     import drake_tooluse  # noqa: F401
 
-    env = gym.make("drake_tooluse/ToolPush-v0", scenario=DIAGRAMS_DIR / "reality.yaml",
+    env = gym.make("drake_tooluse/ToolPush-v0", scenario=SCENARIOS_DIR / "reality.yaml",
                    action_mode="position")
     obs, _ = env.reset(seed=0)
     for _ in range(5):
@@ -113,7 +109,7 @@ def test_transfer_closed_loop_json(tmp_path, capsys):
 
 
 def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
-    from drake_tooluse.scene import home_tip_pose
+    from drake_tooluse.world.scene import home_tip_pose
 
     X = home_tip_pose(Scenario())
     p0 = X.translation()
@@ -165,13 +161,13 @@ def test_actuation_delay_is_the_configured_time(delay):
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
-    from drake_tooluse.control import TipControl, add_joint_command, add_world_at_home
+    from drake_tooluse.diagrams.control import TipControl, add_joint_command, add_world_at_home
 
     def first_motion(actuation_delay):
         s = Scenario()
         s = dc.replace(s, control=dc.replace(s.control, actuation_delay=actuation_delay))
         builder = DiagramBuilder()
-        world, ik, q0 = add_world_at_home(builder, s, 0.175)
+        world, ik, q0 = add_world_at_home(builder, s)
         q1 = q0.copy()
         q1[0] += 0.1
         step = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
@@ -192,8 +188,8 @@ def test_actuation_delay_is_the_configured_time(delay):
 
 
 def test_worlds_posing_different_tasks_are_refused():
-    nominal = load_scenario(DIAGRAMS_DIR / "push.yaml")
-    reality = load_scenario(DIAGRAMS_DIR / "reality.yaml")
+    nominal = load_scenario(SCENARIOS_DIR / "push.yaml")
+    reality = load_scenario(SCENARIOS_DIR / "reality.yaml")
     moved = dc.replace(reality, box=dc.replace(reality.box, position=[0.65, -0.25, 0.0]))
     with pytest.raises(ValueError, match=r"different tasks: box.position: nominal \[0.7"):
         run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, nominal_scenario=nominal,

@@ -1,7 +1,6 @@
 """Tool length from the head camera: the estimator on synthetic and rendered images, dropped
 views, the no-marker error, robustness, and the IK with the measured length."""
 
-import argparse
 import dataclasses as dc
 import math
 
@@ -10,26 +9,12 @@ import pytest
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import CameraInfo
 
-from drake_tooluse.ik import ToolTipIK
-from drake_tooluse.measure import (
-    MEASUREMENT_VIEWS,
-    add_measure_parser,
-    build_measurement_diagram,
-    cmd_measure,
-    measure_tool,
-    occluder,
-    orange_distractor,
-    plan_measurement,
-)
-from drake_tooluse.scenario import (
-    CameraConfig,
-    Scenario,
-    ToolConfig,
-    validate_scenario,
-    with_tool_length,
-)
-from drake_tooluse.scene import TOOL_DOWN_RPY, make_robot_model
-from drake_tooluse.vision import ViewSpec, add_color_noise, measure_view
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.cli import make_parser
+from drake_tooluse.diagrams.measurement import MEASUREMENT_VIEWS, build_measurement_diagram, measure_tool, occluder, orange_distractor, plan_measurement
+from drake_tooluse.world.scenario import CameraConfig, Scenario, ToolConfig, validate_scenario, with_tool_length
+from drake_tooluse.robot.model import TOOL_DOWN_RPY, make_robot_model
+from drake_tooluse.perception.markers import ViewSpec, add_color_noise, measure_view
 
 # The views' layout depends on the robot only: plan once for the whole file.
 PLAN = plan_measurement(Scenario())
@@ -213,11 +198,9 @@ def test_bad_method_and_noise_are_errors():
 
 
 def test_cli_command_measures_and_saves_annotated_views(tmp_path):
-    parser = argparse.ArgumentParser()
-    add_measure_parser(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["measure", "--tool-length", "0.125", "--method", "pixel",
-                              "--save-images", str(tmp_path)])
-    out = cmd_measure(args)
+    args = make_parser().parse_args(["measure", "--tool-length", "0.125", "--method", "pixel",
+                                     "--save-images", str(tmp_path)])
+    out = args.run(args)
     assert out["method"] == "pixel"
     assert out["tool_length_m"] == pytest.approx(out["length_pixel_m"])
     assert abs(out["length_depth_m"] - 0.125) < 1.5e-3
@@ -231,8 +214,8 @@ def test_camera_finds_where_the_hand_holds_the_tool(length, along):
     with the arm's joint angles, it gives the grasp shift along the tool."""
     import dataclasses as dc
 
-    from drake_tooluse.measure import measure_tool
-    from drake_tooluse.scenario import Scenario, validate_scenario
+    from drake_tooluse.diagrams.measurement import measure_tool
+    from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()
     s = validate_scenario(dc.replace(s, tool=dc.replace(
@@ -248,8 +231,8 @@ def test_grasp_estimate_for_a_short_tool_held_deep():
     pairs the two bands the wrong way round; the grasp is the end nearer the wrist."""
     import dataclasses as dc
 
-    from drake_tooluse.measure import measure_tool
-    from drake_tooluse.scenario import Scenario, validate_scenario
+    from drake_tooluse.diagrams.measurement import measure_tool
+    from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()
     s = validate_scenario(dc.replace(s, tool=dc.replace(s.tool, length=0.05,

@@ -1,0 +1,106 @@
+"""`train`, `evaluate` and `sweep`: stable-baselines3 through the Gymnasium envs."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+
+from drake_tooluse.cli.common import UsageError, parse_json_arg
+from drake_tooluse.envs.registration import ENV_IDS
+
+
+def cmd_train(args) -> dict:
+    import torch
+
+    from drake_tooluse.learning.config import resolve_config
+    from drake_tooluse.learning.train import train
+
+    if args.resume is not None:
+        out_dir = args.resume
+        if args.out is not None and args.out != args.resume:
+            raise UsageError("give --resume DIR alone (it is the run directory), not with --out")
+    elif args.out is None:
+        raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
+    else:
+        out_dir = args.out
+    config = resolve_config(args.env, args.algo, args.timesteps, args.n_envs, args.seed,
+                            init_from=str(args.init_from) if args.init_from else None,
+                            overrides=parse_json_arg(args.hyperparams, "--hyperparams"))
+    # One torch thread: the env processes are the parallelism (2 cores here).
+    torch.set_num_threads(1)
+    command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
+    return train(config, out_dir, resume=args.resume is not None,
+                 progress_bar=not args.no_progress and sys.stderr.isatty(), command=command)
+
+
+def cmd_evaluate(args) -> dict:
+    from dataclasses import asdict
+
+    from drake_tooluse.learning.evaluate import evaluate
+
+    env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
+    result = asdict(evaluate(args.policy, args.env, args.episodes, args.seed, env_kwargs))
+    if not args.per_episode:
+        result.pop("per_episode")
+    return result
+
+
+def format_evaluate(out: dict) -> str:
+    return (f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
+            f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
+            f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
+            f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
+            f"{out['success_rate'] * 100:.0f} %; box travel {out['box_travel_mean_m'] * 100:.1f}"
+            f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
+            f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
+            f"{out['gripper_touched_rate'] * 100:.0f} %")
+
+
+def cmd_sweep(args) -> dict:
+    from drake_tooluse.learning.sweep import results_table, sweep
+
+    rows = sweep(args.algos, args.envs, args.seeds, args.timesteps, args.out,
+                 address=args.address, num_cpus=args.num_cpus,
+                 overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
+                 episodes=args.episodes)
+    return {"runs": rows, "table": results_table(rows)}
+
+
+def add_parsers(sub) -> None:
+    p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
+    p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {list(ENV_IDS)}")
+    p.add_argument("--algo", default="ppo", help="ppo, a2c, ddpg or trpo")
+    p.add_argument("--timesteps", type=int, default=1_250_000)
+    p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, help="new run directory")
+    p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
+    p.add_argument("--init-from", type=Path, metavar="POLICY",
+                   help="start from a trained policy directory (fine-tuning)")
+    p.add_argument("--hyperparams", metavar="JSON",
+                   help='override YAML hyperparameters, e.g. \'{"learning_rate": 1e-4}\'')
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(run=cmd_train)
+
+    p = sub.add_parser("evaluate", help="evaluate a policy directory over seeded episodes")
+    p.add_argument("--policy", type=Path, required=True, help="policy directory")
+    p.add_argument("--env", help="env id (default: the one it was trained on)")
+    p.add_argument("--episodes", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
+    p.add_argument("--per-episode", action="store_true", help="include each episode")
+    p.set_defaults(run=cmd_evaluate, show=format_evaluate)
+
+    p = sub.add_parser("sweep", help="a grid of runs (algos x envs x seeds) on Ray "
+                                     "(pip install '.[cluster]')")
+    p.add_argument("--algos", nargs="+", default=["ppo"], help="ppo a2c ddpg trpo")
+    p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"])
+    p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    p.add_argument("--timesteps", type=int, default=300_000)
+    p.add_argument("--out", type=Path, required=True, help="directory for the runs and table")
+    p.add_argument("--address", help="join this Ray cluster (default: a local one)")
+    p.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
+    p.add_argument("--hyperparams", metavar="JSON", help="override YAML hyperparameters")
+    p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per run")
+    p.set_defaults(run=cmd_sweep, show=lambda out: out["table"].rstrip("\n"))

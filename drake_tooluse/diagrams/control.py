@@ -1,0 +1,219 @@
+"""Tool-tip control wired into a world: action → desired tool-tip pose → IK → joint targets.
+
+```
+action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem (full)            ──q*──► [q*, 0] ──► (delay) ──► plant
+              ▲                     └► DifferentialIKIntegrator (differential)                             │
+              └───────────────────────── measured arm state ◄──────────────────────────────────────────────┘
+
+TrajectorySource (tool-tip poses) ──X_WT*──► ToolTipIKSystem ──q*──► [q*, 0] ──► (delay) ──► plant
+```
+
+Tip control is used by the Gymnasium envs and by the policy diagram, so both run the same
+controller; trajectory control serves the waypoint simulation and the paper's open-loop
+transfer. Every path from a target to the plant goes through `add_joint_command`, so each
+honours the scenario's `control.actuation_delay`.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.multibody.inverse_kinematics import (
+    DifferentialInverseKinematicsIntegrator,
+    DifferentialInverseKinematicsParameters,
+)
+from pydrake.systems.primitives import (
+    ConstantValueSource,
+    ConstantVectorSource,
+    DiscreteTimeDelay,
+    Multiplexer,
+)
+
+from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
+from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs, pose_to_vector
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.tip_target import TipTargetSystem, Workspace
+from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
+from drake_tooluse.validation import check_one_of
+from drake_tooluse.world.scenario import tool_length_or_none
+from drake_tooluse.world.scene import World, add_world, home_tip_pose
+
+IK_MODES = ("full", "differential")
+# Solves of the IK in the loop per control step (the warm start, then library seeds); the
+# home pose, solved once per diagram, may take more.
+IK_ATTEMPTS = 3
+HOME_IK_ATTEMPTS = 16
+
+
+@dataclass
+class TipControl:
+    target: TipTargetSystem | None  # None under trajectory control
+    ik: ToolTipIK
+    q0: np.ndarray
+    ik_system: ToolTipIKSystem | None = None  # ik_mode "full"
+    differential: object = None  # ik_mode "differential"
+    delay: DiscreteTimeDelay | None = None  # the actuation delay, if any
+
+    def reset(self, root_context) -> None:
+        """Puts the IK's state back at the home configuration (episode start), and fills the
+        actuation delay's buffer with the home target (not zeros: the arm would jump)."""
+        if self.differential is not None:
+            self.differential.SetPositions(
+                self.differential.GetMyMutableContextFromRoot(root_context), self.q0)
+        if self.delay is not None:
+            delay_context = self.delay.GetMyMutableContextFromRoot(root_context)
+            size = delay_context.get_discrete_state_vector().size()
+            delay_context.SetDiscreteState(np.resize(np.concatenate([self.q0, np.zeros(7)]),
+                                                     size))
+
+    def ik_ok(self, root_context) -> bool:
+        if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
+            return True
+        status = self.ik_system.GetOutputPort("status").Eval(
+            self.ik_system.GetMyContextFromRoot(root_context))
+        return bool(status[0] > 0.5)
+
+
+def nominal_belief(scenario) -> RobotBelief:
+    """A robot told its tool's length and nothing else (the nominal grasp)."""
+    return RobotBelief(tool_length_or_none(scenario))
+
+
+def home_configuration(scenario, ik: ToolTipIK) -> np.ndarray:
+    """Right-arm joint angles of the scenario's home pose on the robot model of `ik` (the
+    believed tool), warm-started from the scenario's posture seed. Raises if unreachable."""
+    X_WT = home_tip_pose(scenario)
+    result = ik.solve(X_WT, q_seed=scenario.robot.posture_seed, max_attempts=HOME_IK_ATTEMPTS)
+    if not result.success:
+        limits = " within the conservative joint limits" if scenario.robot.conservative_limits else ""
+        raise ValueError(
+            f"the scenario's home pose (tip at {X_WT.translation().tolist()} m) is unreachable "
+            f"with tool length {ik.tool_length} m: residual {result.position_error:.3g} m, "
+            f"{result.orientation_error:.3g} rad{limits}; move robot.home_tip_xy / "
+            "home_tip_height")
+    return result.q
+
+
+def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
+    """The IK on the robot model of `belief`, with the joint limits the scenario's robot keeps."""
+    return ToolTipIK(belief.tool_length, grasp_offset=belief.grasp_offset,
+                     max_attempts=IK_ATTEMPTS,
+                     **joint_limit_kwargs(scenario.robot.conservative_limits))
+
+
+def add_world_at_home(builder, scenario, belief: RobotBelief | None = None):
+    """The world, started at the home configuration the robot computes for the tool it
+    believes it holds (default: `nominal_belief`), and the IK on that belief. Returns
+    (world, ik, q0)."""
+    belief = nominal_belief(scenario) if belief is None else belief
+    world = add_world(builder, scenario)
+    ik = robot_ik(scenario, belief)
+    q0 = home_configuration(scenario, ik)
+    for joint, q in zip(world.arm_joints(), q0):
+        joint.set_default_angle(q)
+    return world, ik, q0
+
+
+def add_joint_command(builder, world: World, q_commanded, control: TipControl) -> None:
+    """Desired state [q*, 0] (joint targets held over the control period, zero velocity) to
+    the plant's PD controllers, through the actuation delay if the scenario has one."""
+    s = world.scenario
+    zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+    desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
+    builder.Connect(q_commanded, desired_state.get_input_port(0))
+    builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
+    command = desired_state.get_output_port()
+    steps = round(s.control.actuation_delay / s.plant.time_step)
+    if steps > 0:
+        # A DiscreteTimeDelay of N updates, sampled on the plant's own ticks, reaches the
+        # plant's step N + 1 ticks late (its update reads the delay's output from before the
+        # same tick): N = steps - 1 gives `actuation_delay` exactly (tested).
+        control.delay = builder.AddNamedSystem(
+            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps - 1, 14))
+        builder.Connect(command, control.delay.get_input_port())
+        command = control.delay.get_output_port()
+    builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
+
+
+class _DifferentialIKNoSolutionFilter(logging.Filter):
+    """Drops the differential IK's "no solution" switches (a target it cannot reach in one
+    step: the arm holds), which it logs at every change; too chatty for training. Everything
+    else Drake logs passes."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "DifferentialInverseKinematics" not in record.getMessage()
+
+
+_DIFFERENTIAL_IK_FILTER = _DifferentialIKNoSolutionFilter()
+
+
+def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
+    """A cheaper first-order alternative to `ToolTipIKSystem` for training: Drake's
+    `DifferentialInverseKinematicsIntegrator` on the tool-tip frame of the robot model (one QP
+    per control period, joint position limits respected; all C++, no Python in the loop).
+    Connect a RigidTransform X_WT* to its `X_AE_desired` input; its `joint_positions` output
+    (7) are the joint targets. Set its positions to q0 at each episode start
+    (`TipControl.reset`)."""
+    drake_logger = logging.getLogger("drake")
+    if _DIFFERENTIAL_IK_FILTER not in drake_logger.filters:
+        drake_logger.addFilter(_DIFFERENTIAL_IK_FILTER)
+    plant = ik.plant
+    for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], q0):
+        joint.set_default_angle(q)
+    params = DifferentialInverseKinematicsParameters(7, 7)
+    params.set_joint_position_limits((ik.lower, ik.upper))
+    # No joint velocity limits, like the full IK: the step is the whole Newton step, and the
+    # PD controllers (effort-limited) decide how fast the arm gets there.
+    params.set_nominal_joint_position(np.asarray(q0, float))
+    params.set_joint_centering_gain(0.01 * np.eye(7))  # a light pull toward the home posture
+    return builder.AddNamedSystem("differential_ik", DifferentialInverseKinematicsIntegrator(
+        plant, ik.tip_frame, period, params, log_only_when_result_state_changes=True))
+
+
+def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
+                    ik_mode: str) -> TipControl:
+    """Adds the tip target, the IK (full or differential) and the joint command, connected
+    to the world's plant. The target's `action` input is left for the caller to connect."""
+    check_one_of(ik_mode, IK_MODES, "ik_mode")
+    s = world.scenario
+    period = s.control.control_period
+    target = builder.AddNamedSystem("tip_target", TipTargetSystem(
+        action_mode, ik.plant, pose_to_vector(home_tip_pose(s)),
+        Workspace.above_table(s.table.top_z)))
+    arm_state = world.plant.get_state_output_port(world.baxter)
+    builder.Connect(arm_state, target.GetInputPort("arm_state"))
+    control = TipControl(target, ik, np.asarray(q0, float))
+    if ik_mode == "full":
+        control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
+        builder.Connect(target.GetOutputPort("tip_pose_desired"),
+                        control.ik_system.GetInputPort("tip_pose_desired"))
+        q_commanded = control.ik_system.GetOutputPort("q_desired")
+    else:
+        control.differential = add_differential_ik(builder, ik, q0, period)
+        builder.Connect(target.GetOutputPort("X_WT_desired"),
+                        control.differential.GetInputPort("X_AE_desired"))
+        # Linearize about the measured arm, as the full IK starts from it; integrating open
+        # loop instead would let the target (measured + action) run away.
+        builder.Connect(arm_state, control.differential.GetInputPort("robot_state"))
+        use_measured = builder.AddSystem(ConstantValueSource(AbstractValue.Make(True)))
+        builder.Connect(use_measured.get_output_port(),
+                        control.differential.GetInputPort("use_robot_state"))
+        q_commanded = control.differential.GetOutputPort("joint_positions")
+    add_joint_command(builder, world, q_commanded, control)
+    return control
+
+
+def add_trajectory_control(builder, world: World, ik: ToolTipIK, q0, tip_source) -> TipControl:
+    """Open loop: the 7-vector [p_WT, quaternion wxyz] output of `tip_source` (a Drake
+    TrajectorySource, see `systems.tip_trajectory.tip_trajectory_source`) through the full
+    tool-tip IK and the joint command to the plant."""
+    control = TipControl(None, ik, np.asarray(q0, float))
+    period = world.scenario.control.control_period
+    control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
+    builder.Connect(tip_source.get_output_port(),
+                    control.ik_system.GetInputPort("tip_pose_desired"))
+    add_joint_command(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
+    return control

@@ -1,0 +1,183 @@
+"""The push task wired into a diagram: world at home → tool-tip control → observation; with a
+trained policy closed-loop inside the diagram (not through the Gym wrapper), and runs of it.
+
+```
+plant ──state──► ToolPushObservation ──► PolicySystem ──action──► TipTargetSystem ──► IK ──► plant
+```
+
+`add_push_task` is the one wiring of the task; the Gymnasium env (`envs.push_env`) exports its
+`action` input and `observation` output, `build_policy_diagram` connects a policy between them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from drake_tooluse.diagrams.control import (
+    TipControl,
+    add_tip_control,
+    add_world_at_home,
+    nominal_belief,
+)
+from drake_tooluse.diagrams.visualization import add_meshcat_visualizer
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.observation import OBSERVATION_SIZES, ToolPushObservation
+from drake_tooluse.systems.policy import PolicySystem
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.world.scene import World, goal_position, initial_box_pose
+from drake_tooluse.world.task import PushMetricsReader
+
+
+@dataclass
+class PushTask:
+    """The parts `add_push_task` added."""
+
+    world: World
+    ik: ToolTipIK
+    control: TipControl
+    observation: ToolPushObservation
+
+
+def add_push_task(builder, scenario: Scenario, belief: RobotBelief | None, action_mode: str,
+                  ik_mode: str, observation_mode: str,
+                  include_tool_length: bool) -> PushTask:
+    """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
+    tool-tip control (`action_mode`, `ik_mode`) and the task's observation of the world, its
+    goal the scenario's. The tip target's `action` input is left unconnected."""
+    belief = nominal_belief(scenario) if belief is None else belief
+    world, ik, q0 = add_world_at_home(builder, scenario, belief)
+    control = add_tip_control(builder, world, ik, q0, action_mode, ik_mode)
+    observation = builder.AddNamedSystem("observation", ToolPushObservation(
+        world, ik.plant, goal_position(scenario), include_tool_length, belief.tool_length,
+        observation_mode))
+    builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
+    return PushTask(world, ik, control, observation)
+
+
+@dataclass
+class PolicyDiagram:
+    diagram: object
+    world: World
+    control: TipControl
+    observation: ToolPushObservation
+    policy_system: PolicySystem
+    visualizer: object = None
+
+
+def policy_observation(policy) -> tuple[str, bool]:
+    """(observation_mode, include_tool_length) of a loaded policy, from its metadata and its
+    observation size; an observation the push task cannot give is an error."""
+    n_obs = policy.meta.observation_shape[0]
+    mode = policy.meta.env_kwargs.get("observation_mode", "paper")
+    size = OBSERVATION_SIZES.get(mode)
+    if size is None or n_obs not in (size, size + 1):
+        raise ValueError(f"the policy observes {n_obs} values with observation_mode={mode!r}; "
+                         f"the push task gives {OBSERVATION_SIZES} (one more with the tool "
+                         "length)")
+    return mode, n_obs == size + 1
+
+
+def build_policy_diagram(scenario: Scenario, policy, belief: RobotBelief | None = None,
+                         ik_mode: str = "full", meshcat=None,
+                         scene_camera: bool = False) -> PolicyDiagram:
+    """World (truth) + a loaded policy (`learning.policy_dir.load_policy`) closed-loop through
+    tool-tip control on the robot model of `belief` (default: the scenario's true length,
+    nominal grasp). With `scene_camera`, the diagram exports the `color_image` of a camera
+    looking at the work area."""
+    mode, include_length = policy_observation(policy)
+    action_mode = policy.meta.env_kwargs.get("action_mode", "paper")
+    builder = DiagramBuilder()
+    task = add_push_task(builder, scenario, belief, action_mode, ik_mode, mode, include_length)
+    action_input = task.control.target.GetInputPort("action")
+    if action_input.size() != policy.meta.action_shape[0]:
+        raise ValueError(f"the policy's actions {policy.meta.action_shape} do not fit the "
+                         f"action mode {action_mode!r}")
+    policy_system = builder.AddNamedSystem("policy", PolicySystem(policy))
+    builder.Connect(task.observation.get_output_port(), policy_system.get_input_port())
+    builder.Connect(policy_system.get_output_port(), action_input)
+    visualizer = None
+    if meshcat is not None:
+        visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat)
+    if scene_camera:
+        add_scene_camera(builder, task.world)
+    diagram = builder.Build()
+    diagram.set_name("policy_control")
+    return PolicyDiagram(diagram, task.world, task.control, task.observation, policy_system,
+                         visualizer)
+
+
+@dataclass
+class PushRun:
+    """What happened in one push, from the world's truth."""
+
+    steps: int  # control steps simulated
+    success: bool  # the box ended at the goal (within the env's threshold)
+    final_box_to_goal: float  # m
+    box_travel: float  # m, from its start to where it ended
+    tool_touched: bool
+    gripper_touched: bool
+    tip_path: np.ndarray  # (steps + 1, 3) true tool-tip positions at each control step
+    box_path: np.ndarray  # (steps + 1, 3) box centre
+    final_image: np.ndarray | None = None  # RGBA at the end, if the diagram has a scene camera
+
+    def as_dict(self) -> dict:
+        return {"steps": self.steps, "success": self.success,
+                "final_box_to_goal_m": self.final_box_to_goal, "box_travel_m": self.box_travel,
+                "tool_touched": self.tool_touched, "gripper_touched": self.gripper_touched}
+
+
+def run_push(diagram, world: World, control: TipControl, max_steps: int,
+             stop_at_success: bool = True, visualizer=None, on_step=None) -> PushRun:
+    """Simulates a push diagram from its default state one control period at a time, for
+    `max_steps` or until the box reaches the goal (as the env terminates) if
+    `stop_at_success`. With a `visualizer`, the run is recorded. `on_step(step)` is called
+    after each control step (progress displays)."""
+    s = world.scenario
+    simulator = Simulator(diagram)
+    root = simulator.get_mutable_context()
+    control.reset(root)
+    if visualizer is not None:
+        visualizer.StartRecording(False)
+    simulator.Initialize()
+    plant_context = world.plant.GetMyContextFromRoot(root)
+    reader = PushMetricsReader(world)
+    goal = goal_position(s)
+    box_start = initial_box_pose(s).translation()
+    tips, boxes = [], []
+    tool_touched = gripper_touched = False
+    period = s.control.control_period
+    metrics = reader.read(plant_context, goal, box_start)
+    step = 0
+    for step in range(1, max_steps + 1):
+        tips.append(world.tip_frame.CalcPoseInWorld(plant_context).translation())
+        boxes.append(world.box.EvalPoseInWorld(plant_context).translation())
+        simulator.AdvanceTo(step * period)
+        metrics = reader.read(plant_context, goal, box_start)
+        tool_touched |= metrics.tool_touches_box
+        gripper_touched |= metrics.gripper_touches_box
+        if on_step is not None:
+            on_step(step)
+        if stop_at_success and metrics.is_success:
+            break
+    tips.append(world.tip_frame.CalcPoseInWorld(plant_context).translation())
+    boxes.append(world.box.EvalPoseInWorld(plant_context).translation())
+    image = None
+    if diagram.HasOutputPort("color_image"):
+        image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
+    return PushRun(step, bool(metrics.is_success), float(metrics.box_to_goal),
+                   float(metrics.box_travel), bool(tool_touched), bool(gripper_touched),
+                   np.array(tips), np.array(boxes), image)
+
+
+def run_policy(built: PolicyDiagram, max_steps: int = 100, record: bool = False,
+               on_step=None) -> PushRun:
+    """Runs the policy diagram from its default state until success (as the env terminates)
+    or `max_steps`; recorded if `record` and the diagram has a visualizer."""
+    return run_push(built.diagram, built.world, built.control, max_steps,
+                    visualizer=built.visualizer if record else None, on_step=on_step)

@@ -1,0 +1,223 @@
+"""Gymnasium environments of the push task (the paper's Env1, Env2, Env3) on DrakeGymEnv.
+
+```
+action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem ──q*──► plant (in-plant PD) ──state──►
+           (tool-tip space)           (robot model)                                 ToolPushObservation ──► observation
+```
+
+Registered ids (on `import drake_tooluse`), each truncated at 100 steps of 40 ms:
+
+| id | paper | reward |
+| --- | --- | --- |
+| `drake_tooluse/ToolPush-v0` | Env1 | −(d(x, x*) + d(x, y)) |
+| `drake_tooluse/ToolPushBoxReward-v0` | Env2 | −d(x, x*) |
+| `drake_tooluse/ToolPushFar-v0` | Env3 | as Env1, the goal 0.10 m further |
+
+x: box centre, x*: goal, y: the true tool tip. Success (terminated) when d(x, x*) + d(x, y)
+≤ 0.05 m. The box starts at (0.70, −0.25) on the table and is pushed along +y: the goal is
+0.20 m away (Env3: 0.30 m).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from pydrake.gym import DrakeGymEnv
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from drake_tooluse.diagrams.control import IK_MODES
+from drake_tooluse.diagrams.push import add_push_task
+from drake_tooluse.diagrams.visualization import add_meshcat_visualizer, save_recording
+from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.observation import OBSERVATION_SIZES
+from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
+from drake_tooluse.validation import check_in_range, check_one_of
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
+from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
+from drake_tooluse.world.task import REWARD_TYPES, PushMetricsReader, reward
+
+
+@dc.dataclass
+class EnvConfig:
+    """The keyword arguments of `ToolPushEnv` (and of `gym.make`)."""
+
+    scenario: object = None  # a Scenario, a YAML path, or None for diagrams/push.yaml defaults
+    tool_length: float | None = None  # overrides the scenario's (m)
+    reward_type: str = "tool_and_box"
+    goal_extra: float = 0.0  # m added to the goal distance along y
+    action_mode: str = "paper"
+    include_tool_length: bool = False
+    observation_mode: str = "paper"  # "paper" or "tip" (see systems.observation)
+    randomize: bool = False  # ranges: the scenario's `randomization`
+    render_mode: str | None = None
+    # "full": Drake InverseKinematics on the tool tip, warm-started, every control period;
+    # "differential": Drake's differential IK integrator (first order, cheaper; for training).
+    ik_mode: str = "full"
+    meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
+
+
+def _config(kwargs) -> EnvConfig:
+    allowed = [f.name for f in dc.fields(EnvConfig)]
+    unknown = sorted(set(kwargs) - set(allowed))
+    if unknown:
+        raise TypeError(f"unknown argument(s) {unknown} for a drake_tooluse env; allowed: "
+                        f"{allowed}")
+    config = EnvConfig(**kwargs)
+    check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
+    check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
+    check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
+    check_one_of(config.ik_mode, IK_MODES, "ik_mode")
+    check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
+    check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
+    return config
+
+
+def _scenario(config: EnvConfig) -> Scenario:
+    if config.scenario is None:
+        scenario = Scenario()
+    elif isinstance(config.scenario, Scenario):
+        scenario = config.scenario
+    else:
+        scenario = load_scenario(Path(config.scenario))
+    if config.tool_length is not None:
+        scenario = with_tool_length(scenario, config.tool_length)
+    goal = list(scenario.goal_offset)
+    goal[1] += config.goal_extra
+    return dc.replace(scenario, goal_offset=goal)
+
+
+class ToolPushEnv(DrakeGymEnv):
+    """The push task as a Gymnasium env (see the module docstring for ids and rewards).
+
+    Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
+    "box"), goal_extra, action_mode ("paper", "pose", "position"), include_tool_length,
+    observation_mode ("paper", "tip"),
+    randomize, render_mode (None, "rgb_array", "human"), meshcat.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
+
+    def __init__(self, **kwargs):
+        config = _config(kwargs)
+        self.config = config
+        self.scenario = _scenario(config)
+        self._build(config)
+        n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
+        # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
+        self.metadata = dict(type(self).metadata)
+        super().__init__(
+            simulator=self._simulator, time_step=self.scenario.control.control_period,
+            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],),
+                                        np.float32),
+            observation_space=gym.spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
+            reward=lambda system, context: self._last_reward, action_port_id="action",
+            observation_port_id="observation",
+            render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
+            render_mode=config.render_mode or "human", reset_handler=self._reset_handler)
+        self.render_mode = config.render_mode
+        self.metadata = dict(type(self).metadata)
+        self._last_reward = 0.0
+        self._episode = {}
+
+    # -- the diagram ----------------------------------------------------------------------
+    def _build(self, config: EnvConfig) -> None:
+        builder = DiagramBuilder()
+        task = add_push_task(builder, self.scenario, None, config.action_mode, config.ik_mode,
+                             config.observation_mode, config.include_tool_length)
+        self.world, self.control = task.world, task.control
+        self.ik_system, self.target_system = task.control.ik_system, task.control.target
+        self.observation_system = task.observation
+        builder.ExportInput(task.control.target.GetInputPort("action"), "action")
+        builder.ExportOutput(task.observation.get_output_port(), "observation")
+        if config.render_mode == "rgb_array":
+            add_scene_camera(builder, self.world)
+        self.visualizer = None
+        if config.meshcat is not None:
+            self.visualizer = add_meshcat_visualizer(builder, self.world.scene_graph,
+                                                     config.meshcat)
+        self.diagram = builder.Build()
+        self.diagram.set_name("tool_push_env")
+        self._metrics = PushMetricsReader(self.world)
+        self._simulator = Simulator(self.diagram)
+
+    # -- Gymnasium API --------------------------------------------------------------------
+    def _reset_handler(self, simulator, context, seed) -> None:
+        s = self.scenario
+        if self.config.randomize:
+            s = apply_draw(s, draw_randomization(s, self.np_random))
+        set_randomized_state(self.world, context, s)
+        self.control.reset(context)
+        box_start = initial_box_pose(s).translation()
+        goal = box_start + np.asarray(s.goal_offset, float)
+        self.observation_system.set_goal(
+            self.observation_system.GetMyMutableContextFromRoot(context), goal)
+        self._episode = {"goal": goal, "box_start": box_start, "tool_touched": False,
+                         "gripper_touched": False}
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if options:
+            raise ValueError(f"reset options {options!r} are not supported; pass none")
+        observation, _ = super().reset(seed=seed)
+        info = self._info(self._read_metrics(), sim_error=False)
+        return np.asarray(observation, np.float32), info
+
+    def step(self, action):
+        action = check_action(action, self.config.action_mode)
+        context = self.simulator.get_mutable_context()
+        self.action_port.FixValue(context, action)
+        sim_error = False
+        try:
+            self.simulator.AdvanceTo(context.get_time() + self.time_step)
+        except RuntimeError:  # a simulation failure truncates the episode, with a flag
+            sim_error = True
+        observation = np.asarray(self.observation_port.Eval(context), np.float32)
+        m = self._read_metrics()
+        self._last_reward = reward(m, self.config.reward_type)
+        return observation, self._last_reward, bool(m.is_success), sim_error, self._info(
+            m, sim_error)
+
+    def render(self):
+        """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
+        frame = super().render()
+        if self.render_mode == "rgb_array":
+            return np.asarray(frame)[:, :, :3].copy()
+        return frame
+
+    # -- Meshcat recordings ---------------------------------------------------------------
+    def start_recording(self) -> None:
+        """Records what follows in Meshcat (the env must be made with `meshcat=`)."""
+        if self.visualizer is None:
+            raise ValueError("this env has no Meshcat; make it with meshcat=start_meshcat()")
+        self.visualizer.StartRecording(False)
+
+    def save_recording(self, path) -> Path:
+        """Writes the recording so far as one standalone HTML file."""
+        return save_recording(self.config.meshcat, self.visualizer, path)
+
+    def believed_poses(self):
+        """(X_WT, X_WG): the tool tip's and the gripper's poses in W on the robot model (the
+        believed tool) at the arm's current joint angles — what the robot thinks."""
+        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
+        q = [joint.get_angle(plant_context) for joint in self.world.arm_joints()]
+        return self.control.ik.fk(q), self.control.ik.fk_gripper(q)
+
+    def _read_metrics(self):
+        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
+        m = self._metrics.read(plant_context, self._episode["goal"], self._episode["box_start"])
+        self._episode["tool_touched"] |= m.tool_touches_box
+        self._episode["gripper_touched"] |= m.gripper_touches_box
+        return m
+
+    def _info(self, m, sim_error: bool) -> dict:
+        return {"is_success": bool(m.is_success), "box_to_goal": m.box_to_goal,
+                "tip_to_box": m.tip_to_box, "box_travel": m.box_travel,
+                "tool_touches_box": m.tool_touches_box,
+                "gripper_touches_box": m.gripper_touches_box,
+                "tool_touched_box_in_episode": self._episode["tool_touched"],
+                "gripper_touched_box_in_episode": self._episode["gripper_touched"],
+                "ik_ok": self.control.ik_ok(self.simulator.get_context()), "sim_error": sim_error}

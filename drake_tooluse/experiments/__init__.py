@@ -1,0 +1,1 @@
+"""The paper's experiments: trajectory extraction and export, transfer, the demo, figures."""

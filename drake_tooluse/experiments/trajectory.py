@@ -1,0 +1,196 @@
+"""Tool-tip trajectories as the paper made them: from a policy's episodes to one trajectory.
+
+Record N episodes of a policy (tool-tip and gripper poses at each control step), average them
+(positions by the mean, orientations by the quaternion average of Markley et al. 2007: the
+principal eigenvector of Σ q qᵀ, blind to the sign of q), smooth, and keep the poses the robot
+can reach under the conservative real-robot joint limits. The trajectory itself and its file
+format are `systems.tip_trajectory.TipTrajectory`; its export for a real Baxter is
+`experiments.baxter_csv`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform
+
+from drake_tooluse.files import atomic_write_figure
+from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.validation import check_one_of
+from drake_tooluse.world.scenario import RobotConfig
+
+
+def average_quaternions(quaternions: np.ndarray, weights=None) -> np.ndarray:
+    """The average rotation of unit quaternions (N, 4): the eigenvector of the largest
+    eigenvalue of Σ w q qᵀ (Markley et al., 2007); q and −q count as the same rotation."""
+    q = np.asarray(quaternions, float)
+    w = np.ones(len(q)) if weights is None else np.asarray(weights, float)
+    M = np.einsum("n,ni,nj->ij", w, q, q)
+    values, vectors = np.linalg.eigh(M)
+    mean = vectors[:, np.argmax(values)]
+    return mean if mean[0] >= 0 else -mean
+
+
+def average_episodes(positions: np.ndarray, quaternions: np.ndarray, period: float) -> TipTrajectory:
+    """The per-step average of N episodes: positions (N, T, 3), quaternions (N, T, 4)."""
+    positions = np.asarray(positions, float)
+    quaternions = np.asarray(quaternions, float)
+    T = positions.shape[1]
+    mean_q = np.array([average_quaternions(quaternions[:, t]) for t in range(T)])
+    return TipTrajectory(np.arange(T) * period, positions.mean(axis=0), mean_q)
+
+
+def pad_episodes(episodes: list[np.ndarray]) -> np.ndarray:
+    """Stacks episodes of different lengths, holding each one's last row (an episode that
+    succeeded early stays where it ended)."""
+    T = max(len(e) for e in episodes)
+    return np.stack([np.vstack([e, np.repeat(e[-1:], T - len(e), axis=0)]) for e in episodes])
+
+
+def smooth(traj: TipTrajectory, window: int = 5) -> TipTrajectory:
+    """Centred moving average of `window` steps (odd), positions and quaternions alike."""
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window={window} must be an odd number >= 1")
+    half = window // 2
+    T = len(traj)
+    idx = [np.arange(max(0, t - half), min(T, t + half + 1)) for t in range(T)]
+    positions = np.array([traj.positions[i].mean(axis=0) for i in idx])
+    quaternions = np.array([average_quaternions(traj.quaternions[i]) for i in idx])
+    return TipTrajectory(traj.times, positions, quaternions)
+
+
+@dataclass
+class ReachabilityReport:
+    poses: int
+    reachable: int
+    kept: TipTrajectory
+    joint_positions: np.ndarray  # (kept, 7) IK solutions, warm-started along the path
+    dropped_indices: list
+
+
+def filter_reachable(traj: TipTrajectory, tool_length: float | None,
+                     conservative: bool = True, q_start=None) -> ReachabilityReport:
+    """Solves the tool-tip IK along the trajectory, each pose warm-started from the last
+    (the first from `q_start`, default the scenario's home posture), under the conservative
+    real-robot limits (s1 in [-1.35, 1.0]) or Baxter's own; drops the poses it cannot reach."""
+    ik = ToolTipIK(tool_length, **joint_limit_kwargs(conservative))
+    q_seed = np.asarray(RobotConfig().posture_seed if q_start is None else q_start, float)
+    keep, qs, dropped = [], [], []
+    for i, (p, quat) in enumerate(zip(traj.positions, traj.quaternions)):
+        result = ik.solve(RigidTransform(Quaternion(quat), p), q_seed)
+        if result.success:
+            keep.append(i)
+            qs.append(result.q)
+            q_seed = result.q
+        else:
+            dropped.append(i)
+    if not keep:
+        raise ValueError("no pose of the trajectory is reachable with tool length "
+                         f"{tool_length} m under the {'conservative' if conservative else ''} "
+                         "joint limits")
+    kept = TipTrajectory(traj.times[keep], traj.positions[keep], traj.quaternions[keep])
+    return ReachabilityReport(len(traj), len(keep), kept, np.array(qs), dropped)
+
+
+@dataclass
+class Extraction:
+    tip_positions: np.ndarray  # (N, T, 3) padded episodes
+    tip_quaternions: np.ndarray  # (N, T, 4)
+    gripper_positions: np.ndarray  # (N, T, 3)
+    mean: TipTrajectory
+    smoothed: TipTrajectory
+    reachability: ReachabilityReport
+    successes: int
+
+
+def _pose_row(env) -> np.ndarray:
+    """[p_WT (3), quaternion wxyz of the tip (4), p_WG (3)] as the robot believes them."""
+    X_WT, X_WG = env.unwrapped.believed_poses()
+    return np.concatenate([X_WT.translation(), X_WT.rotation().ToQuaternion().wxyz(),
+                           X_WG.translation()])
+
+
+ALIGNMENTS = ("start", "contact")
+
+
+def delay_to_event(episodes: list[np.ndarray], events: list) -> list[np.ndarray]:
+    """Delays each episode (repeating its first row) so that its event step (an index, or
+    None) comes at the latest one; episodes without the event stay as they are."""
+    latest = max((e for e in events if e is not None), default=None)
+    if latest is None:
+        return list(episodes)
+    return [ep if e is None else np.vstack([np.repeat(ep[:1], latest - e, axis=0), ep])
+            for ep, e in zip(episodes, events)]
+
+
+def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None,
+                    align: str = "start"):
+    """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
+    each control step (the robot's belief: forward kinematics of its model), the number of
+    successes and the control period (s) between the rows. `align="start"` (the paper's) stacks the episodes from their first step;
+    `"contact"` delays each so that the tool first touches the box at the same step (an
+    episode that never touches it stays as it is)."""
+    if episodes < 1:
+        raise ValueError(f"episodes={episodes} must be at least 1")
+    check_one_of(align, ALIGNMENTS, "align")
+    policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs)
+    recorded, contacts, successes = [], [], 0
+    for ep in range(episodes):
+        rows, contact = [], []
+
+        def record(step, info):
+            rows.append(_pose_row(env))
+            if step > 0 and not contact and info["tool_touches_box"]:
+                contact.append(len(rows) - 1)
+
+        info, _ = run_episode(env, policy, seed + ep, on_step=record)
+        successes += bool(info["is_success"])
+        recorded.append(np.array(rows, float))
+        contacts.append(contact[0] if contact else None)
+    period = env.unwrapped.scenario.control.control_period
+    env.close()
+    if align == "contact":
+        recorded = delay_to_event(recorded, contacts)
+    tips = [r[:, 0:3] for r in recorded]
+    quats = [r[:, 3:7] for r in recorded]
+    grippers = [r[:, 7:10] for r in recorded]
+    return (pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes,
+            period)
+
+
+def extract(policy_dir, episodes: int = 100, seed: int = 0, window: int = 5,
+            tool_length: float | None = 0.175, align: str = "start",
+            env_kwargs: dict | None = None) -> Extraction:
+    """The paper's trajectory for transfer: N episodes (aligned by `align`, see
+    `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
+    conservative real-robot limits with `tool_length`. The trajectory's time step is the
+    control period of the env the policy acts in (its scenario's `control.control_period`);
+    `env_kwargs` override the policy's own."""
+    tips, quats, grippers, successes, period = record_episodes(policy_dir, episodes, seed,
+                                                               env_kwargs, align)
+    mean = average_episodes(tips, quats, period)
+    smoothed = smooth(mean, window)
+    report = filter_reachable(smoothed, tool_length)
+    return Extraction(tips, quats, grippers, mean, smoothed, report, successes)
+
+
+def plot_extraction(extraction: Extraction, path) -> Path:
+    """A 3-D figure of the N recorded tool-tip paths and their mean, like the paper's."""
+    fig = Figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    for p in extraction.tip_positions:
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", alpha=0.15, lw=0.8)
+    m = extraction.smoothed.positions
+    ax.plot(m[:, 0], m[:, 1], m[:, 2], color="tab:red", lw=2.5, label="mean (smoothed)")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_zlabel("z (m)")
+    ax.set_title(f"{len(extraction.tip_positions)} tool-tip paths and their mean", fontsize=10)
+    ax.legend(fontsize=8)
+    return atomic_write_figure(path, fig)

@@ -1,0 +1,82 @@
+"""Evaluating a policy, and the one episode loop every policy rollout runs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import gymnasium as gym
+import numpy as np
+
+from drake_tooluse.learning.config import check_env_id
+from drake_tooluse.learning.policy_dir import check_policy_matches, load_policy
+
+
+@dataclass
+class EvalResult:
+    episodes: int
+    seed: int
+    final_box_to_goal_mean_m: float
+    final_box_to_goal_median_m: float
+    final_box_to_goal_std_m: float
+    success_rate: float
+    box_travel_mean_m: float
+    episode_length_mean: float
+    tool_touched_rate: float
+    gripper_touched_rate: float
+    per_episode: list = field(default_factory=list)
+
+
+def make_policy_env(policy_dir, env_id: str | None = None, env_kwargs: dict | None = None):
+    """Loads a policy directory and makes the env it acts in: its own env id and kwargs
+    unless `env_id` / `env_kwargs` override them. The policy's spaces must fit the env's.
+    Returns (policy, env)."""
+    policy = load_policy(policy_dir)
+    env_id = check_env_id(env_id or policy.meta.env_id)
+    kwargs = dict(policy.meta.env_kwargs)
+    kwargs.update(env_kwargs or {})
+    env = gym.make(env_id, **kwargs)
+    check_policy_matches(policy, env)
+    return policy, env
+
+
+def run_episode(env, policy, seed: int, on_step=None) -> tuple[dict, int]:
+    """One deterministic episode of `policy` from `env.reset(seed=seed)` until it terminates
+    or is truncated. `on_step(step, info)` is called after the reset (step 0) and after each
+    step. Returns the last info and the number of steps."""
+    obs, info = env.reset(seed=seed)
+    if on_step is not None:
+        on_step(0, info)
+    steps = 0
+    while True:
+        obs, _, terminated, truncated, info = env.step(policy.act(obs))
+        steps += 1
+        if on_step is not None:
+            on_step(steps, info)
+        if terminated or truncated:
+            return info, steps
+
+
+def evaluate(policy_dir, env_id: str | None = None, episodes: int = 100, seed: int = 0,
+             env_kwargs: dict | None = None) -> EvalResult:
+    """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …"""
+    if episodes < 1:
+        raise ValueError(f"episodes={episodes} must be at least 1")
+    policy, env = make_policy_env(policy_dir, env_id, env_kwargs)
+    rows = []
+    for ep in range(episodes):
+        info, steps = run_episode(env, policy, seed + ep)
+        rows.append({"seed": seed + ep, "final_box_to_goal_m": info["box_to_goal"],
+                     "success": bool(info["is_success"]), "box_travel_m": info["box_travel"],
+                     "length": steps, "tool_touched": info["tool_touched_box_in_episode"],
+                     "gripper_touched": info["gripper_touched_box_in_episode"]})
+    env.close()
+    d = np.array([r["final_box_to_goal_m"] for r in rows])
+    return EvalResult(
+        episodes=episodes, seed=seed, final_box_to_goal_mean_m=float(d.mean()),
+        final_box_to_goal_median_m=float(np.median(d)), final_box_to_goal_std_m=float(d.std()),
+        success_rate=float(np.mean([r["success"] for r in rows])),
+        box_travel_mean_m=float(np.mean([r["box_travel_m"] for r in rows])),
+        episode_length_mean=float(np.mean([r["length"] for r in rows])),
+        tool_touched_rate=float(np.mean([r["tool_touched"] for r in rows])),
+        gripper_touched_rate=float(np.mean([r["gripper_touched"] for r in rows])),
+        per_episode=rows)

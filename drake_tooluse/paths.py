@@ -1,0 +1,54 @@
+"""Every path of the project's shipped data, defined once.
+
+They are found with `importlib.resources`, never relative to a source file: pyproject.toml maps the
+repo's `models/` onto the package `drake_tooluse.models` and `diagrams/` onto
+`drake_tooluse.scenarios`, so the same lookups find the files inside an installed wheel and in the
+checkout of an editable install alike.
+"""
+
+from __future__ import annotations
+
+import os
+from importlib.resources import files
+from pathlib import Path
+
+__all__ = [
+    "BAXTER_URDF", "BAXTER_URL", "DEFAULT_SCENARIO", "HYPERPARAMS_DIR", "MODELS_DIR",
+    "POLICIES_DIR", "REALITY_SCENARIO", "SCENARIOS_DIR", "SHIPPED_POLICY", "TRANSFER_POLICY",
+]
+
+
+def _package_dir(package: str, *parts: str) -> Path:
+    """The folder of `package` (joined with `parts`) as a real filesystem path."""
+    try:
+        resource = files(package)
+    except ModuleNotFoundError as error:
+        raise RuntimeError(
+            f"drake-tooluse's data package {package!r} is missing ({error}); install the project "
+            "with `pip install .` or `pip install -e .` from a checkout") from error
+    for part in parts:
+        resource = resource / part
+    try:
+        return Path(os.fspath(resource))
+    except TypeError:
+        raise RuntimeError(
+            f"drake-tooluse's data {package!r} are not a folder on disk ({resource!r}): Drake "
+            "reads them by file name, so install the project unzipped (`pip install .`)") from None
+
+
+# Models: Drake's package map reads package.xml, so BAXTER_URL resolves inside this folder.
+MODELS_DIR = _package_dir("drake_tooluse.models")
+BAXTER_URDF = MODELS_DIR / "baxter" / "baxter.urdf"
+BAXTER_URL = "package://drake_tooluse/baxter/baxter.urdf"
+
+POLICIES_DIR = MODELS_DIR / "policies"
+SHIPPED_POLICY = POLICIES_DIR / "ppo_toolpush"
+# The policy for other tools: it observes the task in tool-tip space only.
+TRANSFER_POLICY = POLICIES_DIR / "ppo_toolpush_tip"
+
+# Scenarios: the repo's diagrams/ (its YAML scenarios beside the rendered block diagrams).
+SCENARIOS_DIR = _package_dir("drake_tooluse.scenarios")
+DEFAULT_SCENARIO = SCENARIOS_DIR / "push.yaml"
+REALITY_SCENARIO = SCENARIOS_DIR / "reality.yaml"
+
+HYPERPARAMS_DIR = _package_dir("drake_tooluse", "learning", "hyperparams")

@@ -1,0 +1,303 @@
+"""Tool-tip inverse kinematics: Drake `InverseKinematics` on the tool-tip frame T.
+
+- `ToolTipIK(tool_length).solve(X_WT_desired, q_seed)` puts a position and an orientation
+  constraint on T (plus the joint limits) and solves with SNOPT, warm-started from `q_seed`
+  (or, when `q_seed` is far from the target, from the nearest entry of a seed library of
+  configurations drawn once with fixed seeds); if that fails it retries from the next
+  nearest library entries. An unreachable
+  target is a result (`success=False` with the residual), never an exception.
+- `gripper_target_from_tip_target` is the paper's offset method: the gripper goes to the tip
+  target minus the tool vector rotated by the target orientation, v' = q v q^-1.
+
+The solver runs on the robot model (`robot.model.make_robot_model`: the believed tool);
+`systems.tool_tip_ik.ToolTipIKSystem` wraps it as a LeafSystem.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.multibody.inverse_kinematics import InverseKinematics
+from pydrake.solvers import SnoptSolver, SolverOptions
+
+from drake_tooluse.robot.baxter_model import (
+    Q_LOWER,
+    Q_LOWER_CONSERVATIVE,
+    Q_MID,
+    Q_UPPER,
+    Q_UPPER_CONSERVATIVE,
+    RIGHT_ARM_JOINTS,
+)
+from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME, make_robot_model
+from drake_tooluse.validation import check_finite_vector, check_unit_quaternion
+
+
+def joint_limit_kwargs(conservative: bool) -> dict:
+    """`ToolTipIK` keyword arguments for the conservative limits, or none for Baxter's own."""
+    return ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+            if conservative else {})
+
+
+# A solution counts as a success when it meets these (checked by forward kinematics).
+POSITION_TOLERANCE = 1e-5  # m
+ORIENTATION_TOLERANCE = 1e-4  # rad
+# After the orientation-cost phase, an attempt further than this from the target orientation
+# is in the wrong basin (a local minimum against the joint limits) and is abandoned.
+BASIN_ANGLE = 0.02  # rad
+# A warm start whose tip is within this task-space distance (m + 0.2 m/rad) of the target is
+# always tried first, so consecutive solutions of a moving target stay on one branch.
+WARM_START_DISTANCE = 0.15
+# A warm start within this distance is tried first with the constrained solve alone.
+NEAR_DISTANCE = 0.05
+
+
+@dataclass
+class IKResult:
+    """q: right-arm joint angles s0 … w2 (rad); errors are of the tip frame at q."""
+
+    q: np.ndarray
+    success: bool
+    position_error: float  # m
+    orientation_error: float  # rad
+    solve_time: float  # s, wall clock, all attempts
+    attempts: int = 1
+
+    def as_dict(self) -> dict:
+        return {"q": [float(x) for x in self.q], "joint_names": list(RIGHT_ARM_JOINTS),
+                "success": bool(self.success), "position_error_m": float(self.position_error),
+                "orientation_error_rad": float(self.orientation_error),
+                "solve_time_s": float(self.solve_time), "attempts": int(self.attempts)}
+
+
+def pose_from_vector(x) -> RigidTransform:
+    """[p (3), quaternion w x y z (4)] -> RigidTransform; the quaternion is normalized."""
+    x = check_finite_vector(x, 7, "tool-tip pose [x y z qw qx qy qz]")
+    quat = check_unit_quaternion(x[3:], "tool-tip orientation quaternion (w, x, y, z)")
+    return RigidTransform(Quaternion(quat), x[:3])
+
+
+def pose_to_vector(X: RigidTransform) -> np.ndarray:
+    return np.concatenate([X.translation(), X.rotation().ToQuaternion().wxyz()])
+
+
+def rotation_angle_between(R_a: RotationMatrix, R_b: RotationMatrix) -> float:
+    """Angle (rad) of the rotation taking R_a to R_b, accurate near zero."""
+    R = (R_a.inverse() @ R_b).matrix()
+    # atan2 of |axis·sin| and cos keeps precision for tiny angles (acos does not).
+    s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    c = 0.5 * (np.trace(R) - 1.0)
+    return float(np.arctan2(s, c))
+
+
+def check_pose(X_WT) -> RigidTransform:
+    """Accepts a RigidTransform or a 7-vector; non-finite values are errors."""
+    if isinstance(X_WT, RigidTransform):
+        check_finite_vector(X_WT.GetAsMatrix4().reshape(-1), 16, "tool-tip pose X_WT")
+        return X_WT
+    return pose_from_vector(X_WT)
+
+
+def tool_offset(tool_length: float) -> np.ndarray:
+    """v = p_GT: the tool vector in the gripper frame (the tool axis is +z of G)."""
+    return np.array([0.0, 0.0, float(tool_length)])
+
+
+def gripper_target_from_tip_target(X_WT: RigidTransform, tool_length: float) -> RigidTransform:
+    """The paper's offset method: p_WG = p_WT - v' with v' = q v q^-1 (q the target
+    orientation, v the tool vector); the gripper takes the target orientation."""
+    X_WT = check_pose(X_WT)
+    q = X_WT.rotation().ToQuaternion()
+    v_rotated = q.rotation() @ tool_offset(tool_length)  # q v q^-1
+    return RigidTransform(X_WT.rotation(), X_WT.translation() - v_rotated)
+
+
+class ToolTipIK:
+    """Solves for the right-arm joints that put the tool tip T at a desired pose X_WT.
+
+    Args:
+        tool_length: believed tool length (m), in (0, 0.60]; None for no tool (T = gripper).
+        grasp_offset: believed (across, along) offset of the grasp point from the gripper
+            frame's origin (m; default 0, 0): with the camera's estimate the IK also knows
+            where the hand holds the tool (see `diagrams.measurement`).
+        joint_lower, joint_upper: joint limits (rad) s0 … w2; default Baxter's.
+        max_attempts: solves tried (the warm start, then deterministic random seeds).
+        library_size: configurations in the central seed library (drawn with a fixed seed,
+            so the same call gives the same result); the full-range library has half as many.
+    """
+
+    def __init__(self, tool_length: float | None = None, *, grasp_offset=(0.0, 0.0),
+                 joint_lower=None, joint_upper=None, max_attempts: int = 16,
+                 library_size: int = 4000):
+        self.tool_length = tool_length
+        self.grasp_offset = tuple(float(v) for v in grasp_offset)
+        self.plant = make_robot_model(tool_length, grasp_offset=self.grasp_offset)
+        self.context = self.plant.CreateDefaultContext()
+        self.tip_frame = self.plant.GetFrameByName(TIP_FRAME)
+        self.gripper_frame = self.plant.GetFrameByName(GRIPPER_FRAME)
+        self.lower = Q_LOWER.copy() if joint_lower is None else check_finite_vector(
+            joint_lower, 7, "joint_lower")
+        self.upper = Q_UPPER.copy() if joint_upper is None else check_finite_vector(
+            joint_upper, 7, "joint_upper")
+        if np.any(self.lower > self.upper):
+            raise ValueError(f"joint_lower {self.lower.tolist()} exceeds joint_upper "
+                             f"{self.upper.tolist()}")
+        if max_attempts < 1:
+            raise ValueError(f"max_attempts={max_attempts} must be at least 1")
+        self.max_attempts = int(max_attempts)
+        self.q_nominal = np.clip(Q_MID, self.lower, self.upper)
+        self._solver = SnoptSolver()
+        self._options = SolverOptions()
+        # Tighter than SNOPT's default 1e-6 so that the orientation constraint (a bound on
+        # the cosine of the angle) holds to ~1e-5 rad instead of ~1e-3 rad.
+        self._options.SetOption(self._solver.id(), "Major feasibility tolerance", 1e-10)
+        self._options.SetOption(self._solver.id(), "Major optimality tolerance", 1e-6)
+        self._options.SetOption(self._solver.id(), "Major iterations limit", 60)
+        self._build_seed_library(library_size)
+
+    def _build_seed_library(self, size: int) -> None:
+        """Two seed libraries of configurations drawn once with fixed seeds: `size` in the
+        central 80 % of each joint's range (seeds there rarely end against a limit) and
+        `size // 2` over the full range (for targets that need a joint near its limit)."""
+        centre, half = (self.lower + self.upper) / 2, (self.upper - self.lower) / 2
+        self._libraries = [
+            self._library(centre - 0.8 * half, centre + 0.8 * half, size, seed=1),
+            self._library(self.lower, self.upper, max(size // 2, 1), seed=2),
+        ]
+
+    def _library(self, lower, upper, size: int, seed: int):
+        q = np.random.default_rng(seed).uniform(lower, upper, size=(size, 7))
+        poses = [self.fk(x) for x in q]
+        return (q, np.array([X.translation() for X in poses]),
+                np.array([X.rotation().matrix() for X in poses]))
+
+    @staticmethod
+    def _task_distance(X_WT: RigidTransform, p, R) -> np.ndarray:
+        """Position distance (m) + 0.2 m/rad x rotation angle, for arrays of poses."""
+        cos = (np.einsum("ij,kij->k", X_WT.rotation().matrix(), R) - 1.0) / 2.0
+        angle = np.arccos(np.clip(cos, -1.0, 1.0))
+        return np.linalg.norm(p - X_WT.translation(), axis=1) + 0.2 * angle
+
+    def _seed_distance(self, X_WT: RigidTransform, q_seed: np.ndarray) -> float:
+        X = self.fk(q_seed)
+        return float(self._task_distance(X_WT, X.translation()[None],
+                                         X.rotation().matrix()[None])[0])
+
+    def library_seeds(self, X_WT: RigidTransform, count: int) -> list[np.ndarray]:
+        """The `count` nearest entries (task space) of each of the two libraries,
+        alternating."""
+        nearest = []
+        for q, p, R in self._libraries:
+            order = np.argsort(self._task_distance(X_WT, p, R))[:count]
+            nearest.append([q[i] for i in order])
+        return [s for pair in zip(*nearest) for s in pair]
+
+    def attempts(self, X_WT: RigidTransform, q_seed: np.ndarray, max_attempts: int):
+        """Yields (seed, find_basin) to try, best first, computing the library order only if
+        needed. A warm start within NEAR_DISTANCE is tried first with the constrained solve
+        alone (it is in the right basin); one within WARM_START_DISTANCE with both phases; a
+        farther one after the nearest central-library entry."""
+        d_seed = self._seed_distance(X_WT, q_seed)
+        if d_seed <= NEAR_DISTANCE:
+            yield q_seed, False
+        if d_seed <= WARM_START_DISTANCE:
+            yield q_seed, True
+            yield from ((q, True) for q in self.library_seeds(X_WT, max_attempts))
+            return
+        library = self.library_seeds(X_WT, max_attempts)
+        yield library[0], True
+        yield q_seed, True
+        yield from ((q, True) for q in library[1:])
+
+    # -- kinematics -------------------------------------------------------------------------
+    def check_q(self, q, name: str = "q") -> np.ndarray:
+        """q must be 7 finite joint angles within the limits (rad)."""
+        q = check_finite_vector(q, 7, name)
+        bad = [(RIGHT_ARM_JOINTS[i], q[i], self.lower[i], self.upper[i]) for i in range(7)
+               if not self.lower[i] - 1e-9 <= q[i] <= self.upper[i] + 1e-9]
+        if bad:
+            text = "; ".join(f"{n}={v:.4g} rad outside [{lo:.4g}, {hi:.4g}]"
+                             for n, v, lo, hi in bad)
+            raise ValueError(f"{name} is outside the joint limits: {text}")
+        return q
+
+    def fk(self, q) -> RigidTransform:
+        """X_WT: the tool-tip pose at joint angles q."""
+        self.plant.SetPositions(self.context, np.asarray(q, float))
+        return self.tip_frame.CalcPoseInWorld(self.context)
+
+    def fk_gripper(self, q) -> RigidTransform:
+        self.plant.SetPositions(self.context, np.asarray(q, float))
+        return self.gripper_frame.CalcPoseInWorld(self.context)
+
+    def errors(self, q, X_WT: RigidTransform) -> tuple[float, float]:
+        X = self.fk(q)
+        return (float(np.linalg.norm(X.translation() - X_WT.translation())),
+                rotation_angle_between(X.rotation(), X_WT.rotation()))
+
+    # -- IK ---------------------------------------------------------------------------------
+    def _new_ik(self, X_WT: RigidTransform) -> InverseKinematics:
+        ik = InverseKinematics(self.plant, self.context, with_joint_limits=False)
+        ik.get_mutable_prog().AddBoundingBoxConstraint(self.lower, self.upper, ik.q())
+        p = X_WT.translation()
+        ik.AddPositionConstraint(self.tip_frame, np.zeros(3), self.plant.world_frame(), p, p)
+        return ik
+
+    def _solve_once(self, X_WT: RigidTransform, q_seed: np.ndarray,
+                    find_basin: bool = True) -> np.ndarray:
+        if not find_basin:
+            return self._solve_constrained(X_WT, q_seed)
+        # Phase 1: tip position constrained, orientation as a cost. This finds the basin
+        # quickly; where it ends far from the target orientation, the seed is in the wrong
+        # basin and the attempt stops early.
+        ik = self._new_ik(X_WT)
+        ik.AddOrientationCost(self.plant.world_frame(), X_WT.rotation(), self.tip_frame,
+                              RotationMatrix(), 10.0)
+        result = self._solver.Solve(ik.prog(), q_seed, self._options)
+        q1 = np.clip(result.GetSolution(ik.q()), self.lower, self.upper)
+        if self.errors(q1, X_WT)[1] > BASIN_ANGLE:
+            return q1
+        # Phase 2: position and orientation constraints on the tip frame, from phase 1.
+        return self._solve_constrained(X_WT, q1)
+
+    def _solve_constrained(self, X_WT: RigidTransform, q_seed: np.ndarray) -> np.ndarray:
+        """Position and orientation constraints on the tip frame, from q_seed."""
+        ik = self._new_ik(X_WT)
+        ik.AddOrientationConstraint(self.plant.world_frame(), X_WT.rotation(), self.tip_frame,
+                                    RotationMatrix(), 0.0)
+        result = self._solver.Solve(ik.prog(), q_seed, self._options)
+        return result.GetSolution(ik.q())
+
+    def solve(self, X_WT_desired, q_seed=None, max_attempts: int | None = None) -> IKResult:
+        """Joint angles that put T at X_WT_desired (a RigidTransform or [p, quaternion wxyz]),
+        trying at most `max_attempts` solves (default: the solver's own)."""
+        X_WT = check_pose(X_WT_desired)
+        q_seed = self.q_nominal if q_seed is None else check_finite_vector(q_seed, 7, "q_seed")
+        q_seed = np.clip(q_seed, self.lower, self.upper)
+        start = time.perf_counter()
+        best = None
+        attempt = 0
+        limit = self.max_attempts if max_attempts is None else int(max_attempts)
+        if limit < 1:
+            raise ValueError(f"max_attempts={limit} must be at least 1")
+        for q_try, find_basin in self.attempts(X_WT, q_seed, limit):
+            attempt += 1
+            if attempt > limit:
+                attempt -= 1
+                break
+            q = self._solve_once(X_WT, q_try, find_basin)
+            q = np.clip(q, self.lower, self.upper)  # SNOPT may sit 1e-10 past a bound.
+            pos_err, rot_err = self.errors(q, X_WT)
+            ok = pos_err <= POSITION_TOLERANCE and rot_err <= ORIENTATION_TOLERANCE
+            score = pos_err + 0.1 * rot_err
+            if best is None or score < best[0]:
+                best = (score, q, pos_err, rot_err)
+            if ok:
+                break
+        _, q, pos_err, rot_err = best
+        ok = pos_err <= POSITION_TOLERANCE and rot_err <= ORIENTATION_TOLERANCE
+        return IKResult(q=q, success=bool(ok), position_error=pos_err, orientation_error=rot_err,
+                        solve_time=time.perf_counter() - start, attempts=attempt)

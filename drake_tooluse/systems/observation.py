@@ -1,0 +1,115 @@
+"""The push task's observation: what the robot can know, as a LeafSystem.
+
+Two observation modes. `paper`: the paper's observation, in its order (30 values, float32; 31
+with the tool length):
+
+| slice | what | units |
+| --- | --- | --- |
+| 0:3 | goal box position x* | m, W |
+| 3:6 | box position x | m, W |
+| 6:9 | tool-tip position y (robot model: believed length) | m, W |
+| 9:12 | gripper position | m, W |
+| 12:16 | gripper quaternion w x y z | — |
+| 16:23 | right-arm joint angles s0 … w2 | rad |
+| 23:30 | right-arm joint velocities | rad/s |
+| 30 | believed tool length (optional) | m |
+
+`tip`: the task in tool-tip space only (12 values; 13 with the tool length). The paper's
+observation holds the gripper pose and the joint angles, which change with the tool for the
+same tip pose, so a policy trained on it meets unseen inputs with another tool; this one is
+the same for any tool the IK tracks:
+
+| slice | what | units |
+| --- | --- | --- |
+| 0:3 | goal box position x* | m, W |
+| 3:6 | box position x | m, W |
+| 6:9 | tool-tip position y (robot model: believed length) | m, W |
+| 9:12 | tool-tip velocity (robot model: J(q) v) | m/s, W |
+| 12 | believed tool length (optional) | m |
+
+The metrics (reward, success, info) are computed from the world plant, i.e. the true tool
+(`world.task`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
+from drake_tooluse.validation import check_one_of
+from drake_tooluse.world.scene import World
+
+OBSERVATION_SIZES = {"paper": 30, "tip": 12}
+
+
+class ToolPushObservation(LeafSystem):
+    """Plant state in, the push task's observation out (see the module docstring).
+
+    .. pydrake_system::
+
+        name: ToolPushObservation
+        input_ports:
+        - plant_state
+        output_ports:
+        - observation
+
+    Input ports:
+        plant_state: the world plant's full state [q (14), v (13)].
+    Output ports:
+        observation: by mode, 30 or 12 values (one more with the tool length).
+    Parameters: the goal x* (3, m), set per episode.
+    """
+
+    def __init__(self, world: World, robot_model, goal, include_tool_length: bool,
+                 believed_tool_length: float | None, mode: str = "paper"):
+        super().__init__()
+        check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
+        self._mode = mode
+        plant = world.plant
+        nq = plant.num_positions()
+        self._nq = nq
+        self._arm_q = np.array([j.position_start() for j in world.arm_joints()])
+        self._arm_v = np.array([nq + j.velocity_start() for j in world.arm_joints()])
+        box_q0 = world.box.floating_positions_start()
+        self._box_p = np.arange(box_q0 + 4, box_q0 + 7)  # after the quaternion
+        self._model = robot_model
+        self._model_context = robot_model.CreateDefaultContext()
+        self._tip = robot_model.GetFrameByName(TIP_FRAME)
+        self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
+        self._tool_length = [] if not include_tool_length else [believed_tool_length or 0.0]
+        self._state = self.DeclareVectorInputPort(
+            "plant_state", plant.num_positions() + plant.num_velocities())
+        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
+        size = OBSERVATION_SIZES[mode] + len(self._tool_length)
+        self.DeclareVectorOutputPort("observation", size, self._calc,
+                                     prerequisites_of_calc={self.all_input_ports_ticket(),
+                                                            self.all_parameters_ticket()})
+
+    def set_goal(self, context, goal) -> None:
+        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
+
+    def goal(self, context) -> np.ndarray:
+        return context.get_numeric_parameter(self._goal).get_value()
+
+    def _calc(self, context, output):
+        output.SetFromVector(self.observation(self._state.Eval(context), self.goal(context)))
+
+    def observation(self, x, goal) -> np.ndarray:
+        """The observation from the plant state x and the goal."""
+        q = x[self._arm_q]
+        self._model.SetPositions(self._model_context, q)
+        if self._mode == "tip":
+            world_frame = self._model.world_frame()
+            J = self._model.CalcJacobianTranslationalVelocity(
+                self._model_context, JacobianWrtVariable.kV, self._tip, np.zeros(3),
+                world_frame, world_frame)
+            return np.concatenate([goal, x[self._box_p],
+                                   self._tip.CalcPoseInWorld(self._model_context).translation(),
+                                   J @ x[self._arm_v], self._tool_length])
+        X_WG = self._gripper.CalcPoseInWorld(self._model_context)
+        p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
+        return np.concatenate([
+            goal, x[self._box_p], p_WT, X_WG.translation(),
+            X_WG.rotation().ToQuaternion().wxyz(), q, x[self._arm_v], self._tool_length])

@@ -1,0 +1,75 @@
+"""The tool-tip IK as a LeafSystem: a desired tool-tip pose in, joint targets out."""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.systems.framework import LeafSystem
+
+from drake_tooluse.robot.ik import ToolTipIK, pose_from_vector
+
+
+class ToolTipIKSystem(LeafSystem):
+    """Desired tool-tip pose in, right-arm joint targets out; warm-started from its last
+    solution. Solves once per control period (a periodic discrete update).
+
+    .. pydrake_system::
+
+        name: ToolTipIKSystem
+        input_ports:
+        - tip_pose_desired
+        output_ports:
+        - q_desired
+        - desired_state
+        - status
+
+    Input ports:
+        tip_pose_desired: [p_WT (3, m), quaternion wxyz (4)] — X_WT*, the desired tool-tip pose
+            in W; the quaternion is normalized here (a zero one is an error).
+    Output ports:
+        q_desired: right-arm joint targets s0 … w2 (7, rad).
+        desired_state: [q_desired (7), zeros (7)] — for the plant's PD desired-state input.
+        status: [success (1/0), tip position error (m), orientation error (rad),
+            consecutive failures] of the last solve. On an unreachable target the system holds
+            its last valid solution and reports success 0 with the residual of the attempt.
+    """
+
+    def __init__(self, ik: ToolTipIK, q0, period: float):
+        super().__init__()
+        self._ik = ik
+        q0 = ik.check_q(q0, "q0")
+        self._pose_port = self.DeclareVectorInputPort("tip_pose_desired", 7)
+        self._state = self.DeclareDiscreteState(np.concatenate([q0, [1.0, 0.0, 0.0, 0.0]]))
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        # Outputs depend on the discrete state only: cached between plant steps.
+        xd = {self.xd_ticket()}
+        self.DeclareVectorOutputPort("q_desired", 7, self._calc_q, prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("desired_state", 14, self._calc_desired_state,
+                                     prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort("status", 4, self._calc_status, prerequisites_of_calc=xd)
+
+    @property
+    def ik(self) -> ToolTipIK:
+        return self._ik
+
+    def _update(self, context, discrete_state):
+        x = context.get_discrete_state(self._state).get_value()
+        q_last, failures = x[:7], x[10]
+        X_WT = pose_from_vector(self._pose_port.Eval(context))
+        result = self._ik.solve(X_WT, q_seed=q_last)
+        if result.success:
+            new = np.concatenate([result.q, [1.0, result.position_error,
+                                             result.orientation_error, 0.0]])
+        else:
+            new = np.concatenate([q_last, [0.0, result.position_error,
+                                           result.orientation_error, failures + 1]])
+        discrete_state.get_mutable_vector(self._state).SetFromVector(new)
+
+    def _calc_q(self, context, output):
+        output.SetFromVector(context.get_discrete_state(self._state).get_value()[:7])
+
+    def _calc_desired_state(self, context, output):
+        q = context.get_discrete_state(self._state).get_value()[:7]
+        output.SetFromVector(np.concatenate([q, np.zeros(7)]))
+
+    def _calc_status(self, context, output):
+        output.SetFromVector(context.get_discrete_state(self._state).get_value()[7:])

@@ -1,0 +1,296 @@
+"""Typed scenario: everything that defines a world, loaded from YAML with `yaml_load_typed`.
+
+A typo in a YAML key is an error that names the key (Drake's typed loader), and every value is
+range-checked by `validate_scenario` where it enters, with an error naming the value and the
+allowed range.
+
+Scenarios are layers: a file may name a `base` file (relative to itself) and then states only
+the values it changes; the loader reads the base first and the file on top of it
+(`yaml_load_typed(..., defaults=base)`, as `manipulation/station.py`'s `LoadScenario` does).
+The plant's settings are Drake's own `MultibodyPlantConfig`.
+
+Frames and units: the world frame W is Baxter's `base` frame (x forward, y left, z up); SI units.
+"""
+
+# No `from __future__ import annotations`: Drake's YAML loader reads the field types.
+import dataclasses as dc
+import math
+from pathlib import Path
+
+import yaml
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.multibody.plant import MultibodyPlantConfig
+
+from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
+from drake_tooluse.robot.model import check_tool_length
+from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS  # noqa: F401  (part of the schema's API)
+from drake_tooluse.validation import (
+    check_finite_vector,
+    check_in_range,
+    check_one_of,
+    check_positive,
+)
+
+TOOL_RADIUS_RANGE = (0.002, 0.0125)  # the closed fingers leave 12.5 mm either side (m)
+CONTACT_MODELS = ("point", "hydroelastic_with_fallback")
+MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
+
+
+@dc.dataclass
+class ToolConfig:
+    """A straight rod gripped at one end.
+
+    `length` runs from the grasp point (the `right_gripper` frame origin, between the fingertips)
+    to the tip. With zero grasp offsets the tool axis is +z of `right_gripper`.
+    """
+
+    length: float = 0.175
+    # False: no tool in the hand; the tool-tip frame is the gripper frame.
+    attached: bool = True
+    radius: float = 0.006
+    mass: float = 0.05
+    # Where the hand really holds the tool (truth only; the robot believes both are 0):
+    # along the tool axis (+ pushes the tip further out) and across it (along gripper x).
+    grasp_offset_along: float = 0.0
+    grasp_offset_across: float = 0.0
+    # Length of each orange marker band, at the grip end and at the tip (m).
+    marker_length: float = 0.012
+
+
+@dc.dataclass
+class BoxConfig:
+    """The wooden box the robot pushes."""
+
+    size: list[float] = dc.field(default_factory=lambda: [0.04, 0.04, 0.04])
+    mass: float = 0.2
+    friction: float = 0.4
+    # Initial position of the box centre in W; z is set so the box rests on the table when
+    # `on_table` is true.
+    position: list[float] = dc.field(default_factory=lambda: [0.70, -0.25, 0.0])
+    yaw: float = 0.0
+    on_table: bool = True
+
+
+@dc.dataclass
+class TableConfig:
+    top_z: float = -0.20
+    center_xy: list[float] = dc.field(default_factory=lambda: [0.75, 0.0])
+    size_xy: list[float] = dc.field(default_factory=lambda: [0.70, 1.40])
+    thickness: float = 0.04
+    friction: float = 0.4
+
+
+def default_plant_config() -> MultibodyPlantConfig:
+    """A discrete plant with SAP (which the in-plant PD controllers need). SAP is stable at a
+    20 ms step for the arm's PD and the box's quasi-static pushing; the scripted push behaves
+    the same at 10 ms (see docs/BENCHMARKS.md), at half the cost. Point contact: the box
+    stands on corner spheres."""
+    return MultibodyPlantConfig(time_step=0.02, contact_model="point",
+                                discrete_contact_approximation="sap")
+
+
+@dc.dataclass
+class ControlConfig:
+    """Joint PD gains of the seven right-arm joints (s0 … w2) and the control period."""
+
+    kp: list[float] = dc.field(
+        default_factory=lambda: [1500.0, 1500.0, 800.0, 800.0, 200.0, 200.0, 100.0])
+    kd: list[float] = dc.field(
+        default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
+    control_period: float = 0.04
+    # Joint targets reach the motors this late (s): a real robot's command latency. A multiple
+    # of plant.time_step, in [0, 0.2].
+    actuation_delay: float = 0.0
+
+
+@dc.dataclass
+class RobotConfig:
+    # Home: the tool tip this high above the table top at this (x, y), pointing down. The
+    # initial joint angles are solved for by IK, warm-started from `posture_seed`, so the arm
+    # starts in the same posture whatever the tool length.
+    home_tip_xy: list[float] = dc.field(default_factory=lambda: [0.62, -0.30])
+    home_tip_height: float = 0.10
+    # Right-arm joint angles s0 … w2 (rad) of a comfortable posture near home.
+    posture_seed: list[float] = dc.field(
+        default_factory=lambda: [0.712, -1.106, 0.005, 1.75, -0.003, 0.927, 1.504])
+    # The left arm is welded at this pose (s0 … w2), rad: tucked beside the body.
+    left_arm_q: list[float] = dc.field(default_factory=lambda: list(LEFT_ARM_TUCKED))
+    # True: the robot's IK keeps s1 in [-1.35, 1.0] rad, the range a real Baxter beside a
+    # table can use safely (the paper's conservative limits), instead of Baxter's full range.
+    conservative_limits: bool = False
+
+
+@dc.dataclass
+class RandomizationConfig:
+    """Domain randomization of the envs (`randomize=True`): half-widths of uniform draws
+    around the nominal values, or [low, high] scale factors, drawn per reset from the env's
+    seeded generator."""
+
+    box_xy: float = 0.02  # m, offset of the box's start position
+    box_yaw: float = 0.2  # rad
+    box_mass_scale: list[float] = dc.field(default_factory=lambda: [0.7, 1.3])
+    box_friction_scale: list[float] = dc.field(default_factory=lambda: [0.7, 1.3])
+    grasp_along: float = 0.01  # m, the true grasp shifted along the tool
+    grasp_across: float = 0.005  # m, and across it
+
+
+@dc.dataclass
+class CameraConfig:
+    """Baxter's head camera as a Drake RgbdSensor (RenderEngineVtk): intrinsics, clipping and
+    depth ranges, and the colour image noise. The field of view is wide enough to hold a
+    0.60 m tool at the measurement poses of `drake_tooluse.diagrams.measurement`; the resolution gives
+    about 0.9 mm per pixel there."""
+
+    width: int = 1280  # pixels
+    height: int = 800  # pixels
+    fov_y: float = 1.0  # vertical field of view, rad
+    clipping_near: float = 0.05  # m
+    clipping_far: float = 5.0  # m
+    # Depths outside [depth_min, depth_max] read as 0 (too close) or inf (too far), m.
+    depth_min: float = 0.1
+    depth_max: float = 3.0
+    # Standard deviation of the Gaussian noise added to each colour channel, grey levels.
+    noise_sigma: float = 0.0
+
+
+@dc.dataclass
+class Scenario:
+    # A scenario file this one is written on top of (a path relative to this file, or empty):
+    # the values this file leaves out are the base's.
+    base: str = ""
+    tool: ToolConfig = dc.field(default_factory=ToolConfig)
+    box: BoxConfig = dc.field(default_factory=BoxConfig)
+    # Goal of the box centre relative to its initial position (m), in W.
+    goal_offset: list[float] = dc.field(default_factory=lambda: [0.0, 0.20, 0.0])
+    table: TableConfig = dc.field(default_factory=TableConfig)
+    plant: MultibodyPlantConfig = dc.field(default_factory=default_plant_config)
+    control: ControlConfig = dc.field(default_factory=ControlConfig)
+    robot: RobotConfig = dc.field(default_factory=RobotConfig)
+    randomization: RandomizationConfig = dc.field(default_factory=RandomizationConfig)
+    camera: CameraConfig = dc.field(default_factory=CameraConfig)
+
+
+
+def validate_scenario(s: Scenario) -> Scenario:
+    """Range-checks every field; raises ValueError naming the field, its value and the range."""
+    check_tool_length(s.tool.length, "tool.length")
+    check_in_range(s.tool.radius, *TOOL_RADIUS_RANGE, "tool.radius", unit="m")
+    check_positive(s.tool.mass, "tool.mass", unit="kg")
+    check_in_range(s.tool.grasp_offset_along, -0.03, 0.03, "tool.grasp_offset_along", unit="m")
+    check_in_range(s.tool.grasp_offset_across, -0.01, 0.01, "tool.grasp_offset_across", unit="m")
+    check_in_range(s.tool.marker_length, 0.004, 0.03, "tool.marker_length", unit="m")
+    if s.tool.marker_length * 2 >= s.tool.length:
+        raise ValueError(
+            f"tool.length={s.tool.length} m must exceed twice tool.marker_length="
+            f"{s.tool.marker_length} m so the two markers do not overlap")
+    size = check_finite_vector(s.box.size, 3, "box.size")
+    for i, v in enumerate(size):
+        check_in_range(v, 0.01, 0.30, f"box.size[{i}]", unit="m")
+    check_in_range(s.box.mass, 0.01, 10.0, "box.mass", unit="kg")
+    check_in_range(s.box.friction, 0.0, 2.0, "box.friction")
+    check_finite_vector(s.box.position, 3, "box.position")
+    check_in_range(s.box.yaw, -math.pi, math.pi, "box.yaw", unit="rad")
+    check_finite_vector(s.goal_offset, 3, "goal_offset")
+    check_in_range(s.table.top_z, -1.0, 0.5, "table.top_z", unit="m")
+    check_finite_vector(s.table.center_xy, 2, "table.center_xy")
+    for i, v in enumerate(check_finite_vector(s.table.size_xy, 2, "table.size_xy")):
+        check_in_range(v, 0.1, 3.0, f"table.size_xy[{i}]", unit="m")
+    check_in_range(s.table.thickness, 0.005, 0.5, "table.thickness", unit="m")
+    check_in_range(s.table.friction, 0.0, 2.0, "table.friction")
+    check_in_range(s.plant.time_step, 1e-4, 0.02, "plant.time_step", unit="s")
+    check_one_of(s.plant.contact_model, CONTACT_MODELS, "plant.contact_model")
+    # The in-plant PD controllers of the arm need a discrete plant solved with SAP.
+    check_one_of(s.plant.discrete_contact_approximation, ("sap",),
+                 "plant.discrete_contact_approximation")
+    for name in ("kp", "kd"):
+        gains = check_finite_vector(getattr(s.control, name), 7, f"control.{name}")
+        for i, g in enumerate(gains):
+            check_in_range(g, 0.0, 1e5, f"control.{name}[{i}]")
+    check_in_range(s.control.control_period, s.plant.time_step, 1.0, "control.control_period",
+                   unit="s")
+    delay = check_in_range(s.control.actuation_delay, 0.0, 0.2, "control.actuation_delay",
+                           unit="s")
+    steps = delay / s.plant.time_step
+    if abs(steps - round(steps)) > 1e-6:
+        raise ValueError(f"control.actuation_delay={delay} s must be a multiple of "
+                         f"plant.time_step={s.plant.time_step} s")
+    check_finite_vector(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
+    check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
+    check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
+    check_finite_vector(s.robot.left_arm_q, 7, "robot.left_arm_q")
+    r = s.randomization
+    check_in_range(r.box_xy, 0.0, 0.10, "randomization.box_xy", unit="m")
+    check_in_range(r.box_yaw, 0.0, math.pi, "randomization.box_yaw", unit="rad")
+    for name in ("box_mass_scale", "box_friction_scale"):
+        lo, hi = check_finite_vector(getattr(r, name), 2, f"randomization.{name}")
+        check_in_range(lo, 0.1, 1.0, f"randomization.{name}[0]")
+        check_in_range(hi, 1.0, 3.0, f"randomization.{name}[1]")
+    # Every draw must be a valid world: the largest scaled mass and friction stay in range.
+    check_in_range(s.box.mass * r.box_mass_scale[1], 0.01, 10.0,
+                   "box.mass x randomization.box_mass_scale[1]", unit="kg")
+    check_in_range(s.box.friction * r.box_friction_scale[1], 0.0, 2.0,
+                   "box.friction x randomization.box_friction_scale[1]")
+    check_in_range(r.grasp_along, 0.0, 0.03 - abs(s.tool.grasp_offset_along),
+                   "randomization.grasp_along", unit="m")
+    check_in_range(r.grasp_across, 0.0, 0.01 - abs(s.tool.grasp_offset_across),
+                   "randomization.grasp_across", unit="m")
+    c = s.camera
+    for name in ("width", "height"):
+        value = getattr(c, name)
+        if not isinstance(value, int) or isinstance(value, bool) or not 16 <= value <= 4096:
+            raise ValueError(f"camera.{name}={value!r} must be an integer in [16, 4096] pixels")
+    check_in_range(c.fov_y, 0.1, 2.5, "camera.fov_y", unit="rad")
+    check_in_range(c.clipping_near, 0.01, 1.0, "camera.clipping_near", unit="m")
+    check_in_range(c.clipping_far, c.clipping_near, 100.0, "camera.clipping_far", unit="m",
+                   lower_inclusive=False)
+    check_in_range(c.depth_min, c.clipping_near, c.clipping_far, "camera.depth_min", unit="m")
+    check_in_range(c.depth_max, c.depth_min, c.clipping_far, "camera.depth_max", unit="m",
+                   lower_inclusive=False)
+    check_noise_sigma(c.noise_sigma, "camera.noise_sigma")
+    return s
+
+
+def check_noise_sigma(sigma, name: str = "noise sigma") -> float:
+    """The camera's colour noise: a standard deviation in [0, 50] grey levels."""
+    return check_in_range(sigma, 0.0, MAX_NOISE_SIGMA, name, unit="grey levels")
+
+
+def load_scenario(filename) -> Scenario:
+    """Loads and validates a scenario YAML file, on top of its `base` file if it names one."""
+    return validate_scenario(_load_layers(Path(filename), ()))
+
+
+def _load_layers(path: Path, seen: tuple) -> Scenario:
+    if not path.is_file():
+        raise FileNotFoundError(f"scenario file not found: {str(path)!r}")
+    if path.resolve() in seen:
+        chain = " -> ".join(str(p) for p in (*seen, path.resolve()))
+        raise ValueError(f"scenario bases form a cycle: {chain}")
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as e:
+        raise ValueError(f"invalid scenario {str(path)!r}: not YAML ({e})") from None
+    if raw is not None and not isinstance(raw, dict):
+        raise ValueError(f"invalid scenario {str(path)!r}: it must be a mapping of groups "
+                         f"(tool, box, ...), not a {type(raw).__name__}")
+    base_name = (raw or {}).get("base") or ""
+    if not isinstance(base_name, str):
+        raise ValueError(f"invalid scenario {str(path)!r}: base={base_name!r} must be a file "
+                         "name")
+    defaults = (_load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name
+                else Scenario())
+    try:
+        return yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
+    except RuntimeError as e:  # Drake's loader names the offending key.
+        raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
+
+
+def tool_length_or_none(scenario: Scenario) -> float | None:
+    """The scenario's tool length (m), or None when no tool is attached."""
+    return scenario.tool.length if scenario.tool.attached else None
+
+
+def with_tool_length(scenario: Scenario, length: float) -> Scenario:
+    """A copy of `scenario` holding a tool of `length` m."""
+    tool = dc.replace(scenario.tool, length=check_tool_length(length))
+    return validate_scenario(dc.replace(scenario, tool=tool))

@@ -1,0 +1,70 @@
+"""The push task's truth: success, distances and contacts, read from the world plant.
+
+x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x, y) <= 0.05 m
+(the paper's). What the robot observes is `systems.observation`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_tooluse.world.paper import SUCCESS_DISTANCE
+from drake_tooluse.world.scene import World
+
+# The paper's rewards: Env1 and Env3 -(d(x, x*) + d(x, y)), Env2 -d(x, x*).
+REWARD_TYPES = ("tool_and_box", "box")
+
+
+@dataclass
+class PushMetrics:
+    box_to_goal: float  # d(x, x*), m
+    tip_to_box: float  # d(x, y), m (true tip)
+    box_travel: float  # distance of the box centre from where it started, m
+    tool_touches_box: bool
+    gripper_touches_box: bool
+
+    @property
+    def is_success(self) -> bool:
+        return self.box_to_goal + self.tip_to_box <= SUCCESS_DISTANCE
+
+
+class PushMetricsReader:
+    """Reads the truth from the world plant: distances and which bodies touch the box."""
+
+    def __init__(self, world: World):
+        plant = world.plant
+        self._world = world
+        self._box = world.box
+        self._tool_index = world.tool.index() if world.tool is not None else None
+        self._robot_bodies = {plant.get_body(i).index() for i in plant.GetBodyIndices(world.baxter)}
+        self._robot_bodies.discard(self._tool_index)
+
+    def read(self, plant_context, goal, box_start) -> PushMetrics:
+        plant = self._world.plant
+        p_box = self._box.EvalPoseInWorld(plant_context).translation()
+        p_tip = self._world.tip_frame.CalcPoseInWorld(plant_context).translation()
+        tool_touch = gripper_touch = False
+        contacts = plant.get_contact_results_output_port().Eval(plant_context)
+        box = self._box.index()
+        for i in range(contacts.num_point_pair_contacts()):
+            info = contacts.point_pair_contact_info(i)
+            a, b = info.bodyA_index(), info.bodyB_index()
+            if box not in (a, b):
+                continue
+            other = b if a == box else a
+            tool_touch |= other == self._tool_index
+            gripper_touch |= other in self._robot_bodies
+        return PushMetrics(box_to_goal=float(np.linalg.norm(p_box - goal)),
+                           tip_to_box=float(np.linalg.norm(p_tip - p_box)),
+                           box_travel=float(np.linalg.norm(p_box[:2] - box_start[:2])),
+                           tool_touches_box=bool(tool_touch),
+                           gripper_touches_box=bool(gripper_touch))
+
+
+def reward(metrics: PushMetrics, reward_type: str) -> float:
+    """The paper's reward of one step (see REWARD_TYPES)."""
+    if reward_type == "box":
+        return -float(metrics.box_to_goal)
+    return -float(metrics.box_to_goal + metrics.tip_to_box)
