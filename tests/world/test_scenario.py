@@ -7,7 +7,7 @@ import pytest
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
 
-DIAGRAMS = Path(__file__).resolve().parent.parent / "diagrams"
+DIAGRAMS = Path(__file__).resolve().parents[2] / "diagrams"
 
 
 def test_push_scenarios_hold_the_papers_two_tools():

@@ -13,7 +13,7 @@ import pytest
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import load_policy
 
-POLICIES = Path(__file__).resolve().parent.parent / "models" / "policies"
+POLICIES = Path(__file__).resolve().parents[2] / "models" / "policies"
 SHIPPED = {"ppo_toolpush": 30, "ppo_toolpush_tip": 12}  # name -> observation size
 
 

@@ -5,7 +5,7 @@ The upstream URDF ships in PyPI's `hpp-baxter` (no Collada meshes needed: the pl
 without geometry). Run once, offline afterwards:
 
     pip download --no-deps hpp-baxter -d /tmp/hpp && cd /tmp/hpp && unzip -o -q *.whl
-    python tests/data/make_upstream_fk.py /tmp/hpp/cmeel.prefix/share/hpp-baxter/urdf/baxter.urdf
+    python tests/robot/data/make_upstream_fk.py /tmp/hpp/cmeel.prefix/share/hpp-baxter/urdf/baxter.urdf
 """
 
 import sys
@@ -15,9 +15,9 @@ import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
-from drake_tooluse.baxter_model import RIGHT_ARM_JOINTS
-from drake_tooluse.ik import Q_LOWER, Q_UPPER
-from drake_tooluse.io import atomic_write_json
+from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
+from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER
+from drake_tooluse.files import atomic_write_json
 
 
 def upstream_fk(urdf: str, configurations: np.ndarray) -> list[list[float]]:
