@@ -13,8 +13,16 @@ from importlib.resources import files
 from pathlib import Path
 
 __all__ = [
-    "BAXTER_URDF", "BAXTER_URL", "DEFAULT_SCENARIO", "HYPERPARAMS_DIR", "MODELS_DIR",
-    "POLICIES_DIR", "REALITY_SCENARIO", "SCENARIOS_DIR", "SHIPPED_POLICY", "TRANSFER_POLICY",
+    "BAXTER_URDF",
+    "BAXTER_URL",
+    "DEFAULT_SCENARIO",
+    "HYPERPARAMS_DIR",
+    "MODELS_DIR",
+    "POLICIES_DIR",
+    "REALITY_SCENARIO",
+    "SCENARIOS_DIR",
+    "SHIPPED_POLICY",
+    "TRANSFER_POLICY",
 ]
 
 
@@ -25,7 +33,8 @@ def _package_dir(package: str, *parts: str) -> Path:
     except ModuleNotFoundError as error:
         raise RuntimeError(
             f"drake-tooluse's data package {package!r} is missing ({error}); install the project "
-            "with `pip install .` or `pip install -e .` from a checkout") from error
+            "with `pip install .` or `pip install -e .` from a checkout"
+        ) from error
     for part in parts:
         resource = resource / part
     try:
@@ -33,7 +42,8 @@ def _package_dir(package: str, *parts: str) -> Path:
     except TypeError:
         raise RuntimeError(
             f"drake-tooluse's data {package!r} are not a folder on disk ({resource!r}): Drake "
-            "reads them by file name, so install the project unzipped (`pip install .`)") from None
+            "reads them by file name, so install the project unzipped (`pip install .`)"
+        ) from None
 
 
 # Models: Drake's package map reads package.xml, so BAXTER_URL resolves inside this folder.

@@ -17,15 +17,18 @@ def _as_float(value, name: str) -> float:
     return x
 
 
-def check_in_range(value, lo: float, hi: float, name: str, unit: str = "",
-                   lower_inclusive: bool = True) -> float:
+def check_in_range(
+    value, lo: float, hi: float, name: str, unit: str = "", lower_inclusive: bool = True
+) -> float:
     """Returns `value` as a float if lo <= value <= hi (lo < value when not inclusive)."""
     x = _as_float(value, name)
     ok_lo = x >= lo if lower_inclusive else x > lo
     if not (ok_lo and x <= hi):
         bracket = "[" if lower_inclusive else "("
         u = f" {unit}" if unit else ""
-        raise ValueError(f"{name}={x:g}{u} is outside the allowed range {bracket}{lo:g}, {hi:g}]{u}")
+        raise ValueError(
+            f"{name}={x:g}{u} is outside the allowed range {bracket}{lo:g}, {hi:g}]{u}"
+        )
     return x
 
 
@@ -57,6 +60,8 @@ def check_unit_quaternion(wxyz, name: str = "quaternion") -> np.ndarray:
     q = check_finite_vector(wxyz, 4, name)
     norm = float(np.linalg.norm(q))
     if norm < 1e-9:
-        raise ValueError(f"{name}={q.tolist()} has zero norm; a rotation needs a non-zero "
-                         "quaternion (w, x, y, z)")
+        raise ValueError(
+            f"{name}={q.tolist()} has zero norm; a rotation needs a non-zero "
+            "quaternion (w, x, y, z)"
+        )
     return q / norm

@@ -15,10 +15,14 @@ import sys
 from drake_tooluse.cli import experiments, learning, maintenance, measure, robot
 
 GROUPS = (robot, learning, experiments, measure, maintenance)
+DESCRIPTION = (
+    "A Baxter robot that uses a straight tool of any length, in Drake: tool-tip IK, "
+    "simulation, camera measurement, training, transfer."
+)
 
 
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="drake-tooluse", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="drake-tooluse", description=DESCRIPTION)
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_parsers(sub)

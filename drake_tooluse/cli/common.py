@@ -32,10 +32,18 @@ def tool_length_from_args(args) -> float | None:
 
 def add_scenario_args(p: argparse.ArgumentParser) -> None:
     """--scenario FILE and --tool-length L (the world's true tool)."""
-    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO,
-                   help="scenario YAML (default: %(default)s)")
-    p.add_argument("--tool-length", type=float, metavar="L",
-                   help="override the scenario's true tool length (m, in (0, 0.60])")
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        default=DEFAULT_SCENARIO,
+        help="scenario YAML (default: %(default)s)",
+    )
+    p.add_argument(
+        "--tool-length",
+        type=float,
+        metavar="L",
+        help="override the scenario's true tool length (m, in (0, 0.60])",
+    )
 
 
 def scenario_from_args(args):
@@ -54,20 +62,24 @@ def measured_belief(scenario) -> tuple[object, dict]:
     from drake_tooluse.diagrams.measurement import measure_belief
 
     belief, result = measure_belief(scenario)
-    return belief, {"measured_tool_length_m": result.length,
-                    "true_tool_length_m": scenario.tool.length,
-                    "measured_grasp_along_m": result.grasp_along,
-                    "true_grasp_along_m": scenario.tool.grasp_offset_along,
-                    "measurement_spread_m": result.spread,
-                    "measurement_time_s": result.wall_time}
+    return belief, {
+        "measured_tool_length_m": result.length,
+        "true_tool_length_m": scenario.tool.length,
+        "measured_grasp_along_m": result.grasp_along,
+        "true_grasp_along_m": scenario.tool.grasp_offset_along,
+        "measurement_spread_m": result.spread,
+        "measurement_time_s": result.wall_time,
+    }
 
 
 def pose_dict(X) -> dict:
     from pydrake.math import RollPitchYaw
 
-    return {"position_m": X.translation().tolist(),
-            "quaternion_wxyz": X.rotation().ToQuaternion().wxyz().tolist(),
-            "rpy_rad": RollPitchYaw(X.rotation()).vector().tolist()}
+    return {
+        "position_m": X.translation().tolist(),
+        "quaternion_wxyz": X.rotation().ToQuaternion().wxyz().tolist(),
+        "rpy_rad": RollPitchYaw(X.rotation()).vector().tolist(),
+    }
 
 
 def parse_json_arg(text: str | None, name: str):

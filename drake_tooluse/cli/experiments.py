@@ -19,10 +19,17 @@ def cmd_trajectory(args) -> dict:
     path = ex.reachability.kept.save(args.out / "trajectory.npz")
     figure = plot_extraction(ex, args.out / "trajectory.png")
     r = ex.reachability
-    return {"episodes": args.episodes, "successes": ex.successes, "steps": r.poses,
-            "reachable_before_filter": r.poses, "reachable_after_filter": r.reachable,
-            "dropped_steps": r.dropped_indices, "trajectory": str(path), "figure": str(figure),
-            "wall_time_s": time.perf_counter() - start}
+    return {
+        "episodes": args.episodes,
+        "successes": ex.successes,
+        "steps": r.poses,
+        "reachable_before_filter": r.poses,
+        "reachable_after_filter": r.reachable,
+        "dropped_steps": r.dropped_indices,
+        "trajectory": str(path),
+        "figure": str(figure),
+        "wall_time_s": time.perf_counter() - start,
+    }
 
 
 def cmd_export_csv(args) -> dict:
@@ -39,9 +46,11 @@ def cmd_export_csv(args) -> dict:
     report = filter_reachable(traj, length)
     if report.dropped_indices:
         times = [round(float(traj.times[i]), 3) for i in report.dropped_indices[:10]]
-        raise ValueError(f"{len(report.dropped_indices)} of {report.poses} poses of "
-                         f"{str(args.trajectory)!r} are unreachable with a {length} m tool under "
-                         f"the conservative joint limits (at t = {times} s …); nothing written")
+        raise ValueError(
+            f"{len(report.dropped_indices)} of {report.poses} poses of "
+            f"{str(args.trajectory)!r} are unreachable with a {length} m tool under "
+            f"the conservative joint limits (at t = {times} s …); nothing written"
+        )
     times = (report.kept.times - report.kept.times[0]) * scale
     path = export_baxter_csv(args.out, times, report.joint_positions, RobotConfig().left_arm_q)
     return {"csv": str(path), "rows": len(times), "duration_s": float(times[-1])}
@@ -53,9 +62,20 @@ def cmd_transfer(args) -> dict:
     from drake_tooluse.experiments.transfer import transfer_experiment
 
     out = args.out or new_run_dir(f"transfer-{args.mode}")
-    return transfer_experiment(out, args.policy, args.tools, args.runs, args.mode, args.seed,
-                               args.nominal, args.reality, args.trajectory, args.episodes,
-                               args.align, use_grasp_estimate=not args.length_only)
+    return transfer_experiment(
+        out,
+        args.policy,
+        args.tools,
+        args.runs,
+        args.mode,
+        args.seed,
+        args.nominal,
+        args.reality,
+        args.trajectory,
+        args.episodes,
+        args.align,
+        use_grasp_estimate=not args.length_only,
+    )
 
 
 def format_transfer(out: dict) -> str:
@@ -68,8 +88,14 @@ def cmd_demo(args) -> dict:
     from drake_tooluse.experiments.demo import run_demo
     from drake_tooluse.experiments.runs import new_run_dir
 
-    return run_demo(args.out or new_run_dir("demo"), args.policy, args.scenario,
-                    args.tool_length, args.seed, progress=not args.no_progress)
+    return run_demo(
+        args.out or new_run_dir("demo"),
+        args.policy,
+        args.scenario,
+        args.tool_length,
+        args.seed,
+        progress=not args.no_progress,
+    )
 
 
 def format_demo(out: dict) -> str:
@@ -79,17 +105,27 @@ def format_demo(out: dict) -> str:
 
 
 def add_parsers(sub) -> None:
-    p = sub.add_parser("trajectory", help="record a policy's episodes and average them into a "
-                                          "tool-tip trajectory (the paper's transfer input)")
+    p = sub.add_parser(
+        "trajectory",
+        help="record a policy's episodes and average them into a "
+        "tool-tip trajectory (the paper's transfer input)",
+    )
     p.add_argument("--policy", type=Path, required=True, help="policy directory")
     p.add_argument("--episodes", type=int, default=100)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--window", type=int, default=5, help="smoothing window (odd, steps)")
-    p.add_argument("--align", default="start",
-                   help="'start' (the paper's: step by step from the start) or 'contact' "
-                        "(from the tool's first touch of the box)")
-    p.add_argument("--tool-length", type=float, default=PAPER_TOOL_LENGTHS[1],
-                   help="tool for the reachability filter (m)")
+    p.add_argument(
+        "--align",
+        default="start",
+        help="'start' (the paper's: step by step from the start) or 'contact' "
+        "(from the tool's first touch of the box)",
+    )
+    p.add_argument(
+        "--tool-length",
+        type=float,
+        default=PAPER_TOOL_LENGTHS[1],
+        help="tool for the reachability filter (m)",
+    )
     p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")
     p.set_defaults(run=cmd_trajectory)
 
@@ -97,44 +133,81 @@ def add_parsers(sub) -> None:
     p.add_argument("--trajectory", type=Path, required=True, help="trajectory .npz")
     p.add_argument("--tool-length", type=float, required=True, help="the tool held (m)")
     p.add_argument("--out", type=Path, required=True, help="CSV file to write")
-    p.add_argument("--time-scale", type=float, default=1.0,
-                   help="stretch time by this factor (slower is safer)")
+    p.add_argument(
+        "--time-scale",
+        type=float,
+        default=1.0,
+        help="stretch time by this factor (slower is safer)",
+    )
     p.set_defaults(run=cmd_export_csv)
 
-    p = sub.add_parser("transfer", help="use a learned skill with other tools in the "
-                                               "perturbed 'reality' world (diagrams/reality.yaml)")
+    p = sub.add_parser(
+        "transfer",
+        help="use a learned skill with other tools in the "
+        "perturbed 'reality' world (diagrams/reality.yaml)",
+    )
     p.add_argument("--policy", type=Path, default=TRANSFER_POLICY, help="policy directory")
-    p.add_argument("--tools", type=float, nargs="+", default=list(PAPER_TOOL_LENGTHS), metavar="L",
-                   help="true tool lengths (m)")
+    p.add_argument(
+        "--tools",
+        type=float,
+        nargs="+",
+        default=list(PAPER_TOOL_LENGTHS),
+        metavar="L",
+        help="true tool lengths (m)",
+    )
     p.add_argument("--runs", type=int, default=10, help="runs per tool (seeds seed … seed+runs-1)")
     p.add_argument("--mode", default="closed-loop", help="closed-loop or open-loop")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--trajectory", type=Path, metavar="NPZ",
-                   help="open loop: replay this trajectory (default: extract one from the "
-                        "policy's --episodes episodes)")
-    p.add_argument("--episodes", type=int, default=100,
-                   help="open loop: episodes averaged into the trajectory (default 100)")
-    p.add_argument("--align", default="start",
-                   help="open loop: average the episodes step by step from their start "
-                        "('start', the paper's) or from the tool's first touch of the box "
-                        "('contact')")
-    p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO,
-                   help="nominal scenario YAML")
-    p.add_argument("--reality", type=Path, default=REALITY_SCENARIO,
-                   help="reality scenario YAML")
-    p.add_argument("--length-only", action="store_true",
-                   help="the robot's model takes only the measured length (the paper's "
-                        "measurement), not the camera's estimate of the grasp along the tool")
-    p.add_argument("--out", type=Path, help="directory for transfer.json and the box plot "
-                                            "(default runs/transfer-<mode>-<time>)")
+    p.add_argument(
+        "--trajectory",
+        type=Path,
+        metavar="NPZ",
+        help="open loop: replay this trajectory (default: extract one from the "
+        "policy's --episodes episodes)",
+    )
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=100,
+        help="open loop: episodes averaged into the trajectory (default 100)",
+    )
+    p.add_argument(
+        "--align",
+        default="start",
+        help="open loop: average the episodes step by step from their start "
+        "('start', the paper's) or from the tool's first touch of the box "
+        "('contact')",
+    )
+    p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
+    p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")
+    p.add_argument(
+        "--length-only",
+        action="store_true",
+        help="the robot's model takes only the measured length (the paper's "
+        "measurement), not the camera's estimate of the grasp along the tool",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        help="directory for transfer.json and the box plot (default runs/transfer-<mode>-<time>)",
+    )
     p.set_defaults(run=cmd_transfer, show=format_transfer)
 
-    p = sub.add_parser("demo", help="measure an unseen tool, push the box with the shipped "
-                                           "policy in the perturbed reality, record it")
-    p.add_argument("--tool-length", type=float, default=DEMO_TOOL_LENGTH, metavar="L",
-                   help="the true tool (m, in (0, 0.60]; default %(default)s)")
-    p.add_argument("--policy", type=Path, help="policy directory (default: the shipped "
-                                               "tool-tip policy)")
+    p = sub.add_parser(
+        "demo",
+        help="measure an unseen tool, push the box with the shipped "
+        "policy in the perturbed reality, record it",
+    )
+    p.add_argument(
+        "--tool-length",
+        type=float,
+        default=DEMO_TOOL_LENGTH,
+        metavar="L",
+        help="the true tool (m, in (0, 0.60]; default %(default)s)",
+    )
+    p.add_argument(
+        "--policy", type=Path, help="policy directory (default: the shipped tool-tip policy)"
+    )
     p.add_argument("--scenario", type=Path, help="reality scenario (default diagrams/reality.yaml)")
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")

@@ -24,14 +24,25 @@ def cmd_train(args) -> dict:
         raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
     else:
         out_dir = args.out
-    config = resolve_config(args.env, args.algo, args.timesteps, args.n_envs, args.seed,
-                            init_from=str(args.init_from) if args.init_from else None,
-                            overrides=parse_json_arg(args.hyperparams, "--hyperparams"))
+    config = resolve_config(
+        args.env,
+        args.algo,
+        args.timesteps,
+        args.n_envs,
+        args.seed,
+        init_from=str(args.init_from) if args.init_from else None,
+        overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
+    )
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
     command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
-    return train(config, out_dir, resume=args.resume is not None,
-                 progress_bar=not args.no_progress and sys.stderr.isatty(), command=command)
+    return train(
+        config,
+        out_dir,
+        resume=args.resume is not None,
+        progress_bar=not args.no_progress and sys.stderr.isatty(),
+        command=command,
+    )
 
 
 def cmd_evaluate(args) -> dict:
@@ -47,23 +58,32 @@ def cmd_evaluate(args) -> dict:
 
 
 def format_evaluate(out: dict) -> str:
-    return (f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
-            f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
-            f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
-            f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
-            f"{out['success_rate'] * 100:.0f} %; box travel {out['box_travel_mean_m'] * 100:.1f}"
-            f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
-            f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
-            f"{out['gripper_touched_rate'] * 100:.0f} %")
+    return (
+        f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
+        f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
+        f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
+        f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
+        f"{out['success_rate'] * 100:.0f} %; box travel {out['box_travel_mean_m'] * 100:.1f}"
+        f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
+        f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
+        f"{out['gripper_touched_rate'] * 100:.0f} %"
+    )
 
 
 def cmd_sweep(args) -> dict:
     from drake_tooluse.learning.sweep import results_table, sweep
 
-    rows = sweep(args.algos, args.envs, args.seeds, args.timesteps, args.out,
-                 address=args.address, num_cpus=args.num_cpus,
-                 overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
-                 episodes=args.episodes)
+    rows = sweep(
+        args.algos,
+        args.envs,
+        args.seeds,
+        args.timesteps,
+        args.out,
+        address=args.address,
+        num_cpus=args.num_cpus,
+        overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
+        episodes=args.episodes,
+    )
     return {"runs": rows, "table": results_table(rows)}
 
 
@@ -76,10 +96,17 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, help="new run directory")
     p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
-    p.add_argument("--init-from", type=Path, metavar="POLICY",
-                   help="start from a trained policy directory (fine-tuning)")
-    p.add_argument("--hyperparams", metavar="JSON",
-                   help='override YAML hyperparameters, e.g. \'{"learning_rate": 1e-4}\'')
+    p.add_argument(
+        "--init-from",
+        type=Path,
+        metavar="POLICY",
+        help="start from a trained policy directory (fine-tuning)",
+    )
+    p.add_argument(
+        "--hyperparams",
+        metavar="JSON",
+        help="override YAML hyperparameters, e.g. '{\"learning_rate\": 1e-4}'",
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(run=cmd_train)
 
@@ -92,8 +119,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--per-episode", action="store_true", help="include each episode")
     p.set_defaults(run=cmd_evaluate, show=format_evaluate)
 
-    p = sub.add_parser("sweep", help="a grid of runs (algos x envs x seeds) on Ray "
-                                     "(pip install '.[cluster]')")
+    p = sub.add_parser(
+        "sweep", help="a grid of runs (algos x envs x seeds) on Ray (pip install '.[cluster]')"
+    )
     p.add_argument("--algos", nargs="+", default=["ppo"], help="ppo a2c ddpg trpo")
     p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"])
     p.add_argument("--seeds", type=int, nargs="+", default=[0])

@@ -27,7 +27,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--check", action="store_true", help="only check it is current")
     p.set_defaults(run=cmd_generate_models)
 
-    p = sub.add_parser("render-diagrams", help="render each diagram's block diagram to "
-                                               "diagrams/*.dot and .svg")
+    p = sub.add_parser(
+        "render-diagrams", help="render each diagram's block diagram to diagrams/*.dot and .svg"
+    )
     p.add_argument("--check", action="store_true", help="only check the .dot files are current")
     p.set_defaults(run=cmd_render_diagrams)

@@ -13,22 +13,31 @@ def cmd_measure(args) -> dict:
     from drake_tooluse.diagrams.measurement import measure_tool
 
     scenario = scenario_from_args(args)
-    result = measure_tool(scenario, save_images_dir=args.save_images, noise_sigma=args.noise,
-                          method=args.method, lighting=args.lighting)
+    result = measure_tool(
+        scenario,
+        save_images_dir=args.save_images,
+        noise_sigma=args.noise,
+        method=args.method,
+        lighting=args.lighting,
+    )
     return {"scenario": str(args.scenario), **result.as_dict()}
 
 
 def format_measurement(out: dict) -> str:
     """Human-readable lines of `cmd_measure`'s dict (for the CLI without --json)."""
     mm = {k: (v * 1e3 if v is not None else float("nan")) for k, v in out["per_view_m"].items()}
-    lines = [f"tool length {out['tool_length_m'] * 1e3:.2f} mm ({out['method']} variant; "
-             f"spread {out['spread_m'] * 1e3:.2f} mm over "
-             f"{len(out['views']) - len(out['dropped'])} views; pixel variant "
-             f"{(out['length_pixel_m'] or float('nan')) * 1e3:.2f} mm)",
-             "per view: " + ", ".join(f"{k} {v:.2f} mm" for k, v in mm.items())]
+    lines = [
+        f"tool length {out['tool_length_m'] * 1e3:.2f} mm ({out['method']} variant; "
+        f"spread {out['spread_m'] * 1e3:.2f} mm over "
+        f"{len(out['views']) - len(out['dropped'])} views; pixel variant "
+        f"{(out['length_pixel_m'] or float('nan')) * 1e3:.2f} mm)",
+        "per view: " + ", ".join(f"{k} {v:.2f} mm" for k, v in mm.items()),
+    ]
     if out.get("grasp_along_m") is not None:
-        lines.append(f"held {out['grasp_along_m'] * 1e3:+.2f} mm along the tool from the "
-                     "gripper frame's origin (the grasp point)")
+        lines.append(
+            f"held {out['grasp_along_m'] * 1e3:+.2f} mm along the tool from the "
+            "gripper frame's origin (the grasp point)"
+        )
     lines += [f"dropped {d['view']}: {d['reason']}" for d in out["dropped"]]
     lines.append(f"{out['wall_time_s']:.2f} s ({out['sim_time_s']:.1f} s simulated)")
     lines += [f"image: {p}" for p in out["image_files"]]
@@ -36,16 +45,31 @@ def format_measurement(out: dict) -> str:
 
 
 def add_parsers(sub) -> None:
-    p = sub.add_parser("measure", help="measure the tool's length with the head camera "
-                                       "(three views, OpenCV + depth)")
+    p = sub.add_parser(
+        "measure",
+        help="measure the tool's length with the head camera (three views, OpenCV + depth)",
+    )
     add_scenario_args(p)
-    p.add_argument("--save-images", type=Path, metavar="DIR",
-                   help="write each view annotated as DIR/measure_<view>.png")
-    p.add_argument("--noise", type=float, metavar="SIGMA",
-                   help="Gaussian colour noise, grey levels (default: the scenario's)")
-    p.add_argument("--method", default="depth", choices=list(METHODS),
-                   help="depth: back-project with the depth image (default); pixel: the "
-                        "paper's fixed metres per pixel")
-    p.add_argument("--lighting", default="default", choices=list(LIGHTINGS),
-                   help="renderer lighting")
+    p.add_argument(
+        "--save-images",
+        type=Path,
+        metavar="DIR",
+        help="write each view annotated as DIR/measure_<view>.png",
+    )
+    p.add_argument(
+        "--noise",
+        type=float,
+        metavar="SIGMA",
+        help="Gaussian colour noise, grey levels (default: the scenario's)",
+    )
+    p.add_argument(
+        "--method",
+        default="depth",
+        choices=list(METHODS),
+        help="depth: back-project with the depth image (default); pixel: the "
+        "paper's fixed metres per pixel",
+    )
+    p.add_argument(
+        "--lighting", default="default", choices=list(LIGHTINGS), help="renderer lighting"
+    )
     p.set_defaults(run=cmd_measure, show=format_measurement)

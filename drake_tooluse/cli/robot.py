@@ -25,15 +25,21 @@ def cmd_fk(args) -> dict:
     length = tool_length_from_args(args)
     ik = ToolTipIK(length, library_size=1)
     q = ik.check_q(args.q, "--q")
-    return {"tool_length_m": length, "q": q.tolist(), "tip": pose_dict(ik.fk(q)),
-            "gripper": pose_dict(ik.fk_gripper(q))}
+    return {
+        "tool_length_m": length,
+        "q": q.tolist(),
+        "tip": pose_dict(ik.fk(q)),
+        "gripper": pose_dict(ik.fk_gripper(q)),
+    }
 
 
 def format_fk(out: dict) -> str:
     t = out["tip"]
-    return (f"tool tip in world: position {np.round(t['position_m'], 5).tolist()} m, "
-            f"quaternion wxyz {np.round(t['quaternion_wxyz'], 5).tolist()}, "
-            f"rpy {np.round(t['rpy_rad'], 5).tolist()} rad")
+    return (
+        f"tool tip in world: position {np.round(t['position_m'], 5).tolist()} m, "
+        f"quaternion wxyz {np.round(t['quaternion_wxyz'], 5).tolist()}, "
+        f"rpy {np.round(t['rpy_rad'], 5).tolist()} rad"
+    )
 
 
 def _target_pose(args):
@@ -47,8 +53,7 @@ def _target_pose(args):
     if args.quaternion is not None:
         if args.rpy is not None:
             raise UsageError("give either --rpy or --quaternion, not both")
-        return RigidTransform(Quaternion(check_unit_quaternion(args.quaternion, "--quaternion")),
-                              p)
+        return RigidTransform(Quaternion(check_unit_quaternion(args.quaternion, "--quaternion")), p)
     rpy = check_finite_vector(args.rpy if args.rpy is not None else TOOL_DOWN_RPY, 3, "--rpy")
     return RigidTransform(RollPitchYaw(rpy), p)
 
@@ -72,10 +77,12 @@ def cmd_ik(args) -> dict:
 
 
 def format_ik(out: dict) -> str:
-    return (f"success {out['success']}  q {np.round(out['q'], 5).tolist()} rad\n"
-            f"tip error {out['position_error_m'] * 1e3:.4g} mm, "
-            f"{out['orientation_error_rad']:.3g} rad; solve {out['solve_time_s'] * 1e3:.2f} ms"
-            f" ({out['attempts']} attempt(s))")
+    return (
+        f"success {out['success']}  q {np.round(out['q'], 5).tolist()} rad\n"
+        f"tip error {out['position_error_m'] * 1e3:.4g} mm, "
+        f"{out['orientation_error_rad']:.3g} rad; solve {out['solve_time_s'] * 1e3:.2f} ms"
+        f" ({out['attempts']} attempt(s))"
+    )
 
 
 def _parse_waypoint(text: str):
@@ -86,11 +93,13 @@ def _parse_waypoint(text: str):
     try:
         values = [float(v) for v in text.split(",")]
     except ValueError:
-        raise UsageError(f"waypoint {text!r} is not 'x,y,z' or 'x,y,z,roll,pitch,yaw' "
-                         "(m, rad)") from None
+        raise UsageError(
+            f"waypoint {text!r} is not 'x,y,z' or 'x,y,z,roll,pitch,yaw' (m, rad)"
+        ) from None
     if len(values) not in (3, 6) or not np.all(np.isfinite(values)):
-        raise UsageError(f"waypoint {text!r} needs 3 (x,y,z m) or 6 (x,y,z m, roll,pitch,yaw "
-                         "rad) finite numbers")
+        raise UsageError(
+            f"waypoint {text!r} needs 3 (x,y,z m) or 6 (x,y,z m, roll,pitch,yaw rad) finite numbers"
+        )
     rpy = values[3:] if len(values) == 6 else TOOL_DOWN_RPY
     return RigidTransform(RollPitchYaw(rpy), values[:3])
 
@@ -109,25 +118,41 @@ def cmd_simulate(args) -> dict:
         belief, measured = measured_belief(scenario)
     elif args.believed_tool_length is not None:
         belief = RobotBelief(args.believed_tool_length)
-    run = simulate_waypoints(scenario, waypoints, move_time=args.move_time, dwell=args.dwell,
-                             belief=belief, record=args.record)
+    run = simulate_waypoints(
+        scenario,
+        waypoints,
+        move_time=args.move_time,
+        dwell=args.dwell,
+        belief=belief,
+        record=args.record,
+    )
     errors = [r.position_error for r in run.results]
     believed = belief.tool_length if belief is not None else scenario.tool.length
-    return {"scenario": str(args.scenario), "tool_length_m": scenario.tool.length,
-            "believed_tool_length_m": believed, **measured,
-            "waypoints": [r.as_dict() for r in run.results],
-            "max_position_error_m": max(errors), "mean_position_error_m": float(np.mean(errors)),
-            "sim_time_s": run.sim_time, "wall_time_s": time.perf_counter() - start,
-            "recording": str(run.recording) if run.recording else None}
+    return {
+        "scenario": str(args.scenario),
+        "tool_length_m": scenario.tool.length,
+        "believed_tool_length_m": believed,
+        **measured,
+        "waypoints": [r.as_dict() for r in run.results],
+        "max_position_error_m": max(errors),
+        "mean_position_error_m": float(np.mean(errors)),
+        "sim_time_s": run.sim_time,
+        "wall_time_s": time.perf_counter() - start,
+        "recording": str(run.recording) if run.recording else None,
+    }
 
 
 def format_simulate(out: dict) -> str:
-    lines = [f"waypoint {i}: target {np.round(w['target_m'], 4).tolist()} m, "
-             f"tip error {w['position_error_m'] * 1e3:.3g} mm, "
-             f"{w['orientation_error_rad']:.2e} rad, IK ok {w['ik_success']}"
-             for i, w in enumerate(out["waypoints"])]
-    lines.append(f"max tip error {out['max_position_error_m'] * 1e3:.3g} mm; "
-                 f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s")
+    lines = [
+        f"waypoint {i}: target {np.round(w['target_m'], 4).tolist()} m, "
+        f"tip error {w['position_error_m'] * 1e3:.3g} mm, "
+        f"{w['orientation_error_rad']:.2e} rad, IK ok {w['ik_success']}"
+        for i, w in enumerate(out["waypoints"])
+    ]
+    lines.append(
+        f"max tip error {out['max_position_error_m'] * 1e3:.3g} mm; "
+        f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s"
+    )
     if out["recording"]:
         lines.append(f"recording: {out['recording']}")
     return "\n".join(lines)
@@ -136,40 +161,86 @@ def format_simulate(out: dict) -> str:
 def add_parsers(sub) -> None:
     p = sub.add_parser("fk", help="tool-tip pose in the world at given right-arm joint angles")
     add_tool_args(p)
-    p.add_argument("--q", type=float, nargs="+", required=True, metavar="RAD",
-                   help="7 right-arm joint angles s0 s1 e0 e1 w0 w1 w2 (rad)")
+    p.add_argument(
+        "--q",
+        type=float,
+        nargs="+",
+        required=True,
+        metavar="RAD",
+        help="7 right-arm joint angles s0 s1 e0 e1 w0 w1 w2 (rad)",
+    )
     p.set_defaults(run=cmd_fk, show=format_fk)
 
     p = sub.add_parser("ik", help="joint angles that put the tool tip at a pose")
     add_tool_args(p)
-    p.add_argument("--position", type=float, nargs="+", required=True, metavar="M",
-                   help="tip position x y z in the world (Baxter base) frame, m")
-    p.add_argument("--rpy", type=float, nargs="+", metavar="RAD",
-                   help="tip orientation roll pitch yaw, rad (default: tool pointing down)")
-    p.add_argument("--quaternion", type=float, nargs="+", metavar="Q",
-                   help="tip orientation as a quaternion w x y z (instead of --rpy)")
-    p.add_argument("--seed-q", type=float, nargs="+", metavar="RAD",
-                   help="warm start: 7 joint angles (rad)")
-    p.add_argument("--measure", action="store_true",
-                   help="measure the tool with the head camera first (the world's tool: "
-                        "--scenario, with --tool-length as its true length) and solve for the "
-                        "measured tool (length and grasp along it)")
-    p.add_argument("--scenario", type=Path, default=DEFAULT_SCENARIO,
-                   help="scenario YAML (with --measure; default: %(default)s)")
+    p.add_argument(
+        "--position",
+        type=float,
+        nargs="+",
+        required=True,
+        metavar="M",
+        help="tip position x y z in the world (Baxter base) frame, m",
+    )
+    p.add_argument(
+        "--rpy",
+        type=float,
+        nargs="+",
+        metavar="RAD",
+        help="tip orientation roll pitch yaw, rad (default: tool pointing down)",
+    )
+    p.add_argument(
+        "--quaternion",
+        type=float,
+        nargs="+",
+        metavar="Q",
+        help="tip orientation as a quaternion w x y z (instead of --rpy)",
+    )
+    p.add_argument(
+        "--seed-q", type=float, nargs="+", metavar="RAD", help="warm start: 7 joint angles (rad)"
+    )
+    p.add_argument(
+        "--measure",
+        action="store_true",
+        help="measure the tool with the head camera first (the world's tool: "
+        "--scenario, with --tool-length as its true length) and solve for the "
+        "measured tool (length and grasp along it)",
+    )
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        default=DEFAULT_SCENARIO,
+        help="scenario YAML (with --measure; default: %(default)s)",
+    )
     p.set_defaults(run=cmd_ik, show=format_ik)
 
-    p = sub.add_parser("simulate", help="move the tool tip through waypoints in the dynamic "
-                                        "simulation with the IK in the loop")
+    p = sub.add_parser(
+        "simulate",
+        help="move the tool tip through waypoints in the dynamic "
+        "simulation with the IK in the loop",
+    )
     add_scenario_args(p)
-    p.add_argument("--believed-tool-length", type=float, metavar="L",
-                   help="tool length the robot model believes (m); default the true one")
-    p.add_argument("--tip-waypoints", nargs="+", required=True, metavar="X,Y,Z[,R,P,Y]",
-                   help="tip waypoints in m (and rad); the tool points down if no rpy")
+    p.add_argument(
+        "--believed-tool-length",
+        type=float,
+        metavar="L",
+        help="tool length the robot model believes (m); default the true one",
+    )
+    p.add_argument(
+        "--tip-waypoints",
+        nargs="+",
+        required=True,
+        metavar="X,Y,Z[,R,P,Y]",
+        help="tip waypoints in m (and rad); the tool points down if no rpy",
+    )
     p.add_argument("--move-time", type=float, default=1.0, help="s per move (default 1.0)")
     p.add_argument("--dwell", type=float, default=1.5, help="s held at each waypoint (1.5)")
-    p.add_argument("--record", type=Path, metavar="HTML",
-                   help="write a Meshcat recording (standalone HTML)")
-    p.add_argument("--measure", action="store_true",
-                   help="measure the tool with the head camera first; the robot model then "
-                        "holds the measured length and grasp along the tool")
+    p.add_argument(
+        "--record", type=Path, metavar="HTML", help="write a Meshcat recording (standalone HTML)"
+    )
+    p.add_argument(
+        "--measure",
+        action="store_true",
+        help="measure the tool with the head camera first; the robot model then "
+        "holds the measured length and grasp along the tool",
+    )
     p.set_defaults(run=cmd_simulate, show=format_simulate)

@@ -62,18 +62,19 @@ class TipControl:
         actuation delay's buffer with the home target (not zeros: the arm would jump)."""
         if self.differential is not None:
             self.differential.SetPositions(
-                self.differential.GetMyMutableContextFromRoot(root_context), self.q0)
+                self.differential.GetMyMutableContextFromRoot(root_context), self.q0
+            )
         if self.delay is not None:
             delay_context = self.delay.GetMyMutableContextFromRoot(root_context)
             size = delay_context.get_discrete_state_vector().size()
-            delay_context.SetDiscreteState(np.resize(np.concatenate([self.q0, np.zeros(7)]),
-                                                     size))
+            delay_context.SetDiscreteState(np.resize(np.concatenate([self.q0, np.zeros(7)]), size))
 
     def ik_ok(self, root_context) -> bool:
         if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
             return True
         status = self.ik_system.GetOutputPort("status").Eval(
-            self.ik_system.GetMyContextFromRoot(root_context))
+            self.ik_system.GetMyContextFromRoot(root_context)
+        )
         return bool(status[0] > 0.5)
 
 
@@ -88,20 +89,26 @@ def home_configuration(scenario, ik: ToolTipIK) -> np.ndarray:
     X_WT = home_tip_pose(scenario)
     result = ik.solve(X_WT, q_seed=scenario.robot.posture_seed, max_attempts=HOME_IK_ATTEMPTS)
     if not result.success:
-        limits = " within the conservative joint limits" if scenario.robot.conservative_limits else ""
+        limits = (
+            " within the conservative joint limits" if scenario.robot.conservative_limits else ""
+        )
         raise ValueError(
             f"the scenario's home pose (tip at {X_WT.translation().tolist()} m) is unreachable "
             f"with tool length {ik.tool_length} m: residual {result.position_error:.3g} m, "
             f"{result.orientation_error:.3g} rad{limits}; move robot.home_tip_xy / "
-            "home_tip_height")
+            "home_tip_height"
+        )
     return result.q
 
 
 def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
     """The IK on the robot model of `belief`, with the joint limits the scenario's robot keeps."""
-    return ToolTipIK(belief.tool_length, grasp_offset=belief.grasp_offset,
-                     max_attempts=IK_ATTEMPTS,
-                     **joint_limit_kwargs(scenario.robot.conservative_limits))
+    return ToolTipIK(
+        belief.tool_length,
+        grasp_offset=belief.grasp_offset,
+        max_attempts=IK_ATTEMPTS,
+        **joint_limit_kwargs(scenario.robot.conservative_limits),
+    )
 
 
 def add_world_at_home(builder, scenario, belief: RobotBelief | None = None):
@@ -132,7 +139,8 @@ def add_joint_command(builder, world: World, q_commanded, control: TipControl) -
         # plant's step N + 1 ticks late (its update reads the delay's output from before the
         # same tick): N = steps - 1 gives `actuation_delay` exactly (tested).
         control.delay = builder.AddNamedSystem(
-            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps - 1, 14))
+            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps - 1, 14)
+        )
         builder.Connect(command, control.delay.get_input_port())
         command = control.delay.get_output_port()
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
@@ -169,38 +177,53 @@ def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
     # PD controllers (effort-limited) decide how fast the arm gets there.
     params.set_nominal_joint_position(np.asarray(q0, float))
     params.set_joint_centering_gain(0.01 * np.eye(7))  # a light pull toward the home posture
-    return builder.AddNamedSystem("differential_ik", DifferentialInverseKinematicsIntegrator(
-        plant, ik.tip_frame, period, params, log_only_when_result_state_changes=True))
+    return builder.AddNamedSystem(
+        "differential_ik",
+        DifferentialInverseKinematicsIntegrator(
+            plant, ik.tip_frame, period, params, log_only_when_result_state_changes=True
+        ),
+    )
 
 
-def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str,
-                    ik_mode: str) -> TipControl:
+def add_tip_control(
+    builder, world: World, ik: ToolTipIK, q0, action_mode: str, ik_mode: str
+) -> TipControl:
     """Adds the tip target, the IK (full or differential) and the joint command, connected
     to the world's plant. The target's `action` input is left for the caller to connect."""
     check_one_of(ik_mode, IK_MODES, "ik_mode")
     s = world.scenario
     period = s.control.control_period
-    target = builder.AddNamedSystem("tip_target", TipTargetSystem(
-        action_mode, ik.plant, pose_to_vector(home_tip_pose(s)),
-        Workspace.above_table(s.table.top_z)))
+    target = builder.AddNamedSystem(
+        "tip_target",
+        TipTargetSystem(
+            action_mode,
+            ik.plant,
+            pose_to_vector(home_tip_pose(s)),
+            Workspace.above_table(s.table.top_z),
+        ),
+    )
     arm_state = world.plant.get_state_output_port(world.baxter)
     builder.Connect(arm_state, target.GetInputPort("arm_state"))
     control = TipControl(target, ik, np.asarray(q0, float))
     if ik_mode == "full":
         control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
-        builder.Connect(target.GetOutputPort("tip_pose_desired"),
-                        control.ik_system.GetInputPort("tip_pose_desired"))
+        builder.Connect(
+            target.GetOutputPort("tip_pose_desired"),
+            control.ik_system.GetInputPort("tip_pose_desired"),
+        )
         q_commanded = control.ik_system.GetOutputPort("q_desired")
     else:
         control.differential = add_differential_ik(builder, ik, q0, period)
-        builder.Connect(target.GetOutputPort("X_WT_desired"),
-                        control.differential.GetInputPort("X_AE_desired"))
+        builder.Connect(
+            target.GetOutputPort("X_WT_desired"), control.differential.GetInputPort("X_AE_desired")
+        )
         # Linearize about the measured arm, as the full IK starts from it; integrating open
         # loop instead would let the target (measured + action) run away.
         builder.Connect(arm_state, control.differential.GetInputPort("robot_state"))
         use_measured = builder.AddSystem(ConstantValueSource(AbstractValue.Make(True)))
-        builder.Connect(use_measured.get_output_port(),
-                        control.differential.GetInputPort("use_robot_state"))
+        builder.Connect(
+            use_measured.get_output_port(), control.differential.GetInputPort("use_robot_state")
+        )
         q_commanded = control.differential.GetOutputPort("joint_positions")
     add_joint_command(builder, world, q_commanded, control)
     return control
@@ -213,7 +236,8 @@ def add_trajectory_control(builder, world: World, ik: ToolTipIK, q0, tip_source)
     control = TipControl(None, ik, np.asarray(q0, float))
     period = world.scenario.control.control_period
     control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
-    builder.Connect(tip_source.get_output_port(),
-                    control.ik_system.GetInputPort("tip_pose_desired"))
+    builder.Connect(
+        tip_source.get_output_port(), control.ik_system.GetInputPort("tip_pose_desired")
+    )
     add_joint_command(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
     return control

@@ -105,8 +105,9 @@ class MeasurementView:
         y = np.asarray(finger_axis_C, float)
         y = y - y.dot(z) * z
         y /= np.linalg.norm(y)
-        return RigidTransform(RotationMatrix(np.column_stack([np.cross(y, z), y, z])),
-                              np.asarray(self.p_CG, float))
+        return RigidTransform(
+            RotationMatrix(np.column_stack([np.cross(y, z), y, z])), np.asarray(self.p_CG, float)
+        )
 
 
 def _axis(tilt_away_deg: float, tilt_up_deg: float) -> tuple[float, float, float]:
@@ -196,25 +197,30 @@ def plan_measurement(scenario: Scenario, views=MEASUREMENT_VIEWS) -> Measurement
             how = "unreachable" if k == 0 else f"not reachable from view {views[k - 1].name!r}"
             raise ValueError(
                 f"measurement view {view.name!r}: the gripper pose (grip at {list(view.p_CG)} m "
-                f"in the head camera frame) is {how} for the right arm")
+                f"in the head camera frame) is {how} for the right arm"
+            )
         X_WG, q, path = found
         if path is not None:
             moves.append(path)
         p_CG = np.asarray(view.p_CG, float)
-        pixel = (info.center_x() + info.focal_x() * p_CG[0] / p_CG[2],
-                 info.center_y() + info.focal_y() * p_CG[1] / p_CG[2])
+        pixel = (
+            info.center_x() + info.focal_x() * p_CG[0] / p_CG[2],
+            info.center_y() + info.focal_y() * p_CG[1] / p_CG[2],
+        )
         planned.append(PlannedView(view, X_WG, q, ViewSpec(view.name, pixel, float(p_CG[2]))))
     return MeasurementPlan(X_WC, planned, moves)
 
 
-def capture_times(n_views: int, move_time: float = MOVE_TIME,
-                  settle_time: float = SETTLE_TIME) -> list[float]:
+def capture_times(
+    n_views: int, move_time: float = MOVE_TIME, settle_time: float = SETTLE_TIME
+) -> list[float]:
     """t_k = settle + k (move + settle): view k is held `settle_time` s before it is taken."""
     return [settle_time + k * (move_time + settle_time) for k in range(n_views)]
 
 
-def joint_schedule(plan: MeasurementPlan, move_time: float = MOVE_TIME,
-                   settle_time: float = SETTLE_TIME) -> PiecewisePolynomial:
+def joint_schedule(
+    plan: MeasurementPlan, move_time: float = MOVE_TIME, settle_time: float = SETTLE_TIME
+) -> PiecewisePolynomial:
     """Right-arm joint targets: hold view 0, then for each move its waypoints (cubic Hermite,
     velocities by finite differences, zero at both ends) and a hold at the view; the capture
     times fall at the ends of the holds."""
@@ -252,8 +258,9 @@ class SceneObject:
 def orange_distractor(p_CO=(-0.40, -0.27, 0.90), radius: float = 0.004) -> SceneObject:
     """A small orange sphere (default: in the upper left of every view, clear of the tool and
     the arm), smaller in the image than a marker band."""
-    return SceneObject("orange_distractor", Sphere(radius), RigidTransform(p_CO),
-                       (1.0, 0.45, 0.0, 1.0))
+    return SceneObject(
+        "orange_distractor", Sphere(radius), RigidTransform(p_CO), (1.0, 0.45, 0.0, 1.0)
+    )
 
 
 def occluder(p_CO, size=(0.06, 0.06, 0.005)) -> SceneObject:
@@ -269,8 +276,9 @@ def add_scene_objects(world: World, X_WC: RigidTransform, objects) -> None:
     sg = world.scene_graph
     source = sg.RegisterSource("measure_scene_objects")
     for obj in objects:
-        gid = sg.RegisterAnchoredGeometry(source, GeometryInstance(X_WC @ obj.X_CO, obj.shape,
-                                                                   obj.name))
+        gid = sg.RegisterAnchoredGeometry(
+            source, GeometryInstance(X_WC @ obj.X_CO, obj.shape, obj.name)
+        )
         perception = PerceptionProperties()
         perception.AddProperty("phong", "diffuse", Rgba(*obj.rgba))
         perception.AddProperty("label", "id", RenderLabel.kDontCare)
@@ -291,18 +299,24 @@ class MeasurementDiagram:
     capture_times: list
 
 
-def build_measurement_diagram(scenario: Scenario, plan: MeasurementPlan | None = None, *,
-                              method: str = "depth", noise_sigma: float | None = None,
-                              lighting: str = "default", scene_objects=(), seed: int = 0,
-                              move_time: float = MOVE_TIME,
-                              settle_time: float = SETTLE_TIME) -> MeasurementDiagram:
+def build_measurement_diagram(
+    scenario: Scenario,
+    plan: MeasurementPlan | None = None,
+    *,
+    method: str = "depth",
+    noise_sigma: float | None = None,
+    lighting: str = "default",
+    scene_objects=(),
+    seed: int = 0,
+    move_time: float = MOVE_TIME,
+    settle_time: float = SETTLE_TIME,
+) -> MeasurementDiagram:
     """World (true tool) + joint schedule through the views + head camera [+ colour noise] +
     ToolLengthEstimator. Exported outputs: `tool_length`, `measurement`, `color_image`,
     `depth_image`."""
     check_one_of(method, METHODS, "method")
     check_one_of(lighting, LIGHTINGS, "lighting")
-    sigma = (scenario.camera.noise_sigma if noise_sigma is None
-             else check_noise_sigma(noise_sigma))
+    sigma = scenario.camera.noise_sigma if noise_sigma is None else check_noise_sigma(noise_sigma)
     move_time = check_in_range(move_time, 0.1, 10.0, "move_time", unit="s")
     settle_time = check_in_range(settle_time, 0.0, 10.0, "settle_time", unit="s")
     plan = plan_measurement(scenario) if plan is None else plan
@@ -311,21 +325,33 @@ def build_measurement_diagram(scenario: Scenario, plan: MeasurementPlan | None =
     for joint, q in zip(world.arm_joints(), plan.views[0].q):
         joint.set_default_angle(q)
     add_scene_objects(world, plan.X_WC, scene_objects)
-    schedule = builder.AddNamedSystem("joint_schedule", TrajectorySource(
-        joint_schedule(plan, move_time, settle_time), output_derivative_order=1))
-    builder.Connect(schedule.get_output_port(),
-                    world.plant.get_desired_state_input_port(world.baxter))
+    schedule = builder.AddNamedSystem(
+        "joint_schedule",
+        TrajectorySource(joint_schedule(plan, move_time, settle_time), output_derivative_order=1),
+    )
+    builder.Connect(
+        schedule.get_output_port(), world.plant.get_desired_state_input_port(world.baxter)
+    )
     sensor = add_head_camera(builder, world, scenario.camera, lighting)
     color_port = sensor.color_image_output_port()
     if sigma > 0:
-        noise = builder.AddNamedSystem("color_noise", ColorImageNoise(
-            scenario.camera.width, scenario.camera.height, sigma, seed))
+        noise = builder.AddNamedSystem(
+            "color_noise",
+            ColorImageNoise(scenario.camera.width, scenario.camera.height, sigma, seed),
+        )
         builder.Connect(color_port, noise.get_input_port())
         color_port = noise.get_output_port()
     times = capture_times(len(plan.views), move_time, settle_time)
-    estimator = builder.AddNamedSystem("tool_length_estimator", ToolLengthEstimator(
-        camera_info(scenario.camera), [pv.spec for pv in plan.views], times[0],
-        move_time + settle_time, method))
+    estimator = builder.AddNamedSystem(
+        "tool_length_estimator",
+        ToolLengthEstimator(
+            camera_info(scenario.camera),
+            [pv.spec for pv in plan.views],
+            times[0],
+            move_time + settle_time,
+            method,
+        ),
+    )
     builder.Connect(color_port, estimator.GetInputPort("color_image"))
     builder.Connect(sensor.depth_image_32F_output_port(), estimator.GetInputPort("depth_image"))
     builder.ExportOutput(estimator.GetOutputPort("tool_length"), "tool_length")
@@ -369,19 +395,23 @@ class MeasurementResult:
         def f(x):
             return None if not math.isfinite(x) else float(x)
 
-        return {"tool_length_m": f(self.length), "spread_m": f(self.spread),
-                "method": self.method,
-                "per_view_m": {v.view: f(v.length(self.method)) for v in self.views},
-                "dropped": self.dropped,
-                "length_depth_m": f(self.length_by("depth")),
-                "length_pixel_m": f(self.length_by("pixel")),
-                "views": [v.as_dict() for v in self.views],
-                "scenario_tool_length_m": f(self.scenario_tool_length),
-                "error_m": f(self.length - self.scenario_tool_length),
-                "grasp_along_m": f(self.grasp_along),
-                "scenario_grasp_along_m": f(self.scenario_grasp_along),
-                "wall_time_s": self.wall_time, "sim_time_s": self.sim_time,
-                "image_files": [str(p) for p in self.image_files]}
+        return {
+            "tool_length_m": f(self.length),
+            "spread_m": f(self.spread),
+            "method": self.method,
+            "per_view_m": {v.view: f(v.length(self.method)) for v in self.views},
+            "dropped": self.dropped,
+            "length_depth_m": f(self.length_by("depth")),
+            "length_pixel_m": f(self.length_by("pixel")),
+            "views": [v.as_dict() for v in self.views],
+            "scenario_tool_length_m": f(self.scenario_tool_length),
+            "error_m": f(self.length - self.scenario_tool_length),
+            "grasp_along_m": f(self.grasp_along),
+            "scenario_grasp_along_m": f(self.scenario_grasp_along),
+            "wall_time_s": self.wall_time,
+            "sim_time_s": self.sim_time,
+            "image_files": [str(p) for p in self.image_files],
+        }
 
 
 def estimate_grasp_along(views, X_GC) -> float:
@@ -393,16 +423,28 @@ def estimate_grasp_along(views, X_GC) -> float:
     short tool's grip band is half inside the fingers. Only the component along the tool: the
     marker points lie on the rod's surface facing the camera, a radius (~7 mm) off its axis
     across it, as large as the shifts across to be found, so those are not estimated."""
-    along = [min((X @ np.asarray(p, float))[2] for p in view.ends_C)
-             for view, X in zip(views, X_GC) if view.accepted and len(view.ends_C) == 2]
+    along = [
+        min((X @ np.asarray(p, float))[2] for p in view.ends_C)
+        for view, X in zip(views, X_GC)
+        if view.accepted and len(view.ends_C) == 2
+    ]
     return float(np.mean(along)) if along else math.nan
 
 
-def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | None = None,
-                 method: str = "depth", *, lighting: str = "default", scene_objects=(),
-                 seed: int = 0, keep_images: bool = False, plan: MeasurementPlan | None = None,
-                 move_time: float = MOVE_TIME,
-                 settle_time: float = SETTLE_TIME) -> MeasurementResult:
+def measure_tool(
+    scenario: Scenario,
+    save_images_dir=None,
+    noise_sigma: float | None = None,
+    method: str = "depth",
+    *,
+    lighting: str = "default",
+    scene_objects=(),
+    seed: int = 0,
+    keep_images: bool = False,
+    plan: MeasurementPlan | None = None,
+    move_time: float = MOVE_TIME,
+    settle_time: float = SETTLE_TIME,
+) -> MeasurementResult:
     """Moves through the three views in the dynamic simulation and measures the tool.
 
     Args:
@@ -422,9 +464,17 @@ def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | 
     Dropped views are in `result.dropped` with the reason.
     """
     start = time.perf_counter()
-    built = build_measurement_diagram(scenario, plan, method=method, noise_sigma=noise_sigma,
-                                      lighting=lighting, scene_objects=scene_objects,
-                                      seed=seed, move_time=move_time, settle_time=settle_time)
+    built = build_measurement_diagram(
+        scenario,
+        plan,
+        method=method,
+        noise_sigma=noise_sigma,
+        lighting=lighting,
+        scene_objects=scene_objects,
+        seed=seed,
+        move_time=move_time,
+        settle_time=settle_time,
+    )
     simulator = Simulator(built.diagram)
     simulator.Initialize()
     context = simulator.get_context()
@@ -451,21 +501,31 @@ def measure_tool(scenario: Scenario, save_images_dir=None, noise_sigma: float | 
         out_dir = Path(save_images_dir)
         info = camera_info(scenario.camera)
         for view, (color, _) in zip(measurement.views, images):
-            files.append(atomic_write_image(out_dir / f"measure_{view.view}.png",
-                                            annotate_view(color, view, info), bgr=True))
+            files.append(
+                atomic_write_image(
+                    out_dir / f"measure_{view.view}.png", annotate_view(color, view, info), bgr=True
+                )
+            )
     result = MeasurementResult(
-        length=measurement.length(), spread=measurement.spread(), method=method,
-        views=list(measurement.views), wall_time=time.perf_counter() - start, sim_time=t_end,
+        length=measurement.length(),
+        spread=measurement.spread(),
+        method=method,
+        views=list(measurement.views),
+        wall_time=time.perf_counter() - start,
+        sim_time=t_end,
         scenario_tool_length=float(scenario.tool.length) if scenario.tool.attached else math.nan,
-        images=images if keep_images else None, image_files=files,
+        images=images if keep_images else None,
+        image_files=files,
         grasp_along=estimate_grasp_along(measurement.views, X_GC),
-        scenario_grasp_along=scenario.tool.grasp_offset_along)
+        scenario_grasp_along=scenario.tool.grasp_offset_along,
+    )
     measurement.length_or_raise()
     return result
 
 
-def measure_belief(scenario: Scenario, *, use_grasp_estimate: bool = True,
-                   **measure_kwargs) -> tuple[RobotBelief, MeasurementResult]:
+def measure_belief(
+    scenario: Scenario, *, use_grasp_estimate: bool = True, **measure_kwargs
+) -> tuple[RobotBelief, MeasurementResult]:
     """Measures the scenario's (true) tool with the head camera (`measure_tool`) and returns
     what the robot then believes: the measured length and, with `use_grasp_estimate`, where
     the hand holds the tool along it (else the nominal grasp: the paper's measurement)."""

@@ -44,18 +44,32 @@ class PushTask:
     observation: ToolPushObservation
 
 
-def add_push_task(builder, scenario: Scenario, belief: RobotBelief | None, action_mode: str,
-                  ik_mode: str, observation_mode: str,
-                  include_tool_length: bool) -> PushTask:
+def add_push_task(
+    builder,
+    scenario: Scenario,
+    belief: RobotBelief | None,
+    action_mode: str,
+    ik_mode: str,
+    observation_mode: str,
+    include_tool_length: bool,
+) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`, `ik_mode`) and the task's observation of the world, its
     goal the scenario's. The tip target's `action` input is left unconnected."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     control = add_tip_control(builder, world, ik, q0, action_mode, ik_mode)
-    observation = builder.AddNamedSystem("observation", ToolPushObservation(
-        world, ik.plant, goal_position(scenario), include_tool_length, belief.tool_length,
-        observation_mode))
+    observation = builder.AddNamedSystem(
+        "observation",
+        ToolPushObservation(
+            world,
+            ik.plant,
+            goal_position(scenario),
+            include_tool_length,
+            belief.tool_length,
+            observation_mode,
+        ),
+    )
     builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
     return PushTask(world, ik, control, observation)
 
@@ -77,15 +91,22 @@ def policy_observation(policy) -> tuple[str, bool]:
     mode = policy.meta.env_kwargs.get("observation_mode", "paper")
     size = OBSERVATION_SIZES.get(mode)
     if size is None or n_obs not in (size, size + 1):
-        raise ValueError(f"the policy observes {n_obs} values with observation_mode={mode!r}; "
-                         f"the push task gives {OBSERVATION_SIZES} (one more with the tool "
-                         "length)")
+        raise ValueError(
+            f"the policy observes {n_obs} values with observation_mode={mode!r}; "
+            f"the push task gives {OBSERVATION_SIZES} (one more with the tool "
+            "length)"
+        )
     return mode, n_obs == size + 1
 
 
-def build_policy_diagram(scenario: Scenario, policy, belief: RobotBelief | None = None,
-                         ik_mode: str = "full", meshcat=None,
-                         scene_camera: bool = False) -> PolicyDiagram:
+def build_policy_diagram(
+    scenario: Scenario,
+    policy,
+    belief: RobotBelief | None = None,
+    ik_mode: str = "full",
+    meshcat=None,
+    scene_camera: bool = False,
+) -> PolicyDiagram:
     """World (truth) + a loaded policy (`learning.policy_dir.load_policy`) closed-loop through
     tool-tip control on the robot model of `belief` (default: the scenario's true length,
     nominal grasp). With `scene_camera`, the diagram exports the `color_image` of a camera
@@ -96,8 +117,10 @@ def build_policy_diagram(scenario: Scenario, policy, belief: RobotBelief | None 
     task = add_push_task(builder, scenario, belief, action_mode, ik_mode, mode, include_length)
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:
-        raise ValueError(f"the policy's actions {policy.meta.action_shape} do not fit the "
-                         f"action mode {action_mode!r}")
+        raise ValueError(
+            f"the policy's actions {policy.meta.action_shape} do not fit the "
+            f"action mode {action_mode!r}"
+        )
     policy_system = builder.AddNamedSystem("policy", PolicySystem(policy))
     builder.Connect(task.observation.get_output_port(), policy_system.get_input_port())
     builder.Connect(policy_system.get_output_port(), action_input)
@@ -108,8 +131,9 @@ def build_policy_diagram(scenario: Scenario, policy, belief: RobotBelief | None 
         add_scene_camera(builder, task.world)
     diagram = builder.Build()
     diagram.set_name("policy_control")
-    return PolicyDiagram(diagram, task.world, task.control, task.observation, policy_system,
-                         visualizer)
+    return PolicyDiagram(
+        diagram, task.world, task.control, task.observation, policy_system, visualizer
+    )
 
 
 @dataclass
@@ -127,13 +151,25 @@ class PushRun:
     final_image: np.ndarray | None = None  # RGBA at the end, if the diagram has a scene camera
 
     def as_dict(self) -> dict:
-        return {"steps": self.steps, "success": self.success,
-                "final_box_to_goal_m": self.final_box_to_goal, "box_travel_m": self.box_travel,
-                "tool_touched": self.tool_touched, "gripper_touched": self.gripper_touched}
+        return {
+            "steps": self.steps,
+            "success": self.success,
+            "final_box_to_goal_m": self.final_box_to_goal,
+            "box_travel_m": self.box_travel,
+            "tool_touched": self.tool_touched,
+            "gripper_touched": self.gripper_touched,
+        }
 
 
-def run_push(diagram, world: World, control: TipControl, max_steps: int,
-             stop_at_success: bool = True, visualizer=None, on_step=None) -> PushRun:
+def run_push(
+    diagram,
+    world: World,
+    control: TipControl,
+    max_steps: int,
+    stop_at_success: bool = True,
+    visualizer=None,
+    on_step=None,
+) -> PushRun:
     """Simulates a push diagram from its default state one control period at a time, for
     `max_steps` or until the box reaches the goal (as the env terminates) if
     `stop_at_success`. With a `visualizer`, the run is recorded. `on_step(step)` is called
@@ -170,14 +206,29 @@ def run_push(diagram, world: World, control: TipControl, max_steps: int,
     image = None
     if diagram.HasOutputPort("color_image"):
         image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
-    return PushRun(step, bool(metrics.is_success), float(metrics.box_to_goal),
-                   float(metrics.box_travel), bool(tool_touched), bool(gripper_touched),
-                   np.array(tips), np.array(boxes), image)
+    return PushRun(
+        step,
+        bool(metrics.is_success),
+        float(metrics.box_to_goal),
+        float(metrics.box_travel),
+        bool(tool_touched),
+        bool(gripper_touched),
+        np.array(tips),
+        np.array(boxes),
+        image,
+    )
 
 
-def run_policy(built: PolicyDiagram, max_steps: int = 100, record: bool = False,
-               on_step=None) -> PushRun:
+def run_policy(
+    built: PolicyDiagram, max_steps: int = 100, record: bool = False, on_step=None
+) -> PushRun:
     """Runs the policy diagram from its default state until success (as the env terminates)
     or `max_steps`; recorded if `record` and the diagram has a visualizer."""
-    return run_push(built.diagram, built.world, built.control, max_steps,
-                    visualizer=built.visualizer if record else None, on_step=on_step)
+    return run_push(
+        built.diagram,
+        built.world,
+        built.control,
+        max_steps,
+        visualizer=built.visualizer if record else None,
+        on_step=on_step,
+    )

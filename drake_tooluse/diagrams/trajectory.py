@@ -17,6 +17,12 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from drake_tooluse.diagrams.control import TipControl, add_trajectory_control, add_world_at_home
+from drake_tooluse.diagrams.visualization import (
+    add_meshcat_visualizer,
+    save_recording,
+    start_meshcat,
+)
 from drake_tooluse.robot.ik import rotation_angle_between
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import (
@@ -25,12 +31,6 @@ from drake_tooluse.systems.tip_trajectory import (
     waypoint_trajectory,
 )
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
-from drake_tooluse.diagrams.control import TipControl, add_trajectory_control, add_world_at_home
-from drake_tooluse.diagrams.visualization import (
-    add_meshcat_visualizer,
-    save_recording,
-    start_meshcat,
-)
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, home_tip_pose
 
@@ -47,9 +47,13 @@ class TrajectoryDiagram:
         return self.control.ik_system
 
 
-def build_trajectory_diagram(scenario: Scenario, trajectory: TipTrajectory,
-                             belief: RobotBelief | None = None, meshcat=None,
-                             lead: float = 0.0) -> TrajectoryDiagram:
+def build_trajectory_diagram(
+    scenario: Scenario,
+    trajectory: TipTrajectory,
+    belief: RobotBelief | None = None,
+    meshcat=None,
+    lead: float = 0.0,
+) -> TrajectoryDiagram:
     """World (truth) + a TrajectorySource of `trajectory` (leading by `lead` s, see
     `tip_trajectory_source`) through the tool-tip IK on the robot model of `belief` (default:
     the scenario's true length, nominal grasp) and the joint command (with the scenario's
@@ -75,9 +79,13 @@ class WaypointResult:
     ik_success: bool
 
     def as_dict(self) -> dict:
-        return {"target_m": self.target.tolist(), "reached_m": self.reached.tolist(),
-                "position_error_m": self.position_error,
-                "orientation_error_rad": self.orientation_error, "ik_success": self.ik_success}
+        return {
+            "target_m": self.target.tolist(),
+            "reached_m": self.reached.tolist(),
+            "position_error_m": self.position_error,
+            "orientation_error_rad": self.orientation_error,
+            "ik_success": self.ik_success,
+        }
 
 
 @dataclass
@@ -87,9 +95,15 @@ class WaypointRun:
     recording: Path | None = None
 
 
-def simulate_waypoints(scenario: Scenario, waypoints, *, move_time: float = 1.0,
-                       dwell: float = 1.5, belief: RobotBelief | None = None,
-                       record: str | Path | None = None) -> WaypointRun:
+def simulate_waypoints(
+    scenario: Scenario,
+    waypoints,
+    *,
+    move_time: float = 1.0,
+    dwell: float = 1.5,
+    belief: RobotBelief | None = None,
+    record: str | Path | None = None,
+) -> WaypointRun:
     """Moves the tool tip from home through `waypoints` (RigidTransforms X_WT*) in the dynamic
     simulation, the robot believing `belief` (default: the true length, nominal grasp), and
     measures the true tip's error at the end of each dwell. With `record`, a Meshcat
@@ -112,11 +126,15 @@ def simulate_waypoints(scenario: Scenario, waypoints, *, move_time: float = 1.0,
         simulator.AdvanceTo(t)
         X_true = built.world.tip_frame.CalcPoseInWorld(plant_context)
         status = built.ik_system.GetOutputPort("status").Eval(ik_context)
-        run.results.append(WaypointResult(
-            target=X.translation().copy(), reached=X_true.translation().copy(),
-            position_error=float(np.linalg.norm(X_true.translation() - X.translation())),
-            orientation_error=rotation_angle_between(X_true.rotation(), X.rotation()),
-            ik_success=bool(status[0] > 0.5)))
+        run.results.append(
+            WaypointResult(
+                target=X.translation().copy(),
+                reached=X_true.translation().copy(),
+                position_error=float(np.linalg.norm(X_true.translation() - X.translation())),
+                orientation_error=rotation_angle_between(X_true.rotation(), X.rotation()),
+                ik_success=bool(status[0] > 0.5),
+            )
+        )
     run.sim_time = t
     if record is not None:
         run.recording = save_recording(meshcat, built.visualizer, record)

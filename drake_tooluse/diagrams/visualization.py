@@ -17,7 +17,8 @@ def start_meshcat() -> Meshcat:
 
 def add_meshcat_visualizer(builder, scene_graph, meshcat: Meshcat) -> MeshcatVisualizer:
     return MeshcatVisualizer.AddToBuilder(
-        builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 32))
+        builder, scene_graph, meshcat, MeshcatVisualizerParams(publish_period=1 / 32)
+    )
 
 
 def save_recording(meshcat: Meshcat, visualizer: MeshcatVisualizer, path: str | Path) -> Path:

@@ -65,8 +65,9 @@ def _config(kwargs) -> EnvConfig:
     allowed = [f.name for f in dc.fields(EnvConfig)]
     unknown = sorted(set(kwargs) - set(allowed))
     if unknown:
-        raise TypeError(f"unknown argument(s) {unknown} for a drake_tooluse env; allowed: "
-                        f"{allowed}")
+        raise TypeError(
+            f"unknown argument(s) {unknown} for a drake_tooluse env; allowed: {allowed}"
+        )
     config = EnvConfig(**kwargs)
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
@@ -111,14 +112,17 @@ class ToolPushEnv(DrakeGymEnv):
         # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
         self.metadata = dict(type(self).metadata)
         super().__init__(
-            simulator=self._simulator, time_step=self.scenario.control.control_period,
-            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],),
-                                        np.float32),
+            simulator=self._simulator,
+            time_step=self.scenario.control.control_period,
+            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],), np.float32),
             observation_space=gym.spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
-            reward=lambda system, context: self._last_reward, action_port_id="action",
+            reward=lambda system, context: self._last_reward,
+            action_port_id="action",
             observation_port_id="observation",
             render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
-            render_mode=config.render_mode or "human", reset_handler=self._reset_handler)
+            render_mode=config.render_mode or "human",
+            reset_handler=self._reset_handler,
+        )
         self.render_mode = config.render_mode
         self.metadata = dict(type(self).metadata)
         self._last_reward = 0.0
@@ -127,8 +131,15 @@ class ToolPushEnv(DrakeGymEnv):
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, config: EnvConfig) -> None:
         builder = DiagramBuilder()
-        task = add_push_task(builder, self.scenario, None, config.action_mode, config.ik_mode,
-                             config.observation_mode, config.include_tool_length)
+        task = add_push_task(
+            builder,
+            self.scenario,
+            None,
+            config.action_mode,
+            config.ik_mode,
+            config.observation_mode,
+            config.include_tool_length,
+        )
         self.world, self.control = task.world, task.control
         self.ik_system, self.target_system = task.control.ik_system, task.control.target
         self.observation_system = task.observation
@@ -138,8 +149,9 @@ class ToolPushEnv(DrakeGymEnv):
             add_scene_camera(builder, self.world)
         self.visualizer = None
         if config.meshcat is not None:
-            self.visualizer = add_meshcat_visualizer(builder, self.world.scene_graph,
-                                                     config.meshcat)
+            self.visualizer = add_meshcat_visualizer(
+                builder, self.world.scene_graph, config.meshcat
+            )
         self.diagram = builder.Build()
         self.diagram.set_name("tool_push_env")
         self._metrics = PushMetricsReader(self.world)
@@ -155,9 +167,14 @@ class ToolPushEnv(DrakeGymEnv):
         box_start = initial_box_pose(s).translation()
         goal = box_start + np.asarray(s.goal_offset, float)
         self.observation_system.set_goal(
-            self.observation_system.GetMyMutableContextFromRoot(context), goal)
-        self._episode = {"goal": goal, "box_start": box_start, "tool_touched": False,
-                         "gripper_touched": False}
+            self.observation_system.GetMyMutableContextFromRoot(context), goal
+        )
+        self._episode = {
+            "goal": goal,
+            "box_start": box_start,
+            "tool_touched": False,
+            "gripper_touched": False,
+        }
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         if options:
@@ -178,8 +195,13 @@ class ToolPushEnv(DrakeGymEnv):
         observation = np.asarray(self.observation_port.Eval(context), np.float32)
         m = self._read_metrics()
         self._last_reward = reward(m, self.config.reward_type)
-        return observation, self._last_reward, bool(m.is_success), sim_error, self._info(
-            m, sim_error)
+        return (
+            observation,
+            self._last_reward,
+            bool(m.is_success),
+            sim_error,
+            self._info(m, sim_error),
+        )
 
     def render(self):
         """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
@@ -214,10 +236,15 @@ class ToolPushEnv(DrakeGymEnv):
         return m
 
     def _info(self, m, sim_error: bool) -> dict:
-        return {"is_success": bool(m.is_success), "box_to_goal": m.box_to_goal,
-                "tip_to_box": m.tip_to_box, "box_travel": m.box_travel,
-                "tool_touches_box": m.tool_touches_box,
-                "gripper_touches_box": m.gripper_touches_box,
-                "tool_touched_box_in_episode": self._episode["tool_touched"],
-                "gripper_touched_box_in_episode": self._episode["gripper_touched"],
-                "ik_ok": self.control.ik_ok(self.simulator.get_context()), "sim_error": sim_error}
+        return {
+            "is_success": bool(m.is_success),
+            "box_to_goal": m.box_to_goal,
+            "tip_to_box": m.tip_to_box,
+            "box_travel": m.box_travel,
+            "tool_touches_box": m.tool_touches_box,
+            "gripper_touches_box": m.gripper_touches_box,
+            "tool_touched_box_in_episode": self._episode["tool_touched"],
+            "gripper_touched_box_in_episode": self._episode["gripper_touched"],
+            "ik_ok": self.control.ik_ok(self.simulator.get_context()),
+            "sim_error": sim_error,
+        }

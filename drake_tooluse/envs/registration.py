@@ -14,5 +14,9 @@ def register_envs() -> None:
     """Registers the three ids (idempotent); `gym.make` builds them lazily."""
     for env_id, kwargs in ENV_IDS.items():
         if env_id not in gym.registry:
-            gym.register(env_id, entry_point="drake_tooluse.envs.push_env:ToolPushEnv",
-                         max_episode_steps=MAX_EPISODE_STEPS, kwargs=dict(kwargs))
+            gym.register(
+                env_id,
+                entry_point="drake_tooluse.envs.push_env:ToolPushEnv",
+                max_episode_steps=MAX_EPISODE_STEPS,
+                kwargs=dict(kwargs),
+            )

@@ -15,8 +15,14 @@ from drake_tooluse.systems.tip_target import MAX_TRANSLATION_STEP
 class ScriptedPush:
     """Call with an observation, get a 3-d action in [-1, 1]."""
 
-    def __init__(self, table_top_z: float, box_half: float = 0.02, tool_radius: float = 0.006,
-                 push_height: float = 0.015, tolerance: float = 0.004):
+    def __init__(
+        self,
+        table_top_z: float,
+        box_half: float = 0.02,
+        tool_radius: float = 0.006,
+        push_height: float = 0.015,
+        tolerance: float = 0.004,
+    ):
         self.z_push = table_top_z + push_height
         self.z_above = table_top_z + 0.09
         self.standoff = box_half + tool_radius + 0.012

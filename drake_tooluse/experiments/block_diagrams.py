@@ -46,13 +46,17 @@ def _policy_reality_diagram(scenarios_dir: Path):
 def _trajectory_reality_diagram(scenarios_dir: Path):
     """The transfer's open loop (the paper's): a tool-tip trajectory through the IK."""
     scenario = load_scenario(scenarios_dir / "reality.yaml")
-    return build_trajectory_diagram(scenario, _home_trajectory(scenario), BELIEF,
-                                    lead=scenario.control.control_period).diagram
+    return build_trajectory_diagram(
+        scenario, _home_trajectory(scenario), BELIEF, lead=scenario.control.control_period
+    ).diagram
 
 
 # name -> builder of the diagram drawn as diagrams/<name>.dot/.svg
-DIAGRAMS = {"tip_control": _tip_control_diagram, "policy_reality": _policy_reality_diagram,
-            "trajectory_reality": _trajectory_reality_diagram}
+DIAGRAMS = {
+    "tip_control": _tip_control_diagram,
+    "policy_reality": _policy_reality_diagram,
+    "trajectory_reality": _trajectory_reality_diagram,
+}
 
 
 def graphviz_dot(diagram, max_depth: int = 1) -> str:
@@ -65,8 +69,7 @@ def graphviz_dot(diagram, max_depth: int = 1) -> str:
         return ids.setdefault(match.group(0), str(len(ids)))
 
     # Ids appear as `digraph _N`, `clusterN...` and node names `sN`.
-    lines = re.sub(r"(?<=digraph _)\d+|(?<=cluster)\d+|(?<=\bs)\d+\b", renumber,
-                   text).split("\n")
+    lines = re.sub(r"(?<=digraph _)\d+|(?<=cluster)\d+|(?<=\bs)\d+\b", renumber, text).split("\n")
     # Drake lists the edges in id order, which depends on the run: sort them.
     edge_rows = [i for i, line in enumerate(lines) if " -> " in line]
     for i, line in zip(edge_rows, sorted(lines[i] for i in edge_rows)):
@@ -78,10 +81,12 @@ def render_svg(dot_text: str, svg_path: str | Path) -> Path:
     """Renders Graphviz text to SVG with the `dot` program (Debian package `graphviz`)."""
     dot = shutil.which("dot")
     if dot is None:
-        raise RuntimeError("rendering a block diagram needs Graphviz's `dot` "
-                           "(apt-get install graphviz)")
-    svg = subprocess.run([dot, "-Tsvg"], input=dot_text, capture_output=True, text=True,
-                         check=True).stdout
+        raise RuntimeError(
+            "rendering a block diagram needs Graphviz's `dot` (apt-get install graphviz)"
+        )
+    svg = subprocess.run(
+        [dot, "-Tsvg"], input=dot_text, capture_output=True, text=True, check=True
+    ).stdout
     return atomic_write_text(svg_path, svg)
 
 

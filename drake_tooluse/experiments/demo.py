@@ -27,11 +27,16 @@ from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
 from drake_tooluse.diagrams.visualization import save_recording, start_meshcat
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
-from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_image, atomic_write_json
+from drake_tooluse.files import (
+    atomic_dir,
+    atomic_write_figure,
+    atomic_write_image,
+    atomic_write_json,
+)
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
-from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, SUCCESS_DISTANCE
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import load_scenario, with_tool_length
 from drake_tooluse.world.scene import goal_position, initial_box_pose
 
@@ -46,8 +51,9 @@ def _plot_top(ax, run, scenario) -> None:
     ax.plot(tip[:, 1], tip[:, 0], color="tab:red", lw=1.5, label="tool tip")
     ax.plot(box[:, 1], box[:, 0], color="tab:brown", lw=2.5, label="box")
     ax.scatter([start[1]], [start[0]], color="tab:brown", marker="s", s=40, label="box start")
-    ax.add_patch(Circle((goal[1], goal[0]), SUCCESS_DISTANCE / 2, fill=False, color="tab:green",
-                        lw=1.5))
+    ax.add_patch(
+        Circle((goal[1], goal[0]), SUCCESS_DISTANCE / 2, fill=False, color="tab:green", lw=1.5)
+    )
     ax.scatter([goal[1]], [goal[0]], color="tab:green", marker="x", s=40, label="goal")
     ax.set_xlabel("y (m)")
     ax.set_ylabel("x (m)")
@@ -61,10 +67,18 @@ def _plot_time(ax, run, scenario) -> None:
     """Tip height above the table and box travel over time."""
     start = initial_box_pose(scenario).translation()
     t = np.arange(len(run.tip_path)) * scenario.control.control_period
-    ax.plot(t, run.tip_path[:, 2] - scenario.table.top_z, color="tab:red",
-            label="tip height above the table")
-    ax.plot(t, np.linalg.norm(run.box_path[:, :2] - start[:2], axis=1), color="tab:brown",
-            label="box travel")
+    ax.plot(
+        t,
+        run.tip_path[:, 2] - scenario.table.top_z,
+        color="tab:red",
+        label="tip height above the table",
+    )
+    ax.plot(
+        t,
+        np.linalg.norm(run.box_path[:, :2] - start[:2], axis=1),
+        color="tab:brown",
+        label="box travel",
+    )
     ax.set_xlabel("time (s)")
     ax.set_ylabel("m")
     ax.set_title("over time", fontsize=9)
@@ -99,8 +113,15 @@ def write_figures(out: Path, run, scenario, camera_files, final_image) -> dict:
     return {k: str(v) for k, v in files.items()}
 
 
-def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = DEMO_TOOL_LENGTH,
-             seed: int = 0, max_steps: int = 100, progress: bool = True) -> dict:
+def run_demo(
+    out_dir,
+    policy_dir=None,
+    scenario_path=None,
+    tool_length: float = DEMO_TOOL_LENGTH,
+    seed: int = 0,
+    max_steps: int = 100,
+    progress: bool = True,
+) -> dict:
     """Runs the demo (see the module docstring) and returns its metrics (also in
     `out_dir/metrics.json`)."""
     start = time.perf_counter()
@@ -117,31 +138,42 @@ def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = 
     times = {}
     # Written into a staging directory that becomes `out` only when everything is there.
     with atomic_dir(out) as work:
-        log(f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
-            "unknown to the robot) …")
+        log(
+            f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
+            "unknown to the robot) …"
+        )
         t0 = time.perf_counter()
-        belief, measurement = measure_belief(scenario, save_images_dir=work / "camera",
-                                             seed=seed)
+        belief, measurement = measure_belief(scenario, save_images_dir=work / "camera", seed=seed)
         times["measure_s"] = time.perf_counter() - t0
         measured, along = belief.tool_length, belief.grasp_offset[1]
-        log(f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm), "
+        log(
+            f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm), "
             f"held {along * 1000:+.1f} mm along it (truth "
-            f"{scenario.tool.grasp_offset_along * 1000:+.1f} mm) in {times['measure_s']:.1f} s")
+            f"{scenario.tool.grasp_offset_along * 1000:+.1f} mm) in {times['measure_s']:.1f} s"
+        )
 
         log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured tool …")
         t0 = time.perf_counter()
         meshcat = start_meshcat()
-        built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat,
-                                     scene_camera=True)
-        with tqdm(total=max_steps, desc="      control steps", unit="step", file=sys.stderr,
-                  disable=not progress, leave=False) as bar:
-            run = run_policy(built, max_steps=max_steps, record=True,
-                             on_step=lambda step: bar.update(1))
+        built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat, scene_camera=True)
+        with tqdm(
+            total=max_steps,
+            desc="      control steps",
+            unit="step",
+            file=sys.stderr,
+            disable=not progress,
+            leave=False,
+        ) as bar:
+            run = run_policy(
+                built, max_steps=max_steps, record=True, on_step=lambda step: bar.update(1)
+            )
         save_recording(meshcat, built.visualizer, work / "recording.html")
         times["push_s"] = time.perf_counter() - t0
-        log(f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
+        log(
+            f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
             f"{run.steps} steps ({run.steps * scenario.control.control_period:.2f} s simulated)"
-            f" in {times['push_s']:.1f} s")
+            f" in {times['push_s']:.1f} s"
+        )
 
         log("[3/3] writing figures and metrics …")
         figures = write_figures(work, run, scenario, measurement.image_files, run.final_image)
@@ -152,32 +184,43 @@ def run_demo(out_dir, policy_dir=None, scenario_path=None, tool_length: float = 
 
         metrics = {
             "policy": str(policy_dir),
-            "scenario": str(scenario_path), "seed": seed,
-            "tool": {"true_length_m": tool_length, "measured_length_m": measured,
-                     "measurement_error_m": measured - tool_length,
-                     "measured_grasp_along_m": along,
-                     "true_grasp_along_m": scenario.tool.grasp_offset_along,
-                     "per_view_m": measurement.as_dict()["per_view_m"],
-                     "dropped_views": measurement.dropped},
+            "scenario": str(scenario_path),
+            "seed": seed,
+            "tool": {
+                "true_length_m": tool_length,
+                "measured_length_m": measured,
+                "measurement_error_m": measured - tool_length,
+                "measured_grasp_along_m": along,
+                "true_grasp_along_m": scenario.tool.grasp_offset_along,
+                "per_view_m": measurement.as_dict()["per_view_m"],
+                "dropped_views": measurement.dropped,
+            },
             "perturbation": dc.asdict(draw),
-            "push": run.as_dict(), "times": times,
-            "files": {"recording": str(out / "recording.html"),
-                      "metrics": str(out / "metrics.json"),
-                      "camera_views": [final(f) for f in measurement.image_files],
-                      **{k: final(v) for k, v in figures.items()}}}
+            "push": run.as_dict(),
+            "times": times,
+            "files": {
+                "recording": str(out / "recording.html"),
+                "metrics": str(out / "metrics.json"),
+                "camera_views": [final(f) for f in measurement.image_files],
+                **{k: final(v) for k, v in figures.items()},
+            },
+        }
         atomic_write_json(work / "metrics.json", metrics)
     return metrics
 
 
 def format_demo(m: dict) -> str:
     push, tool = m["push"], m["tool"]
-    return "\n".join([
-        f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "
-        f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm); "
-        f"held {tool['measured_grasp_along_m'] * 1000:+.1f} mm along it (truth "
-        f"{tool['true_grasp_along_m'] * 1000:+.1f} mm)",
-        f"push: {'success' if push['success'] else 'no success'} in {push['steps']} steps; box "
-        f"moved {push['box_travel_m'] * 100:.1f} cm, ends {push['final_box_to_goal_m'] * 100:.1f} cm "
-        f"from the goal",
-        f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
-        f"({m['times']['total_s']:.0f} s)"])
+    return "\n".join(
+        [
+            f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "
+            f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm); "
+            f"held {tool['measured_grasp_along_m'] * 1000:+.1f} mm along it (truth "
+            f"{tool['true_grasp_along_m'] * 1000:+.1f} mm)",
+            f"push: {'success' if push['success'] else 'no success'} in {push['steps']} steps; box "
+            f"moved {push['box_travel_m'] * 100:.1f} cm, ends {push['final_box_to_goal_m'] * 100:.1f} cm "
+            f"from the goal",
+            f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
+            f"({m['times']['total_s']:.0f} s)",
+        ]
+    )

@@ -10,7 +10,7 @@ format are `systems.tip_trajectory.TipTrajectory`; its export for a real Baxter 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +37,9 @@ def average_quaternions(quaternions: np.ndarray, weights=None) -> np.ndarray:
     return mean if mean[0] >= 0 else -mean
 
 
-def average_episodes(positions: np.ndarray, quaternions: np.ndarray, period: float) -> TipTrajectory:
+def average_episodes(
+    positions: np.ndarray, quaternions: np.ndarray, period: float
+) -> TipTrajectory:
     """The per-step average of N episodes: positions (N, T, 3), quaternions (N, T, 4)."""
     positions = np.asarray(positions, float)
     quaternions = np.asarray(quaternions, float)
@@ -74,8 +76,9 @@ class ReachabilityReport:
     dropped_indices: list
 
 
-def filter_reachable(traj: TipTrajectory, tool_length: float | None,
-                     conservative: bool = True, q_start=None) -> ReachabilityReport:
+def filter_reachable(
+    traj: TipTrajectory, tool_length: float | None, conservative: bool = True, q_start=None
+) -> ReachabilityReport:
     """Solves the tool-tip IK along the trajectory, each pose warm-started from the last
     (the first from `q_start`, default the scenario's home posture), under the conservative
     real-robot limits (s1 in [-1.35, 1.0]) or Baxter's own; drops the poses it cannot reach."""
@@ -91,9 +94,11 @@ def filter_reachable(traj: TipTrajectory, tool_length: float | None,
         else:
             dropped.append(i)
     if not keep:
-        raise ValueError("no pose of the trajectory is reachable with tool length "
-                         f"{tool_length} m under the {'conservative' if conservative else ''} "
-                         "joint limits")
+        raise ValueError(
+            "no pose of the trajectory is reachable with tool length "
+            f"{tool_length} m under the {'conservative' if conservative else ''} "
+            "joint limits"
+        )
     kept = TipTrajectory(traj.times[keep], traj.positions[keep], traj.quaternions[keep])
     return ReachabilityReport(len(traj), len(keep), kept, np.array(qs), dropped)
 
@@ -112,11 +117,27 @@ class Extraction:
 def _pose_row(env) -> np.ndarray:
     """[p_WT (3), quaternion wxyz of the tip (4), p_WG (3)] as the robot believes them."""
     X_WT, X_WG = env.unwrapped.believed_poses()
-    return np.concatenate([X_WT.translation(), X_WT.rotation().ToQuaternion().wxyz(),
-                           X_WG.translation()])
+    return np.concatenate(
+        [X_WT.translation(), X_WT.rotation().ToQuaternion().wxyz(), X_WG.translation()]
+    )
 
 
 ALIGNMENTS = ("start", "contact")
+
+
+@dataclass
+class _PoseRecorder:
+    """Collects `_pose_row` after the reset and each step of an episode, and the row at which
+    the tool first touched the box (None: never)."""
+
+    env: object
+    rows: list = field(default_factory=list)
+    contact: int | None = None
+
+    def __call__(self, step: int, info: dict) -> None:
+        self.rows.append(_pose_row(self.env))
+        if step > 0 and self.contact is None and info["tool_touches_box"]:
+            self.contact = len(self.rows) - 1
 
 
 def delay_to_event(episodes: list[np.ndarray], events: list) -> list[np.ndarray]:
@@ -125,16 +146,19 @@ def delay_to_event(episodes: list[np.ndarray], events: list) -> list[np.ndarray]
     latest = max((e for e in events if e is not None), default=None)
     if latest is None:
         return list(episodes)
-    return [ep if e is None else np.vstack([np.repeat(ep[:1], latest - e, axis=0), ep])
-            for ep, e in zip(episodes, events)]
+    return [
+        ep if e is None else np.vstack([np.repeat(ep[:1], latest - e, axis=0), ep])
+        for ep, e in zip(episodes, events)
+    ]
 
 
-def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None,
-                    align: str = "start"):
+def record_episodes(
+    policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None, align: str = "start"
+):
     """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
     each control step (the robot's belief: forward kinematics of its model), the number of
-    successes and the control period (s) between the rows. `align="start"` (the paper's) stacks the episodes from their first step;
-    `"contact"` delays each so that the tool first touches the box at the same step (an
+    successes and the control period (s) between the rows. `align="start"` (the paper's)
+    stacks the episodes from their first step; `"contact"` delays each so that the tool first touches the box at the same step (an
     episode that never touches it stays as it is)."""
     if episodes < 1:
         raise ValueError(f"episodes={episodes} must be at least 1")
@@ -142,17 +166,11 @@ def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=N
     policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs)
     recorded, contacts, successes = [], [], 0
     for ep in range(episodes):
-        rows, contact = [], []
-
-        def record(step, info):
-            rows.append(_pose_row(env))
-            if step > 0 and not contact and info["tool_touches_box"]:
-                contact.append(len(rows) - 1)
-
-        info, _ = run_episode(env, policy, seed + ep, on_step=record)
+        recorder = _PoseRecorder(env)
+        info, _ = run_episode(env, policy, seed + ep, on_step=recorder)
         successes += bool(info["is_success"])
-        recorded.append(np.array(rows, float))
-        contacts.append(contact[0] if contact else None)
+        recorded.append(np.array(recorder.rows, float))
+        contacts.append(recorder.contact)
     period = env.unwrapped.scenario.control.control_period
     env.close()
     if align == "contact":
@@ -160,20 +178,26 @@ def record_episodes(policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=N
     tips = [r[:, 0:3] for r in recorded]
     quats = [r[:, 3:7] for r in recorded]
     grippers = [r[:, 7:10] for r in recorded]
-    return (pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes,
-            period)
+    return (pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes, period)
 
 
-def extract(policy_dir, episodes: int = 100, seed: int = 0, window: int = 5,
-            tool_length: float | None = 0.175, align: str = "start",
-            env_kwargs: dict | None = None) -> Extraction:
+def extract(
+    policy_dir,
+    episodes: int = 100,
+    seed: int = 0,
+    window: int = 5,
+    tool_length: float | None = 0.175,
+    align: str = "start",
+    env_kwargs: dict | None = None,
+) -> Extraction:
     """The paper's trajectory for transfer: N episodes (aligned by `align`, see
     `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
     conservative real-robot limits with `tool_length`. The trajectory's time step is the
     control period of the env the policy acts in (its scenario's `control.control_period`);
     `env_kwargs` override the policy's own."""
-    tips, quats, grippers, successes, period = record_episodes(policy_dir, episodes, seed,
-                                                               env_kwargs, align)
+    tips, quats, grippers, successes, period = record_episodes(
+        policy_dir, episodes, seed, env_kwargs, align
+    )
     mean = average_episodes(tips, quats, period)
     smoothed = smooth(mean, window)
     report = filter_reachable(smoothed, tool_length)

@@ -38,15 +38,20 @@ from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy, run_push
 from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
 from drake_tooluse.experiments.runs import stderr_log
-from drake_tooluse.experiments.trajectory import ALIGNMENTS, extract, filter_reachable, plot_extraction
+from drake_tooluse.experiments.trajectory import (
+    ALIGNMENTS,
+    extract,
+    filter_reachable,
+    plot_extraction,
+)
 from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief, check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.validation import check_one_of
-from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
 
 MODES = ("closed-loop", "open-loop")
@@ -68,29 +73,41 @@ class TransferRun:
     draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
 
     def as_dict(self) -> dict:
-        return {"world": self.world, "seed": self.seed, "tool_length_m": self.tool_length,
-                "believed_length_m": self.believed_length,
-                "believed_grasp_along_m": self.believed_grasp_along, **self.push.as_dict(),
-                "perturbation": self.draw}
+        return {
+            "world": self.world,
+            "seed": self.seed,
+            "tool_length_m": self.tool_length,
+            "believed_length_m": self.believed_length,
+            "believed_grasp_along_m": self.believed_grasp_along,
+            **self.push.as_dict(),
+            "perturbation": self.draw,
+        }
 
 
 def run_worlds(nominal: Scenario, reality: Scenario, tool_length: float, seed: int):
     """The run's two worlds for a tool of `tool_length` m: (nominal, reality, draw)."""
     reality = with_tool_length(reality, tool_length)
     draw = draw_randomization(reality, np.random.default_rng(seed))
-    return (apply_draw(with_tool_length(nominal, tool_length), draw, box_pose_only=True),
-            apply_draw(reality, draw), draw)
+    return (
+        apply_draw(with_tool_length(nominal, tool_length), draw, box_pose_only=True),
+        apply_draw(reality, draw),
+        draw,
+    )
 
 
-def run_open_loop(scenario: Scenario, trajectory: TipTrajectory,
-                  belief: RobotBelief) -> PushRun:
+def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:
     """Replays the whole trajectory, a control period ahead (it holds where the tip was at each
     step), then lets the world settle for SETTLE_TIME."""
     period = scenario.control.control_period
     built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
     duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
-    return run_push(built.diagram, built.world, built.control, math.ceil(duration / period),
-                    stop_at_success=False)
+    return run_push(
+        built.diagram,
+        built.world,
+        built.control,
+        math.ceil(duration / period),
+        stop_at_success=False,
+    )
 
 
 def run_closed_loop(scenario: Scenario, policy, belief: RobotBelief) -> PushRun:
@@ -101,29 +118,42 @@ def run_closed_loop(scenario: Scenario, policy, belief: RobotBelief) -> PushRun:
 def _stats(runs: list[TransferRun]) -> dict:
     travel = np.array([r.push.box_travel for r in runs])
     final = np.array([r.push.final_box_to_goal for r in runs])
-    return {"runs": len(runs), "box_travel_mean_m": float(travel.mean()),
-            "box_travel_std_m": float(travel.std()),
-            "final_box_to_goal_mean_m": float(final.mean()),
-            "final_box_to_goal_std_m": float(final.std()),
-            "success_rate": float(np.mean([r.push.success for r in runs])),
-            "per_run": [r.as_dict() for r in runs]}
+    return {
+        "runs": len(runs),
+        "box_travel_mean_m": float(travel.mean()),
+        "box_travel_std_m": float(travel.std()),
+        "final_box_to_goal_mean_m": float(final.mean()),
+        "final_box_to_goal_std_m": float(final.std()),
+        "success_rate": float(np.mean([r.push.success for r in runs])),
+        "per_run": [r.as_dict() for r in runs],
+    }
 
 
 def check_same_task(nominal: Scenario, reality: Scenario) -> None:
     """The two worlds must pose the same task (box, goal, table, robot home) for their
     comparison to mean anything; raises ValueError naming what differs."""
     differ = []
-    for name in ("box.size", "box.position", "box.yaw", "box.on_table", "goal_offset",
-                 "table", "robot.home_tip_xy", "robot.home_tip_height", "randomization.box_xy",
-                 "randomization.box_yaw"):
+    for name in (
+        "box.size",
+        "box.position",
+        "box.yaw",
+        "box.on_table",
+        "goal_offset",
+        "table",
+        "robot.home_tip_xy",
+        "robot.home_tip_height",
+        "randomization.box_xy",
+        "randomization.box_yaw",
+    ):
         a, b = nominal, reality
         for part in name.split("."):
             a, b = getattr(a, part), getattr(b, part)
         if a != b:
             differ.append(f"{name}: nominal {a!r}, reality {b!r}")
     if differ:
-        raise ValueError("the nominal and reality scenarios pose different tasks: "
-                         + "; ".join(differ))
+        raise ValueError(
+            "the nominal and reality scenarios pose different tasks: " + "; ".join(differ)
+        )
 
 
 def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
@@ -136,12 +166,18 @@ def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
     return tools
 
 
-def run_transfer(policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 10,
-                 mode: str = "closed-loop", seed: int = 0,
-                 nominal_scenario: Scenario | None = None,
-                 reality_scenario: Scenario | None = None,
-                 trajectory: TipTrajectory | None = None, log=stderr_log,
-                 use_grasp_estimate: bool = True) -> dict:
+def run_transfer(
+    policy_dir,
+    tools=PAPER_TOOL_LENGTHS,
+    runs: int = 10,
+    mode: str = "closed-loop",
+    seed: int = 0,
+    nominal_scenario: Scenario | None = None,
+    reality_scenario: Scenario | None = None,
+    trajectory: TipTrajectory | None = None,
+    log=stderr_log,
+    use_grasp_estimate: bool = True,
+) -> dict:
     """The experiment (see the module docstring). `trajectory` is the open-loop one (required
     in open-loop mode). With `use_grasp_estimate` the robot's model holds the camera's
     estimate of where the hand holds the tool along it as well as the length; without, the
@@ -149,8 +185,10 @@ def run_transfer(policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 10,
     tools = check_transfer_args(tools, runs, mode)
     policy = load_policy(policy_dir)
     if mode == "open-loop" and trajectory is None:
-        raise ValueError("open-loop transfer needs a trajectory (experiments.trajectory.extract "
-                         "or TipTrajectory.load)")
+        raise ValueError(
+            "open-loop transfer needs a trajectory (experiments.trajectory.extract "
+            "or TipTrajectory.load)"
+        )
     nominal_scenario = nominal_scenario or load_scenario(DEFAULT_SCENARIO)
     reality_scenario = reality_scenario or load_scenario(REALITY_SCENARIO)
     check_same_task(nominal_scenario, reality_scenario)
@@ -161,58 +199,85 @@ def run_transfer(policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 10,
         measured, grasp_errors = [], []
         for i in range(runs):
             run_seed = seed + i
-            nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool,
-                                                run_seed)
+            nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
-            believed, measurement = measure_belief(reality, seed=run_seed,
-                                                   use_grasp_estimate=use_grasp_estimate)
+            believed, measurement = measure_belief(
+                reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
+            )
             measured.append(measurement.length)
             along = believed.grasp_offset[1]
             grasp_errors.append(along - reality.tool.grasp_offset_along)
             # The nominal world's robot knows its true tool, grasp included.
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
-            for world, scenario, belief in (("nominal", nominal, knows),
-                                            ("reality", reality, believed)):
+            for world, scenario, belief in (
+                ("nominal", nominal, knows),
+                ("reality", reality, believed),
+            ):
                 if mode == "closed-loop":
                     push = run_closed_loop(scenario, policy, belief)
                 else:
                     push = run_open_loop(scenario, trajectory, belief)
                 # The nominal world takes only the box's start from the draw.
-                perturbation = (dc.asdict(draw) if world == "reality" else
-                                {"box_dxy": draw.box_dxy, "box_dyaw": draw.box_dyaw})
-                results[world].append(TransferRun(world, tool, belief.tool_length,
-                                                  belief.grasp_offset[1], run_seed, push,
-                                                  perturbation))
+                perturbation = (
+                    dc.asdict(draw)
+                    if world == "reality"
+                    else {"box_dxy": draw.box_dxy, "box_dyaw": draw.box_dyaw}
+                )
+                results[world].append(
+                    TransferRun(
+                        world,
+                        tool,
+                        belief.tool_length,
+                        belief.grasp_offset[1],
+                        run_seed,
+                        push,
+                        perturbation,
+                    )
+                )
             n, r = results["nominal"][-1].push, results["reality"][-1].push
-            log(f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {measurement.length:.4f} m, "
+            log(
+                f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {measurement.length:.4f} m, "
                 f"grasp {along * 1000:+.1f} mm along (truth "
                 f"{reality.tool.grasp_offset_along * 1000:+.1f}); box travel nominal "
                 f"{n.box_travel * 100:.1f} cm, reality {r.box_travel * 100:.1f} cm "
-                f"({time.perf_counter() - t0:.1f} s)")
-        entry = {"tool_length_m": tool,
-                 "measured_length_mean_m": float(np.mean(measured)),
-                 "measured_length_std_m": float(np.std(measured)),
-                 # what the robot believes of the grasp along the tool minus the truth
-                 "grasp_along_error_max_m": float(np.max(np.abs(grasp_errors))),
-                 **{w: _stats(results[w]) for w in WORLDS}}
+                f"({time.perf_counter() - t0:.1f} s)"
+            )
+        entry = {
+            "tool_length_m": tool,
+            "measured_length_mean_m": float(np.mean(measured)),
+            "measured_length_std_m": float(np.std(measured)),
+            # what the robot believes of the grasp along the tool minus the truth
+            "grasp_along_error_max_m": float(np.max(np.abs(grasp_errors))),
+            **{w: _stats(results[w]) for w in WORLDS},
+        }
         nominal_travel = entry["nominal"]["box_travel_mean_m"]
-        entry["travel_ratio"] = (entry["reality"]["box_travel_mean_m"] / nominal_travel
-                                 if nominal_travel > 0 else None)
+        entry["travel_ratio"] = (
+            entry["reality"]["box_travel_mean_m"] / nominal_travel if nominal_travel > 0 else None
+        )
         per_tool.append(entry)
     ratios = [t["travel_ratio"] for t in per_tool]
     travels = [t["reality"]["box_travel_mean_m"] for t in per_tool]
     difference = float(max(travels) - min(travels)) if len(travels) > 1 else None
-    goals = {"travel_ratio_min": None if None in ratios else float(min(ratios)),
-             "travel_ratio_goal": TRAVEL_RATIO_GOAL,
-             "tool_travel_difference_m": difference,
-             "tool_travel_difference_goal_m": TOOL_DIFFERENCE_GOAL}
-    goals["travel_ratio_met"] = (goals["travel_ratio_min"] is not None
-                                 and goals["travel_ratio_min"] >= TRAVEL_RATIO_GOAL)
-    goals["tool_difference_met"] = (difference is not None
-                                    and difference <= TOOL_DIFFERENCE_GOAL)
-    return {"policy": str(policy_dir), "mode": mode, "runs": runs, "seed": seed,
-            "use_grasp_estimate": use_grasp_estimate,
-            "tools": per_tool, "goals": goals, "wall_time_s": time.perf_counter() - start}
+    goals = {
+        "travel_ratio_min": None if None in ratios else float(min(ratios)),
+        "travel_ratio_goal": TRAVEL_RATIO_GOAL,
+        "tool_travel_difference_m": difference,
+        "tool_travel_difference_goal_m": TOOL_DIFFERENCE_GOAL,
+    }
+    goals["travel_ratio_met"] = (
+        goals["travel_ratio_min"] is not None and goals["travel_ratio_min"] >= TRAVEL_RATIO_GOAL
+    )
+    goals["tool_difference_met"] = difference is not None and difference <= TOOL_DIFFERENCE_GOAL
+    return {
+        "policy": str(policy_dir),
+        "mode": mode,
+        "runs": runs,
+        "seed": seed,
+        "use_grasp_estimate": use_grasp_estimate,
+        "tools": per_tool,
+        "goals": goals,
+        "wall_time_s": time.perf_counter() - start,
+    }
 
 
 def plot_transfer(result: dict, path) -> Path:
@@ -235,18 +300,32 @@ def plot_transfer(result: dict, path) -> Path:
     ax.set_xticks(ticks, labels)
     ax.set_ylabel("box travel (cm)")
     ax.set_title(f"{result['mode']}, {result['runs']} runs per tool", fontsize=10)
-    ax.legend([parts["boxes"][0], parts["boxes"][1]], ["nominal simulation", "reality"],
-              fontsize=8, loc="best")
+    ax.legend(
+        [parts["boxes"][0], parts["boxes"][1]],
+        ["nominal simulation", "reality"],
+        fontsize=8,
+        loc="best",
+    )
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     return atomic_write_figure(path, fig)
 
 
-def transfer_experiment(out, policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 10,
-                        mode: str = "closed-loop", seed: int = 0,
-                        nominal_path=DEFAULT_SCENARIO, reality_path=REALITY_SCENARIO,
-                        trajectory_path=None, episodes: int = 100, align: str = "start",
-                        use_grasp_estimate: bool = True, log=stderr_log) -> dict:
+def transfer_experiment(
+    out,
+    policy_dir,
+    tools=PAPER_TOOL_LENGTHS,
+    runs: int = 10,
+    mode: str = "closed-loop",
+    seed: int = 0,
+    nominal_path=DEFAULT_SCENARIO,
+    reality_path=REALITY_SCENARIO,
+    trajectory_path=None,
+    episodes: int = 100,
+    align: str = "start",
+    use_grasp_estimate: bool = True,
+    log=stderr_log,
+) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
     loop, the trajectory (`trajectory_path`, or extracted from the policy's `episodes`
     episodes in the nominal simulation, aligned by `align`, and kept to the poses every tool
@@ -264,20 +343,36 @@ def transfer_experiment(out, policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 1
             extraction = {"file": str(trajectory_path), "poses": len(trajectory)}
         elif mode == "open-loop":
             log(f"extracting the trajectory from {episodes} episodes …")
-            ex = extract(policy_dir, episodes=episodes, seed=seed, tool_length=tools[0],
-                         align=align)
+            ex = extract(
+                policy_dir, episodes=episodes, seed=seed, tool_length=tools[0], align=align
+            )
             trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
             for tool in tools[1:]:
                 report = filter_reachable(trajectory, tool)
                 trajectory, reachable[tool] = report.kept, report.reachable
             trajectory.save(work / "trajectory.npz")
             plot_extraction(ex, work / "trajectory.png")
-            extraction = {"episodes": episodes, "align": align, "successes": ex.successes,
-                          "poses": ex.reachability.poses,
-                          "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
-                          "kept": len(trajectory), "file": str(out / "trajectory.npz")}
-        result = run_transfer(policy_dir, tools, runs, mode, seed, nominal, reality, trajectory,
-                              log=log, use_grasp_estimate=use_grasp_estimate)
+            extraction = {
+                "episodes": episodes,
+                "align": align,
+                "successes": ex.successes,
+                "poses": ex.reachability.poses,
+                "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
+                "kept": len(trajectory),
+                "file": str(out / "trajectory.npz"),
+            }
+        result = run_transfer(
+            policy_dir,
+            tools,
+            runs,
+            mode,
+            seed,
+            nominal,
+            reality,
+            trajectory,
+            log=log,
+            use_grasp_estimate=use_grasp_estimate,
+        )
         result["nominal_scenario"] = str(nominal_path)
         result["reality_scenario"] = str(reality_path)
         if extraction is not None:
@@ -290,8 +385,10 @@ def transfer_experiment(out, policy_dir, tools=PAPER_TOOL_LENGTHS, runs: int = 1
 
 
 def format_transfer(out: dict) -> str:
-    lines = [f"{out['mode']}, {out['runs']} runs per tool, the robot's model from the measured "
-             f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"]
+    lines = [
+        f"{out['mode']}, {out['runs']} runs per tool, the robot's model from the measured "
+        f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"
+    ]
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
         ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"
@@ -301,13 +398,18 @@ def format_transfer(out: dict) -> str:
             f"{n['box_travel_mean_m'] * 100:.1f} ± {n['box_travel_std_m'] * 100:.1f} cm, reality "
             f"{r['box_travel_mean_m'] * 100:.1f} ± {r['box_travel_std_m'] * 100:.1f} cm ({ratio} "
             f"of nominal); final box-goal {r['final_box_to_goal_mean_m'] * 100:.1f} cm; success "
-            f"nominal {n['success_rate'] * 100:.0f} %, reality {r['success_rate'] * 100:.0f} %")
+            f"nominal {n['success_rate'] * 100:.0f} %, reality {r['success_rate'] * 100:.0f} %"
+        )
     g = out["goals"]
     if g["tool_travel_difference_m"] is not None:
-        lines.append(f"  tools' mean travel differ by {g['tool_travel_difference_m'] * 100:.2f} cm "
-                     f"(goal <= 1 cm: {'met' if g['tool_difference_met'] else 'not met'})")
+        lines.append(
+            f"  tools' mean travel differ by {g['tool_travel_difference_m'] * 100:.2f} cm "
+            f"(goal <= 1 cm: {'met' if g['tool_difference_met'] else 'not met'})"
+        )
     if g["travel_ratio_min"] is not None:
-        lines.append(f"  lowest reality/nominal travel {g['travel_ratio_min'] * 100:.0f} % (goal >= "
-                     f"90 %: {'met' if g['travel_ratio_met'] else 'not met'})")
+        lines.append(
+            f"  lowest reality/nominal travel {g['travel_ratio_min'] * 100:.0f} % (goal >= "
+            f"90 %: {'met' if g['travel_ratio_met'] else 'not met'})"
+        )
     lines.append(f"  {out['json']}, {out['figure']} ({out['wall_time_s']:.0f} s)")
     return "\n".join(lines)

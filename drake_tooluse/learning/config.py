@@ -17,8 +17,16 @@ from drake_tooluse.paths import HYPERPARAMS_DIR
 ALGOS = ("ppo", "a2c", "ddpg", "trpo")
 OFF_POLICY = ("ddpg",)
 # Keys of a hyperparameter entry that are not the algorithm's own arguments.
-RUN_KEYS = ("n_envs", "normalize", "env_kwargs", "policy", "noise_std", "eval_freq",
-            "checkpoint_freq", "eval_episodes")
+RUN_KEYS = (
+    "n_envs",
+    "normalize",
+    "env_kwargs",
+    "policy",
+    "noise_std",
+    "eval_freq",
+    "checkpoint_freq",
+    "eval_episodes",
+)
 
 
 def check_algo(algo: str) -> str:
@@ -60,8 +68,15 @@ class TrainConfig:
         return d
 
 
-def resolve_config(env_id: str, algo: str, timesteps: int, n_envs: int | None, seed: int,
-                   init_from: str | None = None, overrides: dict | None = None) -> TrainConfig:
+def resolve_config(
+    env_id: str,
+    algo: str,
+    timesteps: int,
+    n_envs: int | None,
+    seed: int,
+    init_from: str | None = None,
+    overrides: dict | None = None,
+) -> TrainConfig:
     check_env_id(env_id)
     check_algo(algo)
     if timesteps < 1:

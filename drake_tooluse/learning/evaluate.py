@@ -56,8 +56,13 @@ def run_episode(env, policy, seed: int, on_step=None) -> tuple[dict, int]:
             return info, steps
 
 
-def evaluate(policy_dir, env_id: str | None = None, episodes: int = 100, seed: int = 0,
-             env_kwargs: dict | None = None) -> EvalResult:
+def evaluate(
+    policy_dir,
+    env_id: str | None = None,
+    episodes: int = 100,
+    seed: int = 0,
+    env_kwargs: dict | None = None,
+) -> EvalResult:
     """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …"""
     if episodes < 1:
         raise ValueError(f"episodes={episodes} must be at least 1")
@@ -65,18 +70,29 @@ def evaluate(policy_dir, env_id: str | None = None, episodes: int = 100, seed: i
     rows = []
     for ep in range(episodes):
         info, steps = run_episode(env, policy, seed + ep)
-        rows.append({"seed": seed + ep, "final_box_to_goal_m": info["box_to_goal"],
-                     "success": bool(info["is_success"]), "box_travel_m": info["box_travel"],
-                     "length": steps, "tool_touched": info["tool_touched_box_in_episode"],
-                     "gripper_touched": info["gripper_touched_box_in_episode"]})
+        rows.append(
+            {
+                "seed": seed + ep,
+                "final_box_to_goal_m": info["box_to_goal"],
+                "success": bool(info["is_success"]),
+                "box_travel_m": info["box_travel"],
+                "length": steps,
+                "tool_touched": info["tool_touched_box_in_episode"],
+                "gripper_touched": info["gripper_touched_box_in_episode"],
+            }
+        )
     env.close()
     d = np.array([r["final_box_to_goal_m"] for r in rows])
     return EvalResult(
-        episodes=episodes, seed=seed, final_box_to_goal_mean_m=float(d.mean()),
-        final_box_to_goal_median_m=float(np.median(d)), final_box_to_goal_std_m=float(d.std()),
+        episodes=episodes,
+        seed=seed,
+        final_box_to_goal_mean_m=float(d.mean()),
+        final_box_to_goal_median_m=float(np.median(d)),
+        final_box_to_goal_std_m=float(d.std()),
         success_rate=float(np.mean([r["success"] for r in rows])),
         box_travel_mean_m=float(np.mean([r["box_travel_m"] for r in rows])),
         episode_length_mean=float(np.mean([r["length"] for r in rows])),
         tool_touched_rate=float(np.mean([r["tool_touched"] for r in rows])),
         gripper_touched_rate=float(np.mean([r["gripper_touched"] for r in rows])),
-        per_episode=rows)
+        per_episode=rows,
+    )

@@ -13,20 +13,18 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+import stable_baselines3 as sb3
+from sb3_contrib import TRPO
 
 from drake_tooluse.files import atomic_dir
 from drake_tooluse.learning.config import check_algo
 
+ALGORITHMS = {"ppo": sb3.PPO, "a2c": sb3.A2C, "ddpg": sb3.DDPG, "trpo": TRPO}
+
 
 def algorithm_class(algo: str):
-    check_algo(algo)
-    if algo == "trpo":
-        from sb3_contrib import TRPO
-
-        return TRPO
-    import stable_baselines3 as sb3
-
-    return {"ppo": sb3.PPO, "a2c": sb3.A2C, "ddpg": sb3.DDPG}[algo]
+    """The stable-baselines3 (or sb3-contrib) class of `algo`."""
+    return ALGORITHMS[check_algo(algo)]
 
 
 @dataclass
@@ -62,12 +60,16 @@ class LoadedPolicy:
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         if self.obs_rms is None:
             return obs
-        return np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
-                       -self.clip_obs, self.clip_obs).astype(np.float32)
+        return np.clip(
+            (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
+            -self.clip_obs,
+            self.clip_obs,
+        ).astype(np.float32)
 
     def act(self, obs) -> np.ndarray:
-        action, _ = self.model.predict(self.normalize(np.asarray(obs, np.float32)),
-                                       deterministic=True)
+        action, _ = self.model.predict(
+            self.normalize(np.asarray(obs, np.float32)), deterministic=True
+        )
         return action
 
 
@@ -76,8 +78,10 @@ def load_policy(directory) -> LoadedPolicy:
     directory = Path(directory)
     meta_path = directory / "policy.json"
     if not directory.is_dir() or not meta_path.is_file():
-        raise FileNotFoundError(f"{str(directory)!r} is not a policy directory (it needs "
-                                "policy.json, policy.zip and, if normalised, vecnormalize.pkl)")
+        raise FileNotFoundError(
+            f"{str(directory)!r} is not a policy directory (it needs "
+            "policy.json, policy.zip and, if normalised, vecnormalize.pkl)"
+        )
     try:
         meta = PolicyMeta(**json.loads(meta_path.read_text()))
     except (json.JSONDecodeError, TypeError) as e:
@@ -106,4 +110,5 @@ def check_policy_matches(policy: LoadedPolicy, env) -> None:
         raise ValueError(
             f"the policy was trained for observations {policy.meta.observation_shape} and "
             f"actions {policy.meta.action_shape}, but this env has observations {obs} and "
-            f"actions {act} (check action_mode / include_tool_length)")
+            f"actions {act} (check action_mode / include_tool_length)"
+        )

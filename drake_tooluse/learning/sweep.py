@@ -23,8 +23,15 @@ def _run_name(algo: str, env_id: str, seed: int) -> str:
     return f"{algo}_{env_id.split('/')[-1]}_s{seed}"
 
 
-def _train_and_evaluate(algo: str, env_id: str, seed: int, timesteps: int, out: str,
-                        overrides: dict | None, episodes: int) -> dict:
+def _train_and_evaluate(
+    algo: str,
+    env_id: str,
+    seed: int,
+    timesteps: int,
+    out: str,
+    overrides: dict | None,
+    episodes: int,
+) -> dict:
     """One grid cell; runs inside a Ray worker process (single-threaded torch: the cell's env
     processes are its parallelism, as in `drake-tooluse train`)."""
     torch.set_num_threads(1)
@@ -33,13 +40,28 @@ def _train_and_evaluate(algo: str, env_id: str, seed: int, timesteps: int, out: 
     summary = train(config, run_dir, progress_bar=False)
     result = asdict(evaluate(run_dir / "best", env_id, episodes, seed=1000))
     result.pop("per_episode")
-    return {"algo": algo, "env": env_id, "seed": seed, "run": str(run_dir), **summary,
-            "evaluation": result}
+    return {
+        "algo": algo,
+        "env": env_id,
+        "seed": seed,
+        "run": str(run_dir),
+        **summary,
+        "evaluation": result,
+    }
 
 
-def sweep(algos, envs, seeds, timesteps: int, out, *, address: str | None = None,
-          num_cpus: int | None = None, overrides: dict | None = None,
-          episodes: int = 20) -> list[dict]:
+def sweep(
+    algos,
+    envs,
+    seeds,
+    timesteps: int,
+    out,
+    *,
+    address: str | None = None,
+    num_cpus: int | None = None,
+    overrides: dict | None = None,
+    episodes: int = 20,
+) -> list[dict]:
     """Trains and evaluates every (algo, env, seed) on Ray; returns one row per run."""
     try:
         import ray
@@ -51,17 +73,27 @@ def sweep(algos, envs, seeds, timesteps: int, out, *, address: str | None = None
         check_env_id(e)
     grid = list(itertools.product(algos, envs, seeds))
     # Each task reserves as many CPUs as its run has env processes.
-    cpus = {(a, e): resolve_config(e, a, timesteps, None, 0, overrides=overrides).n_envs
-            for a, e, _ in grid}
+    cpus = {
+        (a, e): resolve_config(e, a, timesteps, None, 0, overrides=overrides).n_envs
+        for a, e, _ in grid
+    }
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    ray.init(address=address, num_cpus=num_cpus if address is None else None,
-             include_dashboard=False, ignore_reinit_error=True, log_to_driver=False)
+    ray.init(
+        address=address,
+        num_cpus=num_cpus if address is None else None,
+        include_dashboard=False,
+        ignore_reinit_error=True,
+        log_to_driver=False,
+    )
     try:
         task = ray.remote(_train_and_evaluate)
-        futures = [task.options(num_cpus=cpus[(a, e)]).remote(a, e, s, timesteps, str(out),
-                                                               overrides, episodes)
-                   for a, e, s in grid]
+        futures = [
+            task.options(num_cpus=cpus[(a, e)]).remote(
+                a, e, s, timesteps, str(out), overrides, episodes
+            )
+            for a, e, s in grid
+        ]
         rows = ray.get(futures)
     finally:
         ray.shutdown()
@@ -71,11 +103,15 @@ def sweep(algos, envs, seeds, timesteps: int, out, *, address: str | None = None
 
 
 def results_table(rows: list[dict]) -> str:
-    lines = ["| algo | env | seed | steps | wall (min) | final box–goal mean (cm) | success |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "| algo | env | seed | steps | wall (min) | final box–goal mean (cm) | success |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for r in rows:
         e = r["evaluation"]
-        lines.append(f"| {r['algo']} | {r['env']} | {r['seed']} | {r['timesteps']} | "
-                     f"{r['wall_time_s'] / 60:.1f} | {e['final_box_to_goal_mean_m'] * 100:.2f} | "
-                     f"{e['success_rate'] * 100:.0f} % |")
+        lines.append(
+            f"| {r['algo']} | {r['env']} | {r['seed']} | {r['timesteps']} | "
+            f"{r['wall_time_s'] / 60:.1f} | {e['final_box_to_goal_mean_m'] * 100:.2f} | "
+            f"{e['success_rate'] * 100:.0f} % |"
+        )
     return "\n".join(lines) + "\n"

@@ -50,8 +50,6 @@ def make_vec_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict):
     return VecMonitor(vec, info_keywords=("is_success", "box_to_goal"))
 
 
-
-
 def _algo_kwargs(config: TrainConfig, action_dim: int) -> dict:
     kwargs = {k: v for k, v in config.hyperparams.items() if k not in RUN_KEYS}
     if config.algo == "ddpg":
@@ -83,22 +81,34 @@ class _Checkpointer:
         return int(json.loads((self.dir / "latest.json").read_text())["timesteps"])
 
 
-def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar: bool = True,
-          command: str = "") -> dict:
+def train(
+    config: TrainConfig,
+    out: Path,
+    *,
+    resume: bool = False,
+    progress_bar: bool = True,
+    command: str = "",
+) -> dict:
     """Trains (or resumes) a run in `out`; returns the final evaluation figures."""
     out = Path(out)
     config_path = out / "config.json"
     checkpointer = _Checkpointer(out)
     if resume:
         if not config_path.is_file() or not checkpointer.exists():
-            raise FileNotFoundError(f"nothing to resume in {str(out)!r}: it needs config.json "
-                                    "and checkpoints/latest.json")
+            raise FileNotFoundError(
+                f"nothing to resume in {str(out)!r}: it needs config.json "
+                "and checkpoints/latest.json"
+            )
         saved = TrainConfig(**json.loads(config_path.read_text()))
         if saved.comparable() != config.comparable():
-            diff = {k: (saved.comparable()[k], config.comparable()[k])
-                    for k in config.comparable() if saved.comparable()[k] != config.comparable()[k]}
-            raise ValueError(f"refusing to resume {str(out)!r} with different settings "
-                             f"(saved, asked): {diff}")
+            diff = {
+                k: (saved.comparable()[k], config.comparable()[k])
+                for k in config.comparable()
+                if saved.comparable()[k] != config.comparable()[k]
+            }
+            raise ValueError(
+                f"refusing to resume {str(out)!r} with different settings (saved, asked): {diff}"
+            )
     elif config_path.exists():
         raise FileExistsError(f"{str(out)!r} already holds a run; use --resume or a new --out")
     atomic_write_json(config_path, asdict(config))
@@ -118,12 +128,18 @@ def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar:
             model.load_replay_buffer(buffer)
     else:
         if normalize:
-            venv = VecNormalize(venv, norm_obs=True, norm_reward=True,
-                                gamma=float(hp.get("gamma", 0.99)))
+            venv = VecNormalize(
+                venv, norm_obs=True, norm_reward=True, gamma=float(hp.get("gamma", 0.99))
+            )
         try:
-            model = algo_cls(hp.get("policy", "MlpPolicy"), venv, seed=config.seed,
-                             device="cpu", verbose=0,
-                             **_algo_kwargs(config, venv.action_space.shape[0]))
+            model = algo_cls(
+                hp.get("policy", "MlpPolicy"),
+                venv,
+                seed=config.seed,
+                device="cpu",
+                verbose=0,
+                **_algo_kwargs(config, venv.action_space.shape[0]),
+            )
         except TypeError as e:  # a hyperparameter this algorithm does not take
             venv.close()
             eval_env.close()
@@ -137,9 +153,15 @@ def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar:
         eval_env = VecNormalize(eval_env, norm_obs=True, norm_reward=False, training=False)
     model.set_logger(configure(str(out / "logs"), ["csv", "tensorboard"]))
 
-    meta = PolicyMeta(config.env_id, config.algo, env_kwargs,
-                      list(venv.observation_space.shape), list(venv.action_space.shape),
-                      normalize, command=command)
+    meta = PolicyMeta(
+        config.env_id,
+        config.algo,
+        env_kwargs,
+        list(venv.observation_space.shape),
+        list(venv.action_space.shape),
+        normalize,
+        command=command,
+    )
     vec_normalize = venv if normalize else None
     every = max(int(hp.get("checkpoint_freq", 50_000)) // config.n_envs, 1)
 
@@ -156,14 +178,23 @@ def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar:
             return True
 
     eval_callback = EvalCallback(
-        eval_env, callback_on_new_best=SaveBest(), n_eval_episodes=int(hp.get("eval_episodes", 20)),
+        eval_env,
+        callback_on_new_best=SaveBest(),
+        n_eval_episodes=int(hp.get("eval_episodes", 20)),
         eval_freq=max(int(hp.get("eval_freq", 50_000)) // config.n_envs, 1),
-        log_path=str(out / "eval"), deterministic=True, verbose=0)
+        log_path=str(out / "eval"),
+        deterministic=True,
+        verbose=0,
+    )
     remaining = config.timesteps - (checkpointer.timesteps() if resume else 0)
     start = time.perf_counter()
     if remaining > 0:
-        model.learn(total_timesteps=remaining, callback=CallbackList([Periodic(), eval_callback]),
-                    reset_num_timesteps=not resume, progress_bar=progress_bar)
+        model.learn(
+            total_timesteps=remaining,
+            callback=CallbackList([Periodic(), eval_callback]),
+            reset_num_timesteps=not resume,
+            progress_bar=progress_bar,
+        )
     wall = time.perf_counter() - start
     checkpointer.save(model, vec_normalize)
     meta.trained_timesteps = int(model.num_timesteps)
@@ -172,8 +203,11 @@ def train(config: TrainConfig, out: Path, *, resume: bool = False, progress_bar:
         save_policy(model, vec_normalize, meta, out / "best")
     venv.close()
     eval_env.close()
-    summary = {"timesteps": int(model.num_timesteps), "wall_time_s": wall,
-               "steps_per_s": (remaining / wall) if remaining > 0 and wall > 0 else None,
-               "out": str(out)}
+    summary = {
+        "timesteps": int(model.num_timesteps),
+        "wall_time_s": wall,
+        "steps_per_s": (remaining / wall) if remaining > 0 and wall > 0 else None,
+        "out": str(out),
+    }
     atomic_write_json(out / "summary.json", summary)
     return summary

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -52,6 +53,17 @@ GRIP_TOLERANCE = 0.04
 # The renderer lightings the pipeline is tested under (see systems.camera.lighting_params).
 LIGHTINGS = ("default", "dim_side")
 MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
+
+
+class CameraIntrinsics(Protocol):
+    """A pinhole camera's intrinsics, as Drake's `CameraInfo` gives them (px)."""
+
+    def width(self) -> int: ...
+    def height(self) -> int: ...
+    def focal_x(self) -> float: ...
+    def focal_y(self) -> float: ...
+    def center_x(self) -> float: ...
+    def center_y(self) -> float: ...
 
 
 def check_noise_sigma(sigma, name: str = "noise sigma") -> float:
@@ -118,13 +130,18 @@ class ViewMeasurement:
         def f(x):
             return None if x is None or not math.isfinite(x) else float(x)
 
-        return {"view": self.view, "accepted": self.accepted, "reason": self.reason,
-                "length_depth_m": f(self.length_depth), "length_pixel_m": f(self.length_pixel),
-                "ends_px": [[float(a) for a in e] for e in self.ends_px],
-                "ends_C_m": [[float(a) for a in e] for e in self.ends_C],
-                "marker_depths_m": [f(d) for d in self.marker_depths],
-                "marker_areas_px": [int(a) for a in self.marker_areas_px],
-                "blob_count": int(self.blob_count)}
+        return {
+            "view": self.view,
+            "accepted": self.accepted,
+            "reason": self.reason,
+            "length_depth_m": f(self.length_depth),
+            "length_pixel_m": f(self.length_pixel),
+            "ends_px": [[float(a) for a in e] for e in self.ends_px],
+            "ends_C_m": [[float(a) for a in e] for e in self.ends_C],
+            "marker_depths_m": [f(d) for d in self.marker_depths],
+            "marker_areas_px": [int(a) for a in self.marker_areas_px],
+            "blob_count": int(self.blob_count),
+        }
 
 
 @dc.dataclass
@@ -161,8 +178,10 @@ class ToolLengthMeasurement:
         one."""
         if not self.accepted:
             detail = "; ".join(f"view {v.view!r}: {v.reason}" for v in self.views)
-            raise ValueError(f"the tool length could not be measured in any of the "
-                             f"{len(self.views)} views: {detail or 'no view was captured'}")
+            raise ValueError(
+                f"the tool length could not be measured in any of the "
+                f"{len(self.views)} views: {detail or 'no view was captured'}"
+            )
         return self.length()
 
 
@@ -172,8 +191,7 @@ def orange_mask(color_image: np.ndarray) -> np.ndarray:
     size filter (MIN_BLOB_AREA_PX)."""
     rgb = np.ascontiguousarray(color_image[:, :, :3])
     hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
-    return cv2.inRange(hsv, np.array(ORANGE_HSV_LOW, np.uint8),
-                       np.array(ORANGE_HSV_HIGH, np.uint8))
+    return cv2.inRange(hsv, np.array(ORANGE_HSV_LOW, np.uint8), np.array(ORANGE_HSV_HIGH, np.uint8))
 
 
 def find_blobs(mask: np.ndarray, min_area_px: int = MIN_BLOB_AREA_PX) -> list[Blob]:
@@ -184,14 +202,20 @@ def find_blobs(mask: np.ndarray, min_area_px: int = MIN_BLOB_AREA_PX) -> list[Bl
         u, v, w, h = cv2.boundingRect(contour)
         local = np.zeros((h, w), np.uint8)
         cv2.drawContours(local, [contour - [u, v]], -1, 255, thickness=cv2.FILLED)
-        local &= mask[v:v + h, u:u + w]
+        local &= mask[v : v + h, u : u + w]
         vv, uu = np.nonzero(local)
         if vv.size < min_area_px:
             continue
         pixels = np.column_stack([vv + v, uu + u])
-        blobs.append(Blob(contour=contour.reshape(-1, 2), area_px=int(vv.size),
-                          centroid=np.array([uu.mean() + u, vv.mean() + v]),
-                          bbox=(u, v, w, h), pixels=pixels))
+        blobs.append(
+            Blob(
+                contour=contour.reshape(-1, 2),
+                area_px=int(vv.size),
+                centroid=np.array([uu.mean() + u, vv.mean() + v]),
+                bbox=(u, v, w, h),
+                pixels=pixels,
+            )
+        )
     blobs.sort(key=lambda b: b.area_px, reverse=True)
     return blobs
 
@@ -214,7 +238,7 @@ def _outer_end(blob: Blob, d: np.ndarray, sign: float):
     return end, corners
 
 
-def _marker_points(blob: Blob, depth: np.ndarray, info: CameraInfo):
+def _marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
     """p_CP of each of the marker's pixels with a valid depth, back-projected (m), (N, 3), and
     those pixels (u, v), (N, 2).
 
@@ -227,13 +251,15 @@ def _marker_points(blob: Blob, depth: np.ndarray, info: CameraInfo):
     z_median = np.median(z[valid])
     keep = valid & (np.abs(z - z_median) <= MARKER_DEPTH_TOLERANCE)
     v, u, z = blob.pixels[keep, 0], blob.pixels[keep, 1], z[keep]
-    points = np.column_stack([(u - info.center_x()) * z / info.focal_x(),
-                              (v - info.center_y()) * z / info.focal_y(), z])
+    points = np.column_stack(
+        [(u - info.center_x()) * z / info.focal_x(), (v - info.center_y()) * z / info.focal_y(), z]
+    )
     return points, np.column_stack([u, v])
 
 
-def _end_correction(mask: np.ndarray, pixel, p_CE: np.ndarray, u_C: np.ndarray, sign: float,
-                    f: float) -> float:
+def _end_correction(
+    mask: np.ndarray, pixel, p_CE: np.ndarray, u_C: np.ndarray, sign: float, f: float
+) -> float:
     """How far (m, along the tool axis) the band's edge lies beyond its extreme pixel centre.
 
     A pixel is orange when its centre is on the band, so the edge lies between the extreme
@@ -262,14 +288,22 @@ def _end_correction(mask: np.ndarray, pixel, p_CE: np.ndarray, u_C: np.ndarray, 
 
 def _touches_border(blob: Blob, width: int, height: int) -> str:
     u, v, w, h = blob.bbox
-    sides = [name for name, hit in (("left", u <= 0), ("top", v <= 0),
-                                    ("right", u + w >= width), ("bottom", v + h >= height))
-             if hit]
+    sides = [
+        name
+        for name, hit in (
+            ("left", u <= 0),
+            ("top", v <= 0),
+            ("right", u + w >= width),
+            ("bottom", v + h >= height),
+        )
+        if hit
+    ]
     return " and ".join(sides)
 
 
-def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraInfo,
-                 view: ViewSpec) -> ViewMeasurement:
+def measure_view(
+    color_image: np.ndarray, depth_image: np.ndarray, info: CameraIntrinsics, view: ViewSpec
+) -> ViewMeasurement:
     """Measures the tool in one view (both the depth and the pixel variant).
 
     color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
@@ -279,8 +313,10 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     has no valid depth."""
     depth = np.asarray(depth_image, np.float32).reshape(info.height(), info.width())
     if color_image.shape[:2] != (info.height(), info.width()):
-        raise ValueError(f"color image is {color_image.shape[1]} x {color_image.shape[0]} px; "
-                         f"the camera gives {info.width()} x {info.height()} px")
+        raise ValueError(
+            f"color image is {color_image.shape[1]} x {color_image.shape[0]} px; "
+            f"the camera gives {info.width()} x {info.height()} px"
+        )
     mask = orange_mask(color_image)
     blobs = find_blobs(mask)
     out = ViewMeasurement(view=view.name, accepted=False, blob_count=len(blobs))
@@ -289,19 +325,21 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     tolerance_px = GRIP_TOLERANCE * f / view.grip_depth
     near_grip = [b for b in blobs[:2] if np.linalg.norm(b.centroid - grip_px) <= tolerance_px]
     if not blobs:
-        out.reason = ("no orange marker found: both the grip marker and the tip marker are "
-                      "missing")
+        out.reason = "no orange marker found: both the grip marker and the tip marker are missing"
         return out
     if len(blobs) == 1:
         missing = "tip marker" if near_grip else "grip marker"
-        out.reason = (f"only one orange marker found: the {missing} is missing (hidden or out "
-                      "of frame)")
+        out.reason = (
+            f"only one orange marker found: the {missing} is missing (hidden or out of frame)"
+        )
         out.marker_areas_px = [blobs[0].area_px]
         return out
     if not near_grip:
-        out.reason = (f"no marker found within {GRIP_TOLERANCE * 100:.0f} cm of the grip at "
-                      f"pixel ({grip_px[0]:.0f}, {grip_px[1]:.0f}): the grip marker is missing "
-                      "(hidden or out of frame)")
+        out.reason = (
+            f"no marker found within {GRIP_TOLERANCE * 100:.0f} cm of the grip at "
+            f"pixel ({grip_px[0]:.0f}, {grip_px[1]:.0f}): the grip marker is missing "
+            "(hidden or out of frame)"
+        )
         return out
     grip = near_grip[0]
     tip = blobs[1] if grip is blobs[0] else blobs[0]
@@ -309,8 +347,9 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     for name, blob in (("grip marker", grip), ("tip marker", tip)):
         side = _touches_border(blob, info.width(), info.height())
         if side:
-            out.reason = (f"the {name} touches the image's {side} border: it may be cut off "
-                          "(out of frame)")
+            out.reason = (
+                f"the {name} touches the image's {side} border: it may be cut off (out of frame)"
+            )
             return out
     # The paper's pixel variant: upright (tool-aligned) boxes, the outer ends in the image.
     d = tip.centroid - grip.centroid
@@ -327,16 +366,17 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     points = [c[0] for c in clouds]
     for name, pts in zip(("grip marker", "tip marker"), points):
         if len(pts) < MIN_BLOB_AREA_PX:
-            out.reason = (f"the {name} has no valid depth ({len(pts)} pixels inside the depth "
-                          "range)")
+            out.reason = f"the {name} has no valid depth ({len(pts)} pixels inside the depth range)"
             return out
     out.marker_depths = [float(np.median(p[:, 2])) for p in points]
     physical_area = [b.area_px * z * z for b, z in zip((grip, tip), out.marker_depths)]
     ratio = min(physical_area) / max(physical_area)
     if ratio < MIN_AREA_RATIO:
         small = "grip marker" if physical_area[0] < physical_area[1] else "tip marker"
-        out.reason = (f"the {small} looks partly hidden: its area is {ratio * 100:.0f} % of the "
-                      f"other marker's (at least {MIN_AREA_RATIO * 100:.0f} % expected)")
+        out.reason = (
+            f"the {small} looks partly hidden: its area is {ratio * 100:.0f} % of the "
+            f"other marker's (at least {MIN_AREA_RATIO * 100:.0f} % expected)"
+        )
         return out
     u_C = points[1].mean(axis=0) - points[0].mean(axis=0)
     u_C /= np.linalg.norm(u_C)
@@ -352,8 +392,9 @@ def measure_view(color_image: np.ndarray, depth_image: np.ndarray, info: CameraI
     return out
 
 
-def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement,
-                  info: CameraInfo | None = None) -> np.ndarray:
+def annotate_view(
+    color_image: np.ndarray, measurement: ViewMeasurement, info: CameraIntrinsics | None = None
+) -> np.ndarray:
     """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box (blue),
     the segment between the boxes' outer ends (red: the pixel variant), the 3-D outer ends
     projected back (yellow: the depth variant; needs `info`), 6x insets of the two markers in
@@ -369,17 +410,22 @@ def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement,
         cv2.line(bgr, a, b, (0, 0, 255), 1)
     ends_3d = []
     if info is not None:
-        ends_3d = [(info.center_x() + info.focal_x() * x / d,
-                    info.center_y() + info.focal_y() * y / d) for x, y, d in measurement.ends_C]
+        ends_3d = [
+            (info.center_x() + info.focal_x() * x / d, info.center_y() + info.focal_y() * y / d)
+            for x, y, d in measurement.ends_C
+        ]
     zoom, half = 6, 16  # each inset: a 33 x 33 px window at 6x, drawn at that scale
     side = (2 * half + 1) * zoom
     for i, end in enumerate(measurement.ends_px):
         u0 = min(max(int(round(end[0])), half), bgr.shape[1] - half - 1) - half
         v0 = min(max(int(round(end[1])), half), bgr.shape[0] - half - 1) - half
-        inset = cv2.resize(base[v0:v0 + side // zoom, u0:u0 + side // zoom], (side, side),
-                           interpolation=cv2.INTER_NEAREST)
+        inset = cv2.resize(
+            base[v0 : v0 + side // zoom, u0 : u0 + side // zoom],
+            (side, side),
+            interpolation=cv2.INTER_NEAREST,
+        )
 
-        def z(p):
+        def z(p, u0=u0, v0=v0):  # image pixel -> inset pixel
             return (int(round((p[0] - u0 + 0.5) * zoom)), int(round((p[1] - v0 + 0.5) * zoom)))
 
         for box in measurement.boxes:
@@ -389,18 +435,37 @@ def annotate_view(color_image: np.ndarray, measurement: ViewMeasurement,
             cv2.circle(inset, z(p), 5, (0, 220, 255), -1)
         x0 = bgr.shape[1] - (len(measurement.ends_px) - i) * (side + 10)
         if x0 >= 0 and side + 40 <= bgr.shape[0]:
-            bgr[40:40 + side, x0:x0 + side] = inset
+            bgr[40 : 40 + side, x0 : x0 + side] = inset
             cv2.rectangle(bgr, (x0, 40), (x0 + side - 1, 40 + side - 1), (0, 0, 0), 1)
-            cv2.rectangle(bgr, (x0 + 1, 40 + side - 22), (x0 + 110, 40 + side - 2),
-                          (255, 255, 255), -1)
-            cv2.putText(bgr, ("grip", "tip")[i] + f" marker x{zoom}", (x0 + 4, 40 + side - 7),
-                        cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+            cv2.rectangle(
+                bgr, (x0 + 1, 40 + side - 22), (x0 + 110, 40 + side - 2), (255, 255, 255), -1
+            )
+            cv2.putText(
+                bgr,
+                ("grip", "tip")[i] + f" marker x{zoom}",
+                (x0 + 4, 40 + side - 7),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.45,
+                (0, 0, 0),
+                1,
+                cv2.LINE_AA,
+            )
     if measurement.accepted:
-        text = (f"{measurement.view}: depth {measurement.length_depth * 1000:.1f} mm, "
-                f"pixel {measurement.length_pixel * 1000:.1f} mm")
+        text = (
+            f"{measurement.view}: depth {measurement.length_depth * 1000:.1f} mm, "
+            f"pixel {measurement.length_pixel * 1000:.1f} mm"
+        )
     else:
         text = f"{measurement.view}: dropped - {measurement.reason}"
     scale = max(bgr.shape[1] / 1600, 0.4)
-    cv2.putText(bgr, text, (10, int(30 * scale + 5)), cv2.FONT_HERSHEY_SIMPLEX, scale,
-                (0, 0, 0), 2, cv2.LINE_AA)
+    cv2.putText(
+        bgr,
+        text,
+        (10, int(30 * scale + 5)),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        scale,
+        (0, 0, 0),
+        2,
+        cv2.LINE_AA,
+    )
     return bgr

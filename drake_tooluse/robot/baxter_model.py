@@ -79,37 +79,59 @@ ARM_MOUNT_YAW = {"right": -0.7854, "left": 0.7854}
 
 # Link inertials: mass (kg), centre of mass (m), (ixx, ixy, ixz, iyy, iyz, izz) (kg m^2).
 ARM_INERTIALS = {
-    "upper_shoulder": (5.70044, (0.01783, 0.00086, 0.19127),
-                       (0.04709102262, 0.00012787556, 0.00614870039, 0.03766976455,
-                        0.00078086899, 0.03595988478)),
-    "lower_shoulder": (3.22698, (0.06845, 0.00269, -0.00529),
-                       (0.01175209419, -0.00030096398, 0.00207675762, 0.0278859752,
-                        -0.00018821993, 0.02078749298)),
-    "upper_elbow": (4.31272, (-0.00276, 0.00132, 0.18086),
-                    (0.02661733557, 0.00029270634, 0.00392189887, 0.02844355207,
-                     0.0010838933, 0.01248008322)),
-    "lower_elbow": (2.07206, (0.02611, 0.00159, -0.01117),
-                    (0.00711582686, 0.00036036173, 0.0007459496, 0.01318227876,
-                     -0.00019663418, 0.00926852064)),
-    "upper_forearm": (2.24665, (-0.00168, 0.0046, 0.13952),
-                      (0.01667742825, 0.00018403705, 0.00018657629, 0.01675457264,
-                       -0.00064732352, 0.0037463115)),
-    "lower_forearm": (1.60979, (0.06041, 0.00697, 0.006),
-                      (0.00387607152, -0.00044384784, -0.00021115038, 0.00700537914,
-                       0.00015348067, 0.0055275524)),
-    "wrist": (0.35093, (0.00198, 0.00125, 0.01855),
-              (0.00025289155, 0.00000575311, -0.00000159345, 0.0002688601,
-               -0.00000519818, 0.0003074118)),
-    "hand": (0.19125, (0.01093, 0.00042, -0.01532),
-             (0.00017588, 0.00000147073, 0.0000243633, 0.00021166377, 0.00000172689,
-              0.00023745397)),
+    "upper_shoulder": (
+        5.70044,
+        (0.01783, 0.00086, 0.19127),
+        (0.04709102262, 0.00012787556, 0.00614870039, 0.03766976455, 0.00078086899, 0.03595988478),
+    ),
+    "lower_shoulder": (
+        3.22698,
+        (0.06845, 0.00269, -0.00529),
+        (0.01175209419, -0.00030096398, 0.00207675762, 0.0278859752, -0.00018821993, 0.02078749298),
+    ),
+    "upper_elbow": (
+        4.31272,
+        (-0.00276, 0.00132, 0.18086),
+        (0.02661733557, 0.00029270634, 0.00392189887, 0.02844355207, 0.0010838933, 0.01248008322),
+    ),
+    "lower_elbow": (
+        2.07206,
+        (0.02611, 0.00159, -0.01117),
+        (0.00711582686, 0.00036036173, 0.0007459496, 0.01318227876, -0.00019663418, 0.00926852064),
+    ),
+    "upper_forearm": (
+        2.24665,
+        (-0.00168, 0.0046, 0.13952),
+        (0.01667742825, 0.00018403705, 0.00018657629, 0.01675457264, -0.00064732352, 0.0037463115),
+    ),
+    "lower_forearm": (
+        1.60979,
+        (0.06041, 0.00697, 0.006),
+        (0.00387607152, -0.00044384784, -0.00021115038, 0.00700537914, 0.00015348067, 0.0055275524),
+    ),
+    "wrist": (
+        0.35093,
+        (0.00198, 0.00125, 0.01855),
+        (0.00025289155, 0.00000575311, -0.00000159345, 0.0002688601, -0.00000519818, 0.0003074118),
+    ),
+    "hand": (
+        0.19125,
+        (0.01093, 0.00042, -0.01532),
+        (0.00017588, 0.00000147073, 0.0000243633, 0.00021166377, 0.00000172689, 0.00023745397),
+    ),
     # The gripper base with its two fingers (0.3 kg + 2 x 0.02 kg + 2 x 0.01 kg tips).
     "gripper_base": (0.36, (0, 0, 0.06), (2e-4, 0, 0, 2e-4, 0, 1e-4)),
 }
-TORSO_INERTIAL = (35.336455, (0, 0, 0),
-                  (1.849155, -0.000354, -0.154188, 1.662671, 0.003292, 0.802239))
-HEAD_INERTIAL = (0.547767 + 0.440171, (0, 0, 0),
-                 (0.004641, 0.000159, 0.000242, 0.003295, -0.001324, 0.003415))
+TORSO_INERTIAL = (
+    35.336455,
+    (0, 0, 0),
+    (1.849155, -0.000354, -0.154188, 1.662671, 0.003292, 0.802239),
+)
+HEAD_INERTIAL = (
+    0.547767 + 0.440171,
+    (0, 0, 0),
+    (0.004641, 0.000159, 0.000242, 0.003295, -0.001324, 0.003415),
+)
 # The head: pan joint origin on the torso, and the head camera on the head.
 HEAD_XYZ = (0.06, 0, 0.686)
 HEAD_CAMERA_XYZ = (0.12839, 0, 0.06368)
@@ -121,9 +143,16 @@ DARK = (0.18, 0.18, 0.2, 1.0)
 BLACK = (0.05, 0.05, 0.05, 1.0)
 SCREEN = (0.95, 0.55, 0.1, 1.0)
 # Radius of each arm link's visual "bone" (m).
-BONE_RADIUS = {"upper_shoulder": 0.07, "lower_shoulder": 0.06, "upper_elbow": 0.055,
-               "lower_elbow": 0.05, "upper_forearm": 0.045, "lower_forearm": 0.042,
-               "wrist": 0.04, "hand": 0.04}
+BONE_RADIUS = {
+    "upper_shoulder": 0.07,
+    "lower_shoulder": 0.06,
+    "upper_elbow": 0.055,
+    "lower_elbow": 0.05,
+    "upper_forearm": 0.045,
+    "lower_forearm": 0.042,
+    "wrist": 0.04,
+    "hand": 0.04,
+}
 # Links of the right arm that carry collision geometry.
 COLLISION_LINKS = ("lower_forearm", "wrist", "hand")
 
@@ -154,8 +183,9 @@ def _rpy_aligning_z_with(direction) -> tuple:
 def _bone(to_xyz, radius, rgba) -> _Shape:
     """A cylinder from the link origin to `to_xyz`."""
     p = np.asarray(to_xyz, float)
-    return _Shape("cylinder", (radius, float(np.linalg.norm(p))), tuple(p / 2),
-                  _rpy_aligning_z_with(p), rgba)
+    return _Shape(
+        "cylinder", (radius, float(np.linalg.norm(p))), tuple(p / 2), _rpy_aligning_z_with(p), rgba
+    )
 
 
 def _geometry_xml(shape: _Shape) -> str:
@@ -180,9 +210,11 @@ def _link_xml(name, inertial=None, visuals=(), collisions=()) -> str:
         ]
     for tag, shapes in (("visual", visuals), ("collision", collisions)):
         for i, s in enumerate(shapes):
-            lines += [f'    <{tag} name="{name}_{tag}_{i}">',
-                      f'      <origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>',
-                      f"      <geometry>{_geometry_xml(s)}</geometry>"]
+            lines += [
+                f'    <{tag} name="{name}_{tag}_{i}">',
+                f'      <origin xyz="{_fmt(s.xyz)}" rpy="{_fmt(s.rpy)}"/>',
+                f"      <geometry>{_geometry_xml(s)}</geometry>",
+            ]
             if tag == "visual":
                 lines.append(f'      <material><color rgba="{_fmt(s.rgba)}"/></material>')
             lines.append(f"    </{tag}>")
@@ -191,50 +223,78 @@ def _link_xml(name, inertial=None, visuals=(), collisions=()) -> str:
 
 
 def _joint_xml(name, kind, parent, child, xyz, rpy, limits=None) -> str:
-    lines = [f'  <joint name="{name}" type="{kind}">',
-             f'    <parent link="{parent}"/>', f'    <child link="{child}"/>',
-             f'    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>']
+    lines = [
+        f'  <joint name="{name}" type="{kind}">',
+        f'    <parent link="{parent}"/>',
+        f'    <child link="{child}"/>',
+        f'    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>',
+    ]
     if kind == "revolute":
         lower, upper, velocity, effort = limits
-        lines += ['    <axis xyz="0 0 1"/>',
-                  f'    <limit lower="{lower:.12g}" upper="{upper:.12g}" '
-                  f'velocity="{velocity:.10g}" effort="{effort:.10g}"/>']
+        lines += [
+            '    <axis xyz="0 0 1"/>',
+            f'    <limit lower="{lower:.12g}" upper="{upper:.12g}" '
+            f'velocity="{velocity:.10g}" effort="{effort:.10g}"/>',
+        ]
     lines.append("  </joint>")
     return "\n".join(lines)
 
 
 def _transmission_xml(joint) -> str:
-    return (f'  <transmission name="{joint}_transmission">\n'
-            "    <type>transmission_interface/SimpleTransmission</type>\n"
-            f'    <joint name="{joint}"><hardwareInterface>EffortJointInterface'
-            "</hardwareInterface></joint>\n"
-            f'    <actuator name="{joint}_motor"><mechanicalReduction>1</mechanicalReduction>'
-            "</actuator>\n  </transmission>")
+    return (
+        f'  <transmission name="{joint}_transmission">\n'
+        "    <type>transmission_interface/SimpleTransmission</type>\n"
+        f'    <joint name="{joint}"><hardwareInterface>EffortJointInterface'
+        "</hardwareInterface></joint>\n"
+        f'    <actuator name="{joint}_motor"><mechanicalReduction>1</mechanicalReduction>'
+        "</actuator>\n  </transmission>"
+    )
 
 
 def _gripper_shapes() -> list[_Shape]:
     """Baxter's electric gripper in the gripper-base frame: a plate and two closed fingers."""
     plate = _Shape("box", (0.05, 0.13, 0.03), (0, 0, 0.01), rgba=DARK)
-    fingers = [_Shape("box", (0.022, 0.01, 0.1127), (0, y, 0.02 + 0.1127 / 2), rgba=BLACK)
-               for y in (-0.0175, 0.0175)]
+    fingers = [
+        _Shape("box", (0.022, 0.01, 0.1127), (0, y, 0.02 + 0.1127 / 2), rgba=BLACK)
+        for y in (-0.0175, 0.0175)
+    ]
     return [plate, *fingers]
 
 
 def _arm_xml(side: str) -> list[str]:
     parts = [_link_xml(f"{side}_arm_mount")]
-    parts.append(_joint_xml(f"{side}_torso_arm_mount", "fixed", "torso", f"{side}_arm_mount",
-                            ARM_MOUNT_XYZ[side], (0, 0, ARM_MOUNT_YAW[side])))
+    parts.append(
+        _joint_xml(
+            f"{side}_torso_arm_mount",
+            "fixed",
+            "torso",
+            f"{side}_arm_mount",
+            ARM_MOUNT_XYZ[side],
+            (0, 0, ARM_MOUNT_YAW[side]),
+        )
+    )
     children = {parent: xyz for _, parent, _, xyz, _ in ARM_CHAIN + HAND_CHAIN}
     for suffix, parent, child, xyz, rpy in ARM_CHAIN:
         link = f"{side}_{child}"
-        visuals = [_bone(children[child], BONE_RADIUS[child], RED),
-                   _Shape("cylinder", (BONE_RADIUS[child] * 1.05, 0.11), (0, 0, 0), rgba=DARK)]
+        visuals = [
+            _bone(children[child], BONE_RADIUS[child], RED),
+            _Shape("cylinder", (BONE_RADIUS[child] * 1.05, 0.11), (0, 0, 0), rgba=DARK),
+        ]
         collisions = []
         if side == "right" and child in COLLISION_LINKS:
             collisions = [_bone(children[child], BONE_RADIUS[child], None)]
         parts.append(_link_xml(link, ARM_INERTIALS[child], visuals, collisions))
-        parts.append(_joint_xml(f"{side}_{suffix}", "revolute", f"{side}_{parent}", link, xyz,
-                                rpy, ARM_LIMITS[suffix]))
+        parts.append(
+            _joint_xml(
+                f"{side}_{suffix}",
+                "revolute",
+                f"{side}_{parent}",
+                link,
+                xyz,
+                rpy,
+                ARM_LIMITS[suffix],
+            )
+        )
     for name, parent, child, xyz, rpy in HAND_CHAIN:
         link = f"{side}_{child}"
         if child == "hand":
@@ -246,8 +306,9 @@ def _arm_xml(side: str) -> list[str]:
         else:  # the endpoint frame: massless, Drake merges it into its parent.
             shapes, inertial, collisions = [], None, []
         parts.append(_link_xml(link, inertial, shapes, collisions))
-        parts.append(_joint_xml(f"{side}_{name}_joint", "fixed", f"{side}_{parent}", link, xyz,
-                                rpy))
+        parts.append(
+            _joint_xml(f"{side}_{name}_joint", "fixed", f"{side}_{parent}", link, xyz, rpy)
+        )
     return parts
 
 
@@ -276,8 +337,9 @@ def baxter_urdf() -> str:
         _link_xml("head", HEAD_INERTIAL, head_visuals),
         _joint_xml("head_pan", "fixed", "torso", "head", HEAD_XYZ, (0, 0, 0)),
         _link_xml("head_camera"),
-        _joint_xml("head_camera_joint", "fixed", "head", "head_camera", HEAD_CAMERA_XYZ,
-                   HEAD_CAMERA_RPY),
+        _joint_xml(
+            "head_camera_joint", "fixed", "head", "head_camera", HEAD_CAMERA_XYZ, HEAD_CAMERA_RPY
+        ),
     ]
     for side in ("right", "left"):
         parts += _arm_xml(side)

@@ -19,8 +19,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import SnoptSolver, SolverOptions
 
@@ -38,8 +38,11 @@ from drake_tooluse.validation import check_finite_vector, check_unit_quaternion
 
 def joint_limit_kwargs(conservative: bool) -> dict:
     """`ToolTipIK` keyword arguments for the conservative limits, or none for Baxter's own."""
-    return ({"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
-            if conservative else {})
+    return (
+        {"joint_lower": Q_LOWER_CONSERVATIVE, "joint_upper": Q_UPPER_CONSERVATIVE}
+        if conservative
+        else {}
+    )
 
 
 # A solution counts as a success when it meets these (checked by forward kinematics).
@@ -67,10 +70,15 @@ class IKResult:
     attempts: int = 1
 
     def as_dict(self) -> dict:
-        return {"q": [float(x) for x in self.q], "joint_names": list(RIGHT_ARM_JOINTS),
-                "success": bool(self.success), "position_error_m": float(self.position_error),
-                "orientation_error_rad": float(self.orientation_error),
-                "solve_time_s": float(self.solve_time), "attempts": int(self.attempts)}
+        return {
+            "q": [float(x) for x in self.q],
+            "joint_names": list(RIGHT_ARM_JOINTS),
+            "success": bool(self.success),
+            "position_error_m": float(self.position_error),
+            "orientation_error_rad": float(self.orientation_error),
+            "solve_time_s": float(self.solve_time),
+            "attempts": int(self.attempts),
+        }
 
 
 def pose_from_vector(x) -> RigidTransform:
@@ -129,22 +137,36 @@ class ToolTipIK:
             so the same call gives the same result); the full-range library has half as many.
     """
 
-    def __init__(self, tool_length: float | None = None, *, grasp_offset=(0.0, 0.0),
-                 joint_lower=None, joint_upper=None, max_attempts: int = 16,
-                 library_size: int = 4000):
+    def __init__(
+        self,
+        tool_length: float | None = None,
+        *,
+        grasp_offset=(0.0, 0.0),
+        joint_lower=None,
+        joint_upper=None,
+        max_attempts: int = 16,
+        library_size: int = 4000,
+    ):
         self.tool_length = tool_length
         self.grasp_offset = tuple(float(v) for v in grasp_offset)
         self.plant = make_robot_model(tool_length, grasp_offset=self.grasp_offset)
         self.context = self.plant.CreateDefaultContext()
         self.tip_frame = self.plant.GetFrameByName(TIP_FRAME)
         self.gripper_frame = self.plant.GetFrameByName(GRIPPER_FRAME)
-        self.lower = Q_LOWER.copy() if joint_lower is None else check_finite_vector(
-            joint_lower, 7, "joint_lower")
-        self.upper = Q_UPPER.copy() if joint_upper is None else check_finite_vector(
-            joint_upper, 7, "joint_upper")
+        self.lower = (
+            Q_LOWER.copy()
+            if joint_lower is None
+            else check_finite_vector(joint_lower, 7, "joint_lower")
+        )
+        self.upper = (
+            Q_UPPER.copy()
+            if joint_upper is None
+            else check_finite_vector(joint_upper, 7, "joint_upper")
+        )
         if np.any(self.lower > self.upper):
-            raise ValueError(f"joint_lower {self.lower.tolist()} exceeds joint_upper "
-                             f"{self.upper.tolist()}")
+            raise ValueError(
+                f"joint_lower {self.lower.tolist()} exceeds joint_upper {self.upper.tolist()}"
+            )
         if max_attempts < 1:
             raise ValueError(f"max_attempts={max_attempts} must be at least 1")
         self.max_attempts = int(max_attempts)
@@ -171,8 +193,11 @@ class ToolTipIK:
     def _library(self, lower, upper, size: int, seed: int):
         q = np.random.default_rng(seed).uniform(lower, upper, size=(size, 7))
         poses = [self.fk(x) for x in q]
-        return (q, np.array([X.translation() for X in poses]),
-                np.array([X.rotation().matrix() for X in poses]))
+        return (
+            q,
+            np.array([X.translation() for X in poses]),
+            np.array([X.rotation().matrix() for X in poses]),
+        )
 
     @staticmethod
     def _task_distance(X_WT: RigidTransform, p, R) -> np.ndarray:
@@ -183,8 +208,9 @@ class ToolTipIK:
 
     def _seed_distance(self, X_WT: RigidTransform, q_seed: np.ndarray) -> float:
         X = self.fk(q_seed)
-        return float(self._task_distance(X_WT, X.translation()[None],
-                                         X.rotation().matrix()[None])[0])
+        return float(
+            self._task_distance(X_WT, X.translation()[None], X.rotation().matrix()[None])[0]
+        )
 
     def library_seeds(self, X_WT: RigidTransform, count: int) -> list[np.ndarray]:
         """The `count` nearest entries (task space) of each of the two libraries,
@@ -216,11 +242,15 @@ class ToolTipIK:
     def check_q(self, q, name: str = "q") -> np.ndarray:
         """q must be 7 finite joint angles within the limits (rad)."""
         q = check_finite_vector(q, 7, name)
-        bad = [(RIGHT_ARM_JOINTS[i], q[i], self.lower[i], self.upper[i]) for i in range(7)
-               if not self.lower[i] - 1e-9 <= q[i] <= self.upper[i] + 1e-9]
+        bad = [
+            (RIGHT_ARM_JOINTS[i], q[i], self.lower[i], self.upper[i])
+            for i in range(7)
+            if not self.lower[i] - 1e-9 <= q[i] <= self.upper[i] + 1e-9
+        ]
         if bad:
-            text = "; ".join(f"{n}={v:.4g} rad outside [{lo:.4g}, {hi:.4g}]"
-                             for n, v, lo, hi in bad)
+            text = "; ".join(
+                f"{n}={v:.4g} rad outside [{lo:.4g}, {hi:.4g}]" for n, v, lo, hi in bad
+            )
             raise ValueError(f"{name} is outside the joint limits: {text}")
         return q
 
@@ -235,8 +265,10 @@ class ToolTipIK:
 
     def errors(self, q, X_WT: RigidTransform) -> tuple[float, float]:
         X = self.fk(q)
-        return (float(np.linalg.norm(X.translation() - X_WT.translation())),
-                rotation_angle_between(X.rotation(), X_WT.rotation()))
+        return (
+            float(np.linalg.norm(X.translation() - X_WT.translation())),
+            rotation_angle_between(X.rotation(), X_WT.rotation()),
+        )
 
     # -- IK ---------------------------------------------------------------------------------
     def _new_ik(self, X_WT: RigidTransform) -> InverseKinematics:
@@ -246,16 +278,18 @@ class ToolTipIK:
         ik.AddPositionConstraint(self.tip_frame, np.zeros(3), self.plant.world_frame(), p, p)
         return ik
 
-    def _solve_once(self, X_WT: RigidTransform, q_seed: np.ndarray,
-                    find_basin: bool = True) -> np.ndarray:
+    def _solve_once(
+        self, X_WT: RigidTransform, q_seed: np.ndarray, find_basin: bool = True
+    ) -> np.ndarray:
         if not find_basin:
             return self._solve_constrained(X_WT, q_seed)
         # Phase 1: tip position constrained, orientation as a cost. This finds the basin
         # quickly; where it ends far from the target orientation, the seed is in the wrong
         # basin and the attempt stops early.
         ik = self._new_ik(X_WT)
-        ik.AddOrientationCost(self.plant.world_frame(), X_WT.rotation(), self.tip_frame,
-                              RotationMatrix(), 10.0)
+        ik.AddOrientationCost(
+            self.plant.world_frame(), X_WT.rotation(), self.tip_frame, RotationMatrix(), 10.0
+        )
         result = self._solver.Solve(ik.prog(), q_seed, self._options)
         q1 = np.clip(result.GetSolution(ik.q()), self.lower, self.upper)
         if self.errors(q1, X_WT)[1] > BASIN_ANGLE:
@@ -266,8 +300,9 @@ class ToolTipIK:
     def _solve_constrained(self, X_WT: RigidTransform, q_seed: np.ndarray) -> np.ndarray:
         """Position and orientation constraints on the tip frame, from q_seed."""
         ik = self._new_ik(X_WT)
-        ik.AddOrientationConstraint(self.plant.world_frame(), X_WT.rotation(), self.tip_frame,
-                                    RotationMatrix(), 0.0)
+        ik.AddOrientationConstraint(
+            self.plant.world_frame(), X_WT.rotation(), self.tip_frame, RotationMatrix(), 0.0
+        )
         result = self._solver.Solve(ik.prog(), q_seed, self._options)
         return result.GetSolution(ik.q())
 
@@ -299,5 +334,11 @@ class ToolTipIK:
                 break
         _, q, pos_err, rot_err = best
         ok = pos_err <= POSITION_TOLERANCE and rot_err <= ORIENTATION_TOLERANCE
-        return IKResult(q=q, success=bool(ok), position_error=pos_err, orientation_error=rot_err,
-                        solve_time=time.perf_counter() - start, attempts=attempt)
+        return IKResult(
+            q=q,
+            success=bool(ok),
+            position_error=pos_err,
+            orientation_error=rot_err,
+            solve_time=time.perf_counter() - start,
+            attempts=attempt,
+        )

@@ -54,12 +54,18 @@ class RobotBelief:
 
     def __post_init__(self):
         if self.tool_length is not None:
-            object.__setattr__(self, "tool_length",
-                               check_tool_length(self.tool_length, "believed tool length"))
+            object.__setattr__(
+                self, "tool_length", check_tool_length(self.tool_length, "believed tool length")
+            )
         across, along = (float(v) for v in self.grasp_offset)
-        object.__setattr__(self, "grasp_offset", (
-            check_in_range(across, -0.01, 0.01, "believed grasp offset across", unit="m"),
-            check_in_range(along, -0.03, 0.03, "believed grasp offset along", unit="m")))
+        object.__setattr__(
+            self,
+            "grasp_offset",
+            (
+                check_in_range(across, -0.01, 0.01, "believed grasp offset across", unit="m"),
+                check_in_range(along, -0.03, 0.03, "believed grasp offset along", unit="m"),
+            ),
+        )
 
 
 def check_tool_length(length, name="tool length") -> float:
@@ -72,8 +78,10 @@ def make_parser(plant: MultibodyPlant) -> Parser:
     """A parser that resolves `package://drake_tooluse/...` to the project's models."""
     package_xml = MODELS_DIR / "package.xml"
     if not package_xml.is_file():
-        raise FileNotFoundError(f"the project's models are missing: {package_xml} (reinstall "
-                                "the package: its wheel carries them)")
+        raise FileNotFoundError(
+            f"the project's models are missing: {package_xml} (reinstall "
+            "the package: its wheel carries them)"
+        )
     parser = Parser(plant)
     parser.package_map().AddPackageXml(str(package_xml))
     return parser
@@ -118,9 +126,16 @@ def tool_center(length: float) -> np.ndarray:
     return np.array([0.0, 0.0, (length - TOOL_HANDLE_DEPTH) / 2])
 
 
-def add_tool_body(plant: MultibodyPlant, instance, length: float, *, grasp_across: float = 0.0,
-                  grasp_along: float = 0.0, radius: float = DEFAULT_TOOL_RADIUS,
-                  mass: float = DEFAULT_TOOL_MASS):
+def add_tool_body(
+    plant: MultibodyPlant,
+    instance,
+    length: float,
+    *,
+    grasp_across: float = 0.0,
+    grasp_along: float = 0.0,
+    radius: float = DEFAULT_TOOL_RADIUS,
+    mass: float = DEFAULT_TOOL_MASS,
+):
     """Welds a straight rod (a solid cylinder's inertia, no geometry) to the right gripper at the
     grasp (see `tool_grasp_pose`), and adds the `tool_tip` frame at its tip. The grasp is a
     frame of its own (`tool_grasp`) so that a context can move it (domain randomization).
@@ -130,22 +145,26 @@ def add_tool_body(plant: MultibodyPlant, instance, length: float, *, grasp_acros
     M = M.Shift(-tool_center(length))  # the cylinder's centre is at p_HC in the tool frame.
     tool = plant.AddRigidBody("tool", instance, M)
     gripper = plant.GetFrameByName(GRIPPER_FRAME, instance)
-    grasp = plant.AddFrame(FixedOffsetFrame(GRASP_FRAME, gripper,
-                                            tool_grasp_pose(grasp_across, grasp_along)))
+    grasp = plant.AddFrame(
+        FixedOffsetFrame(GRASP_FRAME, gripper, tool_grasp_pose(grasp_across, grasp_along))
+    )
     plant.WeldFrames(grasp, tool.body_frame(), RigidTransform())
-    plant.AddFrame(FixedOffsetFrame(TIP_FRAME, tool.body_frame(),
-                                    RigidTransform([0.0, 0.0, length])))
+    plant.AddFrame(
+        FixedOffsetFrame(TIP_FRAME, tool.body_frame(), RigidTransform([0.0, 0.0, length]))
+    )
     return tool
 
 
 def add_tip_at_gripper(plant: MultibodyPlant, instance) -> None:
     """No tool: the `tool_tip` frame is the gripper frame."""
-    plant.AddFrame(FixedOffsetFrame(TIP_FRAME, plant.GetFrameByName(GRIPPER_FRAME, instance),
-                                    RigidTransform()))
+    plant.AddFrame(
+        FixedOffsetFrame(TIP_FRAME, plant.GetFrameByName(GRIPPER_FRAME, instance), RigidTransform())
+    )
 
 
-def make_robot_model(tool_length: float | None, left_arm_q=LEFT_ARM_TUCKED,
-                     grasp_offset=(0.0, 0.0)) -> MultibodyPlant:
+def make_robot_model(
+    tool_length: float | None, left_arm_q=LEFT_ARM_TUCKED, grasp_offset=(0.0, 0.0)
+) -> MultibodyPlant:
     """The robot as the controller believes it: Baxter + a `tool_tip` frame `tool_length` m
     past the grasp point (None: no tool, the tip frame is the gripper frame), the grasp point
     `grasp_offset` = (across, along) m from the gripper frame's origin (as the scenario's
@@ -158,7 +177,6 @@ def make_robot_model(tool_length: float | None, left_arm_q=LEFT_ARM_TUCKED,
     else:
         belief = RobotBelief(tool_length, tuple(grasp_offset))
         across, along = belief.grasp_offset
-        add_tool_body(plant, baxter, belief.tool_length, grasp_across=across,
-                      grasp_along=along)
+        add_tool_body(plant, baxter, belief.tool_length, grasp_across=across, grasp_along=along)
     plant.Finalize()
     return plant

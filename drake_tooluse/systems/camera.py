@@ -66,27 +66,53 @@ def lighting_params(lighting: str) -> RenderEngineVtkParams:
     params = RenderEngineVtkParams()
     if lighting == "dim_side":
         direction = np.array([0.6, 0.5, 1.0])
-        params.lights = [LightParameter(type="directional", color=Rgba(1.0, 1.0, 1.0, 1.0),
-                                        intensity=0.45, frame="camera",
-                                        direction=direction / np.linalg.norm(direction))]
+        params.lights = [
+            LightParameter(
+                type="directional",
+                color=Rgba(1.0, 1.0, 1.0, 1.0),
+                intensity=0.45,
+                frame="camera",
+                direction=direction / np.linalg.norm(direction),
+            )
+        ]
     return params
 
 
-def add_rgbd_sensor(builder, world, name: str, *, body, X_BC: RigidTransform, info: CameraInfo,
-                    clipping: tuple[float, float], depth_range: tuple[float, float],
-                    renderer: str, renderer_params: RenderEngineVtkParams | None = None):
+def add_rgbd_sensor(
+    builder,
+    world,
+    name: str,
+    *,
+    body,
+    X_BC: RigidTransform,
+    info: CameraInfo,
+    clipping: tuple[float, float],
+    depth_range: tuple[float, float],
+    renderer: str,
+    renderer_params: RenderEngineVtkParams | None = None,
+):
     """Adds an RgbdSensor `name` fixed at X_BC on `body` of the world's plant, rendering with
     VTK (the renderer `renderer` is added to the scene graph once, with `renderer_params`);
     connects it to the scene graph. Returns the sensor; its `color_image` (ImageRgba8U) and
     `depth_image_32f` (ImageDepth32F, m) ports are left for the caller."""
     scene_graph, plant = world.scene_graph, world.plant
     if not scene_graph.HasRenderer(renderer):
-        scene_graph.AddRenderer(renderer, MakeRenderEngineVtk(
-            renderer_params if renderer_params is not None else RenderEngineVtkParams()))
+        scene_graph.AddRenderer(
+            renderer,
+            MakeRenderEngineVtk(
+                renderer_params if renderer_params is not None else RenderEngineVtkParams()
+            ),
+        )
     core = RenderCameraCore(renderer, info, ClippingRange(*clipping), RigidTransform())
-    sensor = builder.AddNamedSystem(name, RgbdSensor(
-        plant.GetBodyFrameIdOrThrow(body.index()), X_BC, ColorRenderCamera(core, False),
-        DepthRenderCamera(core, DepthRange(*depth_range))))
+    sensor = builder.AddNamedSystem(
+        name,
+        RgbdSensor(
+            plant.GetBodyFrameIdOrThrow(body.index()),
+            X_BC,
+            ColorRenderCamera(core, False),
+            DepthRenderCamera(core, DepthRange(*depth_range)),
+        ),
+    )
     builder.Connect(scene_graph.get_query_output_port(), sensor.query_object_input_port())
     return sensor
 
@@ -94,11 +120,17 @@ def add_rgbd_sensor(builder, world, name: str, *, body, X_BC: RigidTransform, in
 def add_head_camera(builder, world, config: CameraConfig, lighting: str = "default"):
     """Baxter's head camera (the scenario's `camera`), on the `head_camera` frame at X_HC."""
     return add_rgbd_sensor(
-        builder, world, "head_camera", body=world.plant.GetBodyByName(HEAD_CAMERA_FRAME),
-        X_BC=X_HC, info=camera_info(config),
+        builder,
+        world,
+        "head_camera",
+        body=world.plant.GetBodyByName(HEAD_CAMERA_FRAME),
+        X_BC=X_HC,
+        info=camera_info(config),
         clipping=(config.clipping_near, config.clipping_far),
-        depth_range=(config.depth_min, config.depth_max), renderer=HEAD_RENDERER,
-        renderer_params=lighting_params(lighting))
+        depth_range=(config.depth_min, config.depth_max),
+        renderer=HEAD_RENDERER,
+        renderer_params=lighting_params(lighting),
+    )
 
 
 def look_at(eye, target) -> RigidTransform:
@@ -117,11 +149,17 @@ def add_scene_camera(builder, world, width: int = 480, height: int = 360):
     `render_mode="rgb_array"`, the demo's final scene); exports its `color_image` port.
     Returns the sensor."""
     sensor = add_rgbd_sensor(
-        builder, world, "render_camera", body=world.plant.world_body(),
+        builder,
+        world,
+        "render_camera",
+        body=world.plant.world_body(),
         # In front of the robot, to its right, looking at the work area of the table.
         X_BC=look_at([1.35, -0.85, 0.35], [0.55, -0.15, -0.12]),
-        info=CameraInfo(width, height, 0.9), clipping=(0.05, 10.0), depth_range=(0.05, 10.0),
-        renderer="render_camera")
+        info=CameraInfo(width, height, 0.9),
+        clipping=(0.05, 10.0),
+        depth_range=(0.05, 10.0),
+        renderer="render_camera",
+    )
     builder.ExportOutput(sensor.color_image_output_port(), "color_image")
     return sensor
 
@@ -151,10 +189,13 @@ class ColorImageNoise(LeafSystem):
         self._seed = int(seed)
         self._width, self._height = int(width), int(height)
         self._input = self.DeclareAbstractInputPort(
-            "color_image", AbstractValue.Make(ImageRgba8U(self._width, self._height)))
+            "color_image", AbstractValue.Make(ImageRgba8U(self._width, self._height))
+        )
         self.DeclareAbstractOutputPort(
-            "color_image", lambda: AbstractValue.Make(ImageRgba8U(self._width, self._height)),
-            self._calc)
+            "color_image",
+            lambda: AbstractValue.Make(ImageRgba8U(self._width, self._height)),
+            self._calc,
+        )
 
     def _calc(self, context, output):
         image = self._input.Eval(context)
@@ -203,8 +244,14 @@ class ToolLengthEstimator(LeafSystem):
             `measurement` output either way.
     """
 
-    def __init__(self, info: CameraInfo, views, first_capture: float, capture_period: float,
-                 method: str = "depth"):
+    def __init__(
+        self,
+        info: CameraInfo,
+        views,
+        first_capture: float,
+        capture_period: float,
+        method: str = "depth",
+    ):
         super().__init__()
         self._info = info
         self._views = list(views)
@@ -214,19 +261,26 @@ class ToolLengthEstimator(LeafSystem):
         check_in_range(first_capture, 0.0, math.inf, "first_capture", unit="s")
         check_in_range(capture_period, 1e-3, math.inf, "capture_period", unit="s")
         w, h = info.width(), info.height()
-        self._color = self.DeclareAbstractInputPort("color_image",
-                                                    AbstractValue.Make(ImageRgba8U(w, h)))
-        self._depth = self.DeclareAbstractInputPort("depth_image",
-                                                    AbstractValue.Make(ImageDepth32F(w, h)))
+        self._color = self.DeclareAbstractInputPort(
+            "color_image", AbstractValue.Make(ImageRgba8U(w, h))
+        )
+        self._depth = self.DeclareAbstractInputPort(
+            "depth_image", AbstractValue.Make(ImageDepth32F(w, h))
+        )
         self._state = self.DeclareAbstractState(
-            AbstractValue.Make(ToolLengthMeasurement(method=self._method)))
+            AbstractValue.Make(ToolLengthMeasurement(method=self._method))
+        )
         self.DeclarePeriodicUnrestrictedUpdateEvent(capture_period, first_capture, self._capture)
         state = {self.abstract_state_ticket(self._state)}
-        self.DeclareVectorOutputPort("tool_length", 1, self._calc_length,
-                                     prerequisites_of_calc=state)
+        self.DeclareVectorOutputPort(
+            "tool_length", 1, self._calc_length, prerequisites_of_calc=state
+        )
         self.DeclareAbstractOutputPort(
-            "measurement", lambda: AbstractValue.Make(ToolLengthMeasurement(method=self._method)),
-            self._calc_measurement, prerequisites_of_calc=state)
+            "measurement",
+            lambda: AbstractValue.Make(ToolLengthMeasurement(method=self._method)),
+            self._calc_measurement,
+            prerequisites_of_calc=state,
+        )
 
     @property
     def views(self) -> list:

@@ -62,8 +62,15 @@ class ToolPushObservation(LeafSystem):
     Parameters: the goal x* (3, m), set per episode.
     """
 
-    def __init__(self, world: World, robot_model, goal, include_tool_length: bool,
-                 believed_tool_length: float | None, mode: str = "paper"):
+    def __init__(
+        self,
+        world: World,
+        robot_model,
+        goal,
+        include_tool_length: bool,
+        believed_tool_length: float | None,
+        mode: str = "paper",
+    ):
         super().__init__()
         check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
         self._mode = mode
@@ -80,12 +87,16 @@ class ToolPushObservation(LeafSystem):
         self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
         self._tool_length = [] if not include_tool_length else [believed_tool_length or 0.0]
         self._state = self.DeclareVectorInputPort(
-            "plant_state", plant.num_positions() + plant.num_velocities())
+            "plant_state", plant.num_positions() + plant.num_velocities()
+        )
         self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
         size = OBSERVATION_SIZES[mode] + len(self._tool_length)
-        self.DeclareVectorOutputPort("observation", size, self._calc,
-                                     prerequisites_of_calc={self.all_input_ports_ticket(),
-                                                            self.all_parameters_ticket()})
+        self.DeclareVectorOutputPort(
+            "observation",
+            size,
+            self._calc,
+            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
+        )
 
     def set_goal(self, context, goal) -> None:
         context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
@@ -103,13 +114,33 @@ class ToolPushObservation(LeafSystem):
         if self._mode == "tip":
             world_frame = self._model.world_frame()
             J = self._model.CalcJacobianTranslationalVelocity(
-                self._model_context, JacobianWrtVariable.kV, self._tip, np.zeros(3),
-                world_frame, world_frame)
-            return np.concatenate([goal, x[self._box_p],
-                                   self._tip.CalcPoseInWorld(self._model_context).translation(),
-                                   J @ x[self._arm_v], self._tool_length])
+                self._model_context,
+                JacobianWrtVariable.kV,
+                self._tip,
+                np.zeros(3),
+                world_frame,
+                world_frame,
+            )
+            return np.concatenate(
+                [
+                    goal,
+                    x[self._box_p],
+                    self._tip.CalcPoseInWorld(self._model_context).translation(),
+                    J @ x[self._arm_v],
+                    self._tool_length,
+                ]
+            )
         X_WG = self._gripper.CalcPoseInWorld(self._model_context)
         p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
-        return np.concatenate([
-            goal, x[self._box_p], p_WT, X_WG.translation(),
-            X_WG.rotation().ToQuaternion().wxyz(), q, x[self._arm_v], self._tool_length])
+        return np.concatenate(
+            [
+                goal,
+                x[self._box_p],
+                p_WT,
+                X_WG.translation(),
+                X_WG.rotation().ToQuaternion().wxyz(),
+                q,
+                x[self._arm_v],
+                self._tool_length,
+            ]
+        )

@@ -35,10 +35,13 @@ class PolicySystem(LeafSystem):
     def __init__(self, policy):
         super().__init__()
         self._policy = policy
-        self._obs = self.DeclareVectorInputPort("observation",
-                                                policy.meta.observation_shape[0])
-        self.DeclareVectorOutputPort("action", policy.meta.action_shape[0], self._calc,
-                                     prerequisites_of_calc={self._obs.ticket()})
+        self._obs = self.DeclareVectorInputPort("observation", policy.meta.observation_shape[0])
+        self.DeclareVectorOutputPort(
+            "action",
+            policy.meta.action_shape[0],
+            self._calc,
+            prerequisites_of_calc={self._obs.ticket()},
+        )
 
     def _calc(self, context, output):
         output.SetFromVector(np.asarray(self._policy.act(self._obs.Eval(context)), float))

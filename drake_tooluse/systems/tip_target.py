@@ -38,9 +38,10 @@ class Workspace:
     upper: np.ndarray
 
     @staticmethod
-    def above_table(table_top_z: float) -> "Workspace":
-        return Workspace(np.array([0.40, -0.70, table_top_z + 0.005]),
-                         np.array([1.00, 0.35, table_top_z + 0.40]))
+    def above_table(table_top_z: float) -> Workspace:
+        return Workspace(
+            np.array([0.40, -0.70, table_top_z + 0.005]), np.array([1.00, 0.35, table_top_z + 0.40])
+        )
 
 
 def check_action(action, mode: str) -> np.ndarray:
@@ -50,16 +51,18 @@ def check_action(action, mode: str) -> np.ndarray:
     if a.size != size:
         raise ValueError(f"action has {a.size} values; action_mode={mode!r} needs {size}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"action {a.tolist()} holds NaN or infinite values; actions must be "
-                         "finite (they are clipped to [-1, 1])")
+        raise ValueError(
+            f"action {a.tolist()} holds NaN or infinite values; actions must be "
+            "finite (they are clipped to [-1, 1])"
+        )
     return np.clip(a, -1.0, 1.0)
 
 
-def apply_action(target: np.ndarray, action: np.ndarray, mode: str,
-                 workspace: Workspace) -> np.ndarray:
+def apply_action(
+    target: np.ndarray, action: np.ndarray, mode: str, workspace: Workspace
+) -> np.ndarray:
     """The tool-tip target [p (3), quaternion wxyz (4)] moved by a (clipped) action."""
-    p = np.clip(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower,
-                workspace.upper)
+    p = np.clip(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower, workspace.upper)
     quat = target[3:]
     if mode == "paper":
         quat = quat + MAX_QUATERNION_STEP * action[3:7]
@@ -101,8 +104,7 @@ class TipTargetSystem(LeafSystem):
         X_WT_desired: the same as a RigidTransform (for Drake's differential IK).
     """
 
-    def __init__(self, mode: str, robot_model, initial_target: np.ndarray,
-                 workspace: Workspace):
+    def __init__(self, mode: str, robot_model, initial_target: np.ndarray, workspace: Workspace):
         super().__init__()
         self._mode = mode
         self._workspace = workspace
@@ -114,13 +116,17 @@ class TipTargetSystem(LeafSystem):
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self.DeclareVectorOutputPort("tip_pose_desired", 7, self._calc_target)
         self.DeclareAbstractOutputPort(
-            "X_WT_desired", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose)
+            "X_WT_desired", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose
+        )
 
     def _target(self, context) -> np.ndarray:
         self._model.SetPositions(self._model_context, self._arm_state.Eval(context)[:7])
         X_WT = self._tip.CalcPoseInWorld(self._model_context)
-        quat = (self._held_quaternion if self._mode == "position"
-                else X_WT.rotation().ToQuaternion().wxyz())
+        quat = (
+            self._held_quaternion
+            if self._mode == "position"
+            else X_WT.rotation().ToQuaternion().wxyz()
+        )
         current = np.concatenate([X_WT.translation(), quat])
         if not self._action.HasValue(context):
             return current

@@ -38,10 +38,15 @@ class TipTrajectory:
         if self.times.ndim != 1 or T < 1:
             raise ValueError(f"times must be a non-empty vector; got shape {self.times.shape}")
         if self.positions.shape != (T, 3) or self.quaternions.shape != (T, 4):
-            raise ValueError(f"positions {self.positions.shape} and quaternions "
-                             f"{self.quaternions.shape} must be ({T}, 3) and ({T}, 4)")
-        for name, a in (("times", self.times), ("positions", self.positions),
-                        ("quaternions", self.quaternions)):
+            raise ValueError(
+                f"positions {self.positions.shape} and quaternions "
+                f"{self.quaternions.shape} must be ({T}, 3) and ({T}, 4)"
+            )
+        for name, a in (
+            ("times", self.times),
+            ("positions", self.positions),
+            ("quaternions", self.quaternions),
+        ):
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"trajectory {name} hold NaN or infinite values")
         if np.any(np.diff(self.times) <= 0):
@@ -56,12 +61,11 @@ class TipTrajectory:
 
     def save(self, path) -> Path:
         buffer = io.BytesIO()
-        np.savez(buffer, times=self.times, positions=self.positions,
-                 quaternions=self.quaternions)
+        np.savez(buffer, times=self.times, positions=self.positions, quaternions=self.quaternions)
         return atomic_write_bytes(path, buffer.getvalue())
 
     @staticmethod
-    def load(path) -> "TipTrajectory":
+    def load(path) -> TipTrajectory:
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"trajectory file not found: {str(path)!r}")
@@ -69,12 +73,15 @@ class TipTrajectory:
             with np.load(path) as data:
                 return TipTrajectory(data["times"], data["positions"], data["quaternions"])
         except (KeyError, ValueError, OSError) as e:
-            raise ValueError(f"malformed trajectory file {str(path)!r}: {e} (it needs times "
-                             "(T,), positions (T, 3), quaternions (T, 4))") from None
+            raise ValueError(
+                f"malformed trajectory file {str(path)!r}: {e} (it needs times "
+                "(T,), positions (T, 3), quaternions (T, 4))"
+            ) from None
 
 
-def waypoint_trajectory(start: RigidTransform, waypoints, move_time: float,
-                        dwell: float) -> TipTrajectory:
+def waypoint_trajectory(
+    start: RigidTransform, waypoints, move_time: float, dwell: float
+) -> TipTrajectory:
     """From `start`, move to each waypoint (a RigidTransform X_WT*) in `move_time` s and hold
     it `dwell` s (linear in position and quaternion components between the samples)."""
     if not waypoints:

@@ -43,8 +43,9 @@ class ToolTipIKSystem(LeafSystem):
         # Outputs depend on the discrete state only: cached between plant steps.
         xd = {self.xd_ticket()}
         self.DeclareVectorOutputPort("q_desired", 7, self._calc_q, prerequisites_of_calc=xd)
-        self.DeclareVectorOutputPort("desired_state", 14, self._calc_desired_state,
-                                     prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort(
+            "desired_state", 14, self._calc_desired_state, prerequisites_of_calc=xd
+        )
         self.DeclareVectorOutputPort("status", 4, self._calc_status, prerequisites_of_calc=xd)
 
     @property
@@ -57,11 +58,13 @@ class ToolTipIKSystem(LeafSystem):
         X_WT = pose_from_vector(self._pose_port.Eval(context))
         result = self._ik.solve(X_WT, q_seed=q_last)
         if result.success:
-            new = np.concatenate([result.q, [1.0, result.position_error,
-                                             result.orientation_error, 0.0]])
+            new = np.concatenate(
+                [result.q, [1.0, result.position_error, result.orientation_error, 0.0]]
+            )
         else:
-            new = np.concatenate([q_last, [0.0, result.position_error,
-                                           result.orientation_error, failures + 1]])
+            new = np.concatenate(
+                [q_last, [0.0, result.position_error, result.orientation_error, failures + 1]]
+            )
         discrete_state.get_mutable_vector(self._state).SetFromVector(new)
 
     def _calc_q(self, context, output):

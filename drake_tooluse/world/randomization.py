@@ -37,23 +37,35 @@ def draw_randomization(scenario: Scenario, rng) -> RandomDraw:
     if scenario.tool.attached:
         along = rng.uniform(-r.grasp_along, r.grasp_along)
         across = rng.uniform(-r.grasp_across, r.grasp_across)
-    return RandomDraw([float(dxy[0]), float(dxy[1])], float(dyaw), float(mass), float(friction),
-                      float(along), float(across))
+    return RandomDraw(
+        [float(dxy[0]), float(dxy[1])],
+        float(dyaw),
+        float(mass),
+        float(friction),
+        float(along),
+        float(across),
+    )
 
 
 def apply_draw(scenario: Scenario, draw: RandomDraw, box_pose_only: bool = False) -> Scenario:
     """A copy of `scenario` with the draw built in: the box's start pose, and (unless
     `box_pose_only`) its mass and friction and the grasp."""
     b = scenario.box
-    box = dc.replace(b, position=[b.position[0] + draw.box_dxy[0],
-                                  b.position[1] + draw.box_dxy[1], b.position[2]],
-                     yaw=wrap_angle(b.yaw + draw.box_dyaw))
+    box = dc.replace(
+        b,
+        position=[b.position[0] + draw.box_dxy[0], b.position[1] + draw.box_dxy[1], b.position[2]],
+        yaw=wrap_angle(b.yaw + draw.box_dyaw),
+    )
     tool = scenario.tool
     if not box_pose_only:
-        box = dc.replace(box, mass=b.mass * draw.box_mass_scale,
-                         friction=b.friction * draw.box_friction_scale)
-        tool = dc.replace(tool, grasp_offset_along=tool.grasp_offset_along + draw.grasp_along,
-                          grasp_offset_across=tool.grasp_offset_across + draw.grasp_across)
+        box = dc.replace(
+            box, mass=b.mass * draw.box_mass_scale, friction=b.friction * draw.box_friction_scale
+        )
+        tool = dc.replace(
+            tool,
+            grasp_offset_along=tool.grasp_offset_along + draw.grasp_along,
+            grasp_offset_across=tool.grasp_offset_across + draw.grasp_across,
+        )
     return validate_scenario(dc.replace(scenario, box=box, tool=tool))
 
 

@@ -23,13 +23,13 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
 from drake_tooluse.robot.model import check_tool_length
-from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS  # noqa: F401  (part of the schema's API)
 from drake_tooluse.validation import (
     check_finite_vector,
     check_in_range,
     check_one_of,
     check_positive,
 )
+from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS  # noqa: F401  (part of the schema's API)
 
 TOOL_RADIUS_RANGE = (0.002, 0.0125)  # the closed fingers leave 12.5 mm either side (m)
 CONTACT_MODELS = ("point", "hydroelastic_with_fallback")
@@ -85,8 +85,9 @@ def default_plant_config() -> MultibodyPlantConfig:
     20 ms step for the arm's PD and the box's quasi-static pushing; the scripted push behaves
     the same at 10 ms (see docs/BENCHMARKS.md), at half the cost. Point contact: the box
     stands on corner spheres."""
-    return MultibodyPlantConfig(time_step=0.02, contact_model="point",
-                                discrete_contact_approximation="sap")
+    return MultibodyPlantConfig(
+        time_step=0.02, contact_model="point", discrete_contact_approximation="sap"
+    )
 
 
 @dc.dataclass
@@ -94,9 +95,9 @@ class ControlConfig:
     """Joint PD gains of the seven right-arm joints (s0 … w2) and the control period."""
 
     kp: list[float] = dc.field(
-        default_factory=lambda: [1500.0, 1500.0, 800.0, 800.0, 200.0, 200.0, 100.0])
-    kd: list[float] = dc.field(
-        default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
+        default_factory=lambda: [1500.0, 1500.0, 800.0, 800.0, 200.0, 200.0, 100.0]
+    )
+    kd: list[float] = dc.field(default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
     control_period: float = 0.04
     # Joint targets reach the motors this late (s): a real robot's command latency. A multiple
     # of plant.time_step, in [0, 0.2].
@@ -112,7 +113,8 @@ class RobotConfig:
     home_tip_height: float = 0.10
     # Right-arm joint angles s0 … w2 (rad) of a comfortable posture near home.
     posture_seed: list[float] = dc.field(
-        default_factory=lambda: [0.712, -1.106, 0.005, 1.75, -0.003, 0.927, 1.504])
+        default_factory=lambda: [0.712, -1.106, 0.005, 1.75, -0.003, 0.927, 1.504]
+    )
     # The left arm is welded at this pose (s0 … w2), rad: tucked beside the body.
     left_arm_q: list[float] = dc.field(default_factory=lambda: list(LEFT_ARM_TUCKED))
     # True: the robot's IK keeps s1 in [-1.35, 1.0] rad, the range a real Baxter beside a
@@ -170,7 +172,6 @@ class Scenario:
     camera: CameraConfig = dc.field(default_factory=CameraConfig)
 
 
-
 def validate_scenario(s: Scenario) -> Scenario:
     """Range-checks every field; raises ValueError naming the field, its value and the range."""
     check_tool_length(s.tool.length, "tool.length")
@@ -182,7 +183,8 @@ def validate_scenario(s: Scenario) -> Scenario:
     if s.tool.marker_length * 2 >= s.tool.length:
         raise ValueError(
             f"tool.length={s.tool.length} m must exceed twice tool.marker_length="
-            f"{s.tool.marker_length} m so the two markers do not overlap")
+            f"{s.tool.marker_length} m so the two markers do not overlap"
+        )
     size = check_finite_vector(s.box.size, 3, "box.size")
     for i, v in enumerate(size):
         check_in_range(v, 0.01, 0.30, f"box.size[{i}]", unit="m")
@@ -200,20 +202,23 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(s.plant.time_step, 1e-4, 0.02, "plant.time_step", unit="s")
     check_one_of(s.plant.contact_model, CONTACT_MODELS, "plant.contact_model")
     # The in-plant PD controllers of the arm need a discrete plant solved with SAP.
-    check_one_of(s.plant.discrete_contact_approximation, ("sap",),
-                 "plant.discrete_contact_approximation")
+    check_one_of(
+        s.plant.discrete_contact_approximation, ("sap",), "plant.discrete_contact_approximation"
+    )
     for name in ("kp", "kd"):
         gains = check_finite_vector(getattr(s.control, name), 7, f"control.{name}")
         for i, g in enumerate(gains):
             check_in_range(g, 0.0, 1e5, f"control.{name}[{i}]")
-    check_in_range(s.control.control_period, s.plant.time_step, 1.0, "control.control_period",
-                   unit="s")
-    delay = check_in_range(s.control.actuation_delay, 0.0, 0.2, "control.actuation_delay",
-                           unit="s")
+    check_in_range(
+        s.control.control_period, s.plant.time_step, 1.0, "control.control_period", unit="s"
+    )
+    delay = check_in_range(s.control.actuation_delay, 0.0, 0.2, "control.actuation_delay", unit="s")
     steps = delay / s.plant.time_step
     if abs(steps - round(steps)) > 1e-6:
-        raise ValueError(f"control.actuation_delay={delay} s must be a multiple of "
-                         f"plant.time_step={s.plant.time_step} s")
+        raise ValueError(
+            f"control.actuation_delay={delay} s must be a multiple of "
+            f"plant.time_step={s.plant.time_step} s"
+        )
     check_finite_vector(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
     check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
     check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
@@ -226,14 +231,33 @@ def validate_scenario(s: Scenario) -> Scenario:
         check_in_range(lo, 0.1, 1.0, f"randomization.{name}[0]")
         check_in_range(hi, 1.0, 3.0, f"randomization.{name}[1]")
     # Every draw must be a valid world: the largest scaled mass and friction stay in range.
-    check_in_range(s.box.mass * r.box_mass_scale[1], 0.01, 10.0,
-                   "box.mass x randomization.box_mass_scale[1]", unit="kg")
-    check_in_range(s.box.friction * r.box_friction_scale[1], 0.0, 2.0,
-                   "box.friction x randomization.box_friction_scale[1]")
-    check_in_range(r.grasp_along, 0.0, 0.03 - abs(s.tool.grasp_offset_along),
-                   "randomization.grasp_along", unit="m")
-    check_in_range(r.grasp_across, 0.0, 0.01 - abs(s.tool.grasp_offset_across),
-                   "randomization.grasp_across", unit="m")
+    check_in_range(
+        s.box.mass * r.box_mass_scale[1],
+        0.01,
+        10.0,
+        "box.mass x randomization.box_mass_scale[1]",
+        unit="kg",
+    )
+    check_in_range(
+        s.box.friction * r.box_friction_scale[1],
+        0.0,
+        2.0,
+        "box.friction x randomization.box_friction_scale[1]",
+    )
+    check_in_range(
+        r.grasp_along,
+        0.0,
+        0.03 - abs(s.tool.grasp_offset_along),
+        "randomization.grasp_along",
+        unit="m",
+    )
+    check_in_range(
+        r.grasp_across,
+        0.0,
+        0.01 - abs(s.tool.grasp_offset_across),
+        "randomization.grasp_across",
+        unit="m",
+    )
     c = s.camera
     for name in ("width", "height"):
         value = getattr(c, name)
@@ -241,11 +265,23 @@ def validate_scenario(s: Scenario) -> Scenario:
             raise ValueError(f"camera.{name}={value!r} must be an integer in [16, 4096] pixels")
     check_in_range(c.fov_y, 0.1, 2.5, "camera.fov_y", unit="rad")
     check_in_range(c.clipping_near, 0.01, 1.0, "camera.clipping_near", unit="m")
-    check_in_range(c.clipping_far, c.clipping_near, 100.0, "camera.clipping_far", unit="m",
-                   lower_inclusive=False)
+    check_in_range(
+        c.clipping_far,
+        c.clipping_near,
+        100.0,
+        "camera.clipping_far",
+        unit="m",
+        lower_inclusive=False,
+    )
     check_in_range(c.depth_min, c.clipping_near, c.clipping_far, "camera.depth_min", unit="m")
-    check_in_range(c.depth_max, c.depth_min, c.clipping_far, "camera.depth_max", unit="m",
-                   lower_inclusive=False)
+    check_in_range(
+        c.depth_max,
+        c.depth_min,
+        c.clipping_far,
+        "camera.depth_max",
+        unit="m",
+        lower_inclusive=False,
+    )
     check_noise_sigma(c.noise_sigma, "camera.noise_sigma")
     return s
 
@@ -271,14 +307,16 @@ def _load_layers(path: Path, seen: tuple) -> Scenario:
     except yaml.YAMLError as e:
         raise ValueError(f"invalid scenario {str(path)!r}: not YAML ({e})") from None
     if raw is not None and not isinstance(raw, dict):
-        raise ValueError(f"invalid scenario {str(path)!r}: it must be a mapping of groups "
-                         f"(tool, box, ...), not a {type(raw).__name__}")
+        raise ValueError(
+            f"invalid scenario {str(path)!r}: it must be a mapping of groups "
+            f"(tool, box, ...), not a {type(raw).__name__}"
+        )
     base_name = (raw or {}).get("base") or ""
     if not isinstance(base_name, str):
-        raise ValueError(f"invalid scenario {str(path)!r}: base={base_name!r} must be a file "
-                         "name")
-    defaults = (_load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name
-                else Scenario())
+        raise ValueError(f"invalid scenario {str(path)!r}: base={base_name!r} must be a file name")
+    defaults = (
+        _load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name else Scenario()
+    )
     try:
         return yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
     except RuntimeError as e:  # Drake's loader names the offending key.

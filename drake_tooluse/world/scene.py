@@ -60,16 +60,25 @@ def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
     front of it, with orange marker bands at the grip end and at the tip. Returns the body."""
     t = scenario.tool
     L = t.length
-    tool = add_tool_body(plant, instance, L, grasp_across=t.grasp_offset_across,
-                         grasp_along=t.grasp_offset_along, radius=t.radius, mass=t.mass)
+    tool = add_tool_body(
+        plant,
+        instance,
+        L,
+        grasp_across=t.grasp_offset_across,
+        grasp_along=t.grasp_offset_along,
+        radius=t.radius,
+        mass=t.mass,
+    )
     center = tool_center(L)
     total = L + TOOL_HANDLE_DEPTH
-    plant.RegisterVisualGeometry(tool, RigidTransform(center), Cylinder(t.radius, total),
-                                 "tool_visual", TOOL_RGBA)
+    plant.RegisterVisualGeometry(
+        tool, RigidTransform(center), Cylinder(t.radius, total), "tool_visual", TOOL_RGBA
+    )
     m = t.marker_length
     for name, z in (("grip_marker", m / 2), ("tip_marker", L - m / 2)):
-        plant.RegisterVisualGeometry(tool, RigidTransform([0, 0, z]),
-                                     Cylinder(t.radius * 1.15, m), name, ORANGE)
+        plant.RegisterVisualGeometry(
+            tool, RigidTransform([0, 0, z]), Cylinder(t.radius * 1.15, m), name, ORANGE
+        )
     props = ProximityProperties()
     AddContactMaterial(friction=CoulombFriction(0.4, 0.4), properties=props)
     # Collision only in front of the fingers: the handle part is inside the hand. The tip
@@ -77,11 +86,21 @@ def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
     # cylinder gives FCL's penetration query wrong normals (a 0.40 m tool pressed into
     # the box's side came out through its top face and pinned the box to the table).
     tip = min(L, TIP_COLLISION_LENGTH)
-    plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, L - tip / 2]),
-                                    Cylinder(t.radius, tip), "tool_tip_collision", props)
+    plant.RegisterCollisionGeometry(
+        tool,
+        RigidTransform([0, 0, L - tip / 2]),
+        Cylinder(t.radius, tip),
+        "tool_tip_collision",
+        props,
+    )
     if L > tip:
-        plant.RegisterCollisionGeometry(tool, RigidTransform([0, 0, (L - tip) / 2]),
-                                        Cylinder(t.radius, L - tip), "tool_collision", props)
+        plant.RegisterCollisionGeometry(
+            tool,
+            RigidTransform([0, 0, (L - tip) / 2]),
+            Cylinder(t.radius, L - tip),
+            "tool_collision",
+            props,
+        )
     return tool
 
 
@@ -89,8 +108,11 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
     tb = scenario.table
     sx, sy = tb.size_xy
     X_WTable = RigidTransform([tb.center_xy[0], tb.center_xy[1], tb.top_z - tb.thickness / 2])
-    table = plant.AddRigidBody("table", plant.AddModelInstance("table"),
-                               SpatialInertia.SolidBoxWithMass(20.0, sx, sy, tb.thickness))
+    table = plant.AddRigidBody(
+        "table",
+        plant.AddModelInstance("table"),
+        SpatialInertia.SolidBoxWithMass(20.0, sx, sy, tb.thickness),
+    )
     plant.WeldFrames(plant.world_frame(), table.body_frame(), X_WTable)
     shape = Box(sx, sy, tb.thickness)
     props = ProximityProperties()
@@ -101,14 +123,20 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
     plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
     # The floor Baxter's pedestal stands on: a box pushed off the table lands there.
     # (A box rather than a HalfSpace, which Drake warns about for deformable contact.)
-    plant.RegisterCollisionGeometry(plant.world_body(), RigidTransform([0.0, 0.0, FLOOR_Z - 0.05]),
-                                    Box(6.0, 6.0, 0.1), "floor_collision", props)
+    plant.RegisterCollisionGeometry(
+        plant.world_body(),
+        RigidTransform([0.0, 0.0, FLOOR_Z - 0.05]),
+        Box(6.0, 6.0, 0.1),
+        "floor_collision",
+        props,
+    )
     # Legs down to the floor (visual only).
     leg = tb.top_z - tb.thickness - FLOOR_Z
     for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
         p = [cx * (sx / 2 - 0.04), cy * (sy / 2 - 0.04), -tb.thickness / 2 - leg / 2]
-        plant.RegisterVisualGeometry(table, RigidTransform(p), Box(0.04, 0.04, leg),
-                                     f"table_leg_{i}", TABLE_RGBA)
+        plant.RegisterVisualGeometry(
+            table, RigidTransform(p), Box(0.04, 0.04, leg), f"table_leg_{i}", TABLE_RGBA
+        )
     return table
 
 
@@ -116,24 +144,28 @@ def add_box(plant: MultibodyPlant, scenario: Scenario):
     """A free wooden box. Point contact: corner spheres carry it; its sides take the pushes."""
     b = scenario.box
     sx, sy, sz = b.size
-    box = plant.AddRigidBody("box", plant.AddModelInstance("box"),
-                             SpatialInertia.SolidBoxWithMass(b.mass, sx, sy, sz))
+    box = plant.AddRigidBody(
+        "box", plant.AddModelInstance("box"), SpatialInertia.SolidBoxWithMass(b.mass, sx, sy, sz)
+    )
     props = ProximityProperties()
     AddContactMaterial(friction=CoulombFriction(b.friction, b.friction), properties=props)
     plant.RegisterVisualGeometry(box, RigidTransform(), Box(sx, sy, sz), "box_visual", WOOD_RGBA)
     if scenario.plant.contact_model == "point":
         r = BOX_CORNER_SPHERE_RADIUS
         lift = 2 * r  # keeps the side geometry clear of the table.
-        plant.RegisterCollisionGeometry(box, RigidTransform([0, 0, lift / 2]),
-                                        Box(sx, sy, sz - lift), "box_sides", props)
+        plant.RegisterCollisionGeometry(
+            box, RigidTransform([0, 0, lift / 2]), Box(sx, sy, sz - lift), "box_sides", props
+        )
         for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
             p = [cx * (sx / 2 - r), cy * (sy / 2 - r), -sz / 2 + r]
-            plant.RegisterCollisionGeometry(box, RigidTransform(p), Sphere(r),
-                                            f"box_corner_{i}", props)
+            plant.RegisterCollisionGeometry(
+                box, RigidTransform(p), Sphere(r), f"box_corner_{i}", props
+            )
     else:
         AddCompliantHydroelasticProperties(0.005, 1e6, props)
-        plant.RegisterCollisionGeometry(box, RigidTransform(), Box(sx, sy, sz), "box_collision",
-                                        props)
+        plant.RegisterCollisionGeometry(
+            box, RigidTransform(), Box(sx, sy, sz), "box_collision", props
+        )
     return box
 
 
@@ -202,11 +234,13 @@ def add_world(builder, scenario: Scenario) -> World:
     box = add_box(plant, scenario)
     for name, kp, kd in zip(RIGHT_ARM_JOINTS, scenario.control.kp, scenario.control.kd):
         plant.GetJointActuatorByName(f"{name}_motor").set_controller_gains(
-            PdControllerGains(p=kp, d=kd))
+            PdControllerGains(p=kp, d=kd)
+        )
     plant.Finalize()
     _filter_robot_self_collisions(plant, scene_graph, baxter)
-    for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS],
-                        scenario.robot.posture_seed):
+    for joint, q in zip(
+        [plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], scenario.robot.posture_seed
+    ):
         joint.set_default_angle(q)  # callers set the solved home pose (diagrams.control).
     plant.SetDefaultFloatingBaseBodyPose(box, initial_box_pose(scenario))
     return World(plant, scene_graph, baxter, tool, box, scenario)
@@ -217,7 +251,8 @@ def _filter_robot_self_collisions(plant, scene_graph, baxter) -> None:
     bodies = [plant.get_body(i) for i in plant.GetBodyIndices(baxter)]
     geometries = plant.CollectRegisteredGeometries(bodies)
     scene_graph.collision_filter_manager().Apply(
-        CollisionFilterDeclaration().ExcludeWithin(geometries))
+        CollisionFilterDeclaration().ExcludeWithin(geometries)
+    )
 
 
 def set_randomized_state(world: World, root_context, scenario: Scenario) -> None:
@@ -232,7 +267,8 @@ def set_randomized_state(world: World, root_context, scenario: Scenario) -> None
     if world.tool is not None:
         t = scenario.tool
         plant.GetFrameByName(GRASP_FRAME).SetPoseInParentFrame(
-            plant_context, tool_grasp_pose(t.grasp_offset_across, t.grasp_offset_along))
+            plant_context, tool_grasp_pose(t.grasp_offset_across, t.grasp_offset_along)
+        )
 
 
 def _set_box_friction(world: World, root_context, friction: float) -> None:

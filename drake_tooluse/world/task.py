@@ -56,11 +56,13 @@ class PushMetricsReader:
             other = b if a == box else a
             tool_touch |= other == self._tool_index
             gripper_touch |= other in self._robot_bodies
-        return PushMetrics(box_to_goal=float(np.linalg.norm(p_box - goal)),
-                           tip_to_box=float(np.linalg.norm(p_tip - p_box)),
-                           box_travel=float(np.linalg.norm(p_box[:2] - box_start[:2])),
-                           tool_touches_box=bool(tool_touch),
-                           gripper_touches_box=bool(gripper_touch))
+        return PushMetrics(
+            box_to_goal=float(np.linalg.norm(p_box - goal)),
+            tip_to_box=float(np.linalg.norm(p_tip - p_box)),
+            box_travel=float(np.linalg.norm(p_box[:2] - box_start[:2])),
+            tool_touches_box=bool(tool_touch),
+            gripper_touches_box=bool(gripper_touch),
+        )
 
 
 def reward(metrics: PushMetrics, reward_type: str) -> float:

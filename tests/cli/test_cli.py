@@ -14,8 +14,9 @@ def run(capsys, *argv):
 
 
 def test_fk_json(capsys):
-    code, out, _ = run(capsys, "fk", "--tool-length", "0.175", "--q", "0", "0", "0", "0", "0",
-                       "0", "0", "--json")
+    code, out, _ = run(
+        capsys, "fk", "--tool-length", "0.175", "--q", "0", "0", "0", "0", "0", "0", "0", "--json"
+    )
     assert code == 0
     data = json.loads(out)
     assert len(data["tip"]["position_m"]) == 3 and len(data["tip"]["quaternion_wxyz"]) == 4
@@ -25,12 +26,33 @@ def test_fk_json(capsys):
 
 
 def test_ik_json_round_trips_fk(capsys):
-    _, out, _ = run(capsys, "fk", "--tool-length", "0.125", "--q", "0.5", "-0.6", "0.1", "1.4",
-                    "0.2", "0.9", "0.3", "--json")
+    _, out, _ = run(
+        capsys,
+        "fk",
+        "--tool-length",
+        "0.125",
+        "--q",
+        "0.5",
+        "-0.6",
+        "0.1",
+        "1.4",
+        "0.2",
+        "0.9",
+        "0.3",
+        "--json",
+    )
     tip = json.loads(out)["tip"]
-    code, out, _ = run(capsys, "ik", "--tool-length", "0.125", "--position",
-                       *map(str, tip["position_m"]), "--quaternion",
-                       *map(str, tip["quaternion_wxyz"]), "--json")
+    code, out, _ = run(
+        capsys,
+        "ik",
+        "--tool-length",
+        "0.125",
+        "--position",
+        *map(str, tip["position_m"]),
+        "--quaternion",
+        *map(str, tip["quaternion_wxyz"]),
+        "--json",
+    )
     data = json.loads(out)
     assert code == 0 and data["success"] and data["position_error_m"] < 1e-5
     assert len(data["q"]) == 7 and data["solve_time_s"] > 0
@@ -38,25 +60,70 @@ def test_ik_json_round_trips_fk(capsys):
 
 def test_simulate_json_and_recording(capsys, tmp_path):
     html = tmp_path / "out.html"
-    code, out, _ = run(capsys, "simulate", "--tip-waypoints", "0.66,-0.2,-0.12",
-                       "--move-time", "0.5", "--dwell", "0.5", "--record", str(html), "--json")
+    code, out, _ = run(
+        capsys,
+        "simulate",
+        "--tip-waypoints",
+        "0.66,-0.2,-0.12",
+        "--move-time",
+        "0.5",
+        "--dwell",
+        "0.5",
+        "--record",
+        str(html),
+        "--json",
+    )
     data = json.loads(out)
     assert code == 0 and data["max_position_error_m"] < 1e-3
     assert html.is_file() and data["recording"] == str(html)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["fk", "--tool-length", "0", "--q", *["0"] * 7], "--tool-length=0 m is outside the allowed range (0, 0.6]"),
-    (["fk", "--tool-length", "nan", "--q", *["0"] * 7], "--tool-length=nan must be a finite number"),
-    (["fk", "--tool-length", "0.7", "--q", *["0"] * 7], "outside the allowed range (0, 0.6]"),
-    (["fk", "--no-tool", "--q", *["0"] * 6], "--q has 6 values; it needs exactly 7"),
-    (["fk", "--no-tool", "--q", "0", "3", *["0"] * 5], "right_s1=3 rad outside [-2.147, 1.047]"),
-    (["ik", "--tool-length", "0.1", "--position", "0.6", "inf", "0"], "--position=[0.6, inf, 0.0] must be finite"),
-    (["ik", "--tool-length", "0.1", "--position", "0.6", "0", "0", "--quaternion", "0", "0", "0", "0"], "zero norm"),
-    (["ik", "--position", "0.6", "0", "0"], "give --tool-length L"),
-    (["simulate", "--scenario", "missing.yaml", "--tip-waypoints", "0.6,0,0"], "scenario file not found: 'missing.yaml'"),
-    (["simulate", "--tip-waypoints", "0.6,0"], "needs 3 (x,y,z m) or 6"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["fk", "--tool-length", "0", "--q", *["0"] * 7],
+            "--tool-length=0 m is outside the allowed range (0, 0.6]",
+        ),
+        (
+            ["fk", "--tool-length", "nan", "--q", *["0"] * 7],
+            "--tool-length=nan must be a finite number",
+        ),
+        (["fk", "--tool-length", "0.7", "--q", *["0"] * 7], "outside the allowed range (0, 0.6]"),
+        (["fk", "--no-tool", "--q", *["0"] * 6], "--q has 6 values; it needs exactly 7"),
+        (
+            ["fk", "--no-tool", "--q", "0", "3", *["0"] * 5],
+            "right_s1=3 rad outside [-2.147, 1.047]",
+        ),
+        (
+            ["ik", "--tool-length", "0.1", "--position", "0.6", "inf", "0"],
+            "--position=[0.6, inf, 0.0] must be finite",
+        ),
+        (
+            [
+                "ik",
+                "--tool-length",
+                "0.1",
+                "--position",
+                "0.6",
+                "0",
+                "0",
+                "--quaternion",
+                "0",
+                "0",
+                "0",
+                "0",
+            ],
+            "zero norm",
+        ),
+        (["ik", "--position", "0.6", "0", "0"], "give --tool-length L"),
+        (
+            ["simulate", "--scenario", "missing.yaml", "--tip-waypoints", "0.6,0,0"],
+            "scenario file not found: 'missing.yaml'",
+        ),
+        (["simulate", "--tip-waypoints", "0.6,0"], "needs 3 (x,y,z m) or 6"),
+    ],
+)
 def test_bad_input_exits_2_with_a_clear_message(capsys, argv, message):
     code, _, err = run(capsys, *argv)
     assert code == 2

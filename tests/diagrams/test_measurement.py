@@ -9,12 +9,25 @@ import pytest
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import CameraInfo
 
-from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.cli import make_parser
-from drake_tooluse.diagrams.measurement import MEASUREMENT_VIEWS, build_measurement_diagram, measure_tool, occluder, orange_distractor, plan_measurement
-from drake_tooluse.world.scenario import CameraConfig, Scenario, ToolConfig, validate_scenario, with_tool_length
-from drake_tooluse.robot.model import TOOL_DOWN_RPY, make_robot_model
+from drake_tooluse.diagrams.measurement import (
+    MEASUREMENT_VIEWS,
+    build_measurement_diagram,
+    measure_tool,
+    occluder,
+    orange_distractor,
+    plan_measurement,
+)
 from drake_tooluse.perception.markers import ViewSpec, add_color_noise, measure_view
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.robot.model import TOOL_DOWN_RPY, make_robot_model
+from drake_tooluse.world.scenario import (
+    CameraConfig,
+    Scenario,
+    ToolConfig,
+    validate_scenario,
+    with_tool_length,
+)
 
 # The views' layout depends on the robot only: plan once for the whole file.
 PLAN = plan_measurement(Scenario())
@@ -32,7 +45,7 @@ def _synthetic_view(width=640, height=400, depth=0.5):
     400-419, rows 190-209."""
     color = np.full((height, width, 4), 128, np.uint8)
     for u0 in (100, 400):
-        color[190:210, u0:u0 + 20, :3] = (255, 115, 0)
+        color[190:210, u0 : u0 + 20, :3] = (255, 115, 0)
     return color, np.full((height, width), depth, np.float32)
 
 
@@ -58,13 +71,16 @@ def test_a_small_blob_beside_the_bands_is_not_a_marker():
     assert m.length_depth == pytest.approx(320 * 0.5 / info.focal_x(), abs=1e-9)
 
 
-@pytest.mark.parametrize("edit, reason", [
-    (lambda c: c[190:210, 400:420, :3].__setitem__(..., 128), "the tip marker is missing"),
-    (lambda c: c[190:210, 100:120, :3].__setitem__(..., 128), "the grip marker is missing"),
-    (lambda c: c[:, :, :3].__setitem__(..., 128), "no orange marker found"),
-    (lambda c: c[190:210, 620:640, :3].__setitem__(..., (255, 115, 0)), "right border"),
-    (lambda c: c[190:204, 400:420, :3].__setitem__(..., 128), "tip marker looks partly hidden"),
-])
+@pytest.mark.parametrize(
+    "edit, reason",
+    [
+        (lambda c: c[190:210, 400:420, :3].__setitem__(..., 128), "the tip marker is missing"),
+        (lambda c: c[190:210, 100:120, :3].__setitem__(..., 128), "the grip marker is missing"),
+        (lambda c: c[:, :, :3].__setitem__(..., 128), "no orange marker found"),
+        (lambda c: c[190:210, 620:640, :3].__setitem__(..., (255, 115, 0)), "right border"),
+        (lambda c: c[190:204, 400:420, :3].__setitem__(..., 128), "tip marker looks partly hidden"),
+    ],
+)
 def test_a_view_without_both_whole_markers_is_dropped_with_the_reason(edit, reason):
     info = CameraInfo(640, 400, 1.0)
     color, depth = _synthetic_view()
@@ -98,7 +114,8 @@ def test_rendered_views_measure_the_true_length(rendered, length):
     for view in result.views[:2]:
         assert abs(view.length_pixel - length) < 0.02 * length + 2e-3, view.as_dict()
     assert result.spread == pytest.approx(
-        max(v.length_depth for v in result.views) - min(v.length_depth for v in result.views))
+        max(v.length_depth for v in result.views) - min(v.length_depth for v in result.views)
+    )
 
 
 def test_colour_noise_and_dimmer_light_keep_the_estimate(rendered):
@@ -115,8 +132,9 @@ def test_colour_noise_and_dimmer_light_keep_the_estimate(rendered):
 
 
 def test_distractor_noise_and_side_light_in_the_simulation():
-    result = _measure(0.25, noise_sigma=5.0, lighting="dim_side",
-                      scene_objects=[orange_distractor()])
+    result = _measure(
+        0.25, noise_sigma=5.0, lighting="dim_side", scene_objects=[orange_distractor()]
+    )
     assert not result.dropped
     assert all(v.blob_count >= 3 for v in result.views)  # the distractor was in view
     assert abs(result.length - 0.25) < 3e-3
@@ -125,8 +143,13 @@ def test_distractor_noise_and_side_light_in_the_simulation():
 def test_an_occluded_view_is_dropped_and_named():
     # A plate in front of where the vertical view holds a 0.30 m tool's tip.
     result = _measure(0.30, scene_objects=[occluder((0.15, 0.0, 0.55))])
-    assert result.dropped == [{"view": "grip_bottom", "reason": "only one orange marker found: "
-                               "the tip marker is missing (hidden or out of frame)"}]
+    assert result.dropped == [
+        {
+            "view": "grip_bottom",
+            "reason": "only one orange marker found: "
+            "the tip marker is missing (hidden or out of frame)",
+        }
+    ]
     assert math.isnan(result.views[1].length_depth)
     assert abs(result.length - 0.30) < 3e-3  # the mean of the two other views
 
@@ -141,8 +164,11 @@ def test_a_marker_out_of_frame_drops_that_view():
 
 def test_no_marker_in_any_view_is_an_error_naming_view_and_marker():
     scenario = dc.replace(Scenario(), tool=ToolConfig(attached=False))
-    with pytest.raises(ValueError, match=r"view 'grip_right': no orange marker found: both the "
-                                         r"grip marker and the tip marker are missing"):
+    with pytest.raises(
+        ValueError,
+        match=r"view 'grip_right': no orange marker found: both the "
+        r"grip marker and the tip marker are missing",
+    ):
         measure_tool(scenario, plan=PLAN)
 
 
@@ -177,12 +203,15 @@ def test_measured_length_gives_an_ik_that_reaches_the_target(rendered):
 # -- inputs ----------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("field, value, message", [
-    ("fov_y", 3.0, r"camera.fov_y=3 rad is outside the allowed range \[0.1, 2.5\]"),
-    ("width", 10, r"camera.width=10 must be an integer in \[16, 4096\]"),
-    ("depth_max", 50.0, r"camera.depth_max=50 m is outside"),
-    ("noise_sigma", -1.0, r"camera.noise_sigma=-1 grey levels is outside"),
-])
+@pytest.mark.parametrize(
+    "field, value, message",
+    [
+        ("fov_y", 3.0, r"camera.fov_y=3 rad is outside the allowed range \[0.1, 2.5\]"),
+        ("width", 10, r"camera.width=10 must be an integer in \[16, 4096\]"),
+        ("depth_max", 50.0, r"camera.depth_max=50 m is outside"),
+        ("noise_sigma", -1.0, r"camera.noise_sigma=-1 grey levels is outside"),
+    ],
+)
 def test_bad_camera_values_name_value_and_range(field, value, message):
     scenario = dc.replace(Scenario(), camera=dc.replace(CameraConfig(), **{field: value}))
     with pytest.raises(ValueError, match=message):
@@ -198,14 +227,18 @@ def test_bad_method_and_noise_are_errors():
 
 
 def test_cli_command_measures_and_saves_annotated_views(tmp_path):
-    args = make_parser().parse_args(["measure", "--tool-length", "0.125", "--method", "pixel",
-                                     "--save-images", str(tmp_path)])
+    args = make_parser().parse_args(
+        ["measure", "--tool-length", "0.125", "--method", "pixel", "--save-images", str(tmp_path)]
+    )
     out = args.run(args)
     assert out["method"] == "pixel"
     assert out["tool_length_m"] == pytest.approx(out["length_pixel_m"])
     assert abs(out["length_depth_m"] - 0.125) < 1.5e-3
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "measure_grip_bottom.png", "measure_grip_left.png", "measure_grip_right.png"]
+        "measure_grip_bottom.png",
+        "measure_grip_left.png",
+        "measure_grip_right.png",
+    ]
 
 
 @pytest.mark.parametrize("length, along", [(0.125, 0.008), (0.40, -0.01)])
@@ -218,8 +251,14 @@ def test_camera_finds_where_the_hand_holds_the_tool(length, along):
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()
-    s = validate_scenario(dc.replace(s, tool=dc.replace(
-        s.tool, length=length, grasp_offset_along=along, grasp_offset_across=0.004)))
+    s = validate_scenario(
+        dc.replace(
+            s,
+            tool=dc.replace(
+                s.tool, length=length, grasp_offset_along=along, grasp_offset_across=0.004
+            ),
+        )
+    )
     result = measure_tool(s)
     assert result.grasp_along == pytest.approx(along, abs=0.001)
     assert result.as_dict()["grasp_along_m"] == result.grasp_along
@@ -235,7 +274,11 @@ def test_grasp_estimate_for_a_short_tool_held_deep():
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()
-    s = validate_scenario(dc.replace(s, tool=dc.replace(s.tool, length=0.05,
-                                                        grasp_offset_along=-0.01),
-                                     camera=dc.replace(s.camera, noise_sigma=5.0)))
+    s = validate_scenario(
+        dc.replace(
+            s,
+            tool=dc.replace(s.tool, length=0.05, grasp_offset_along=-0.01),
+            camera=dc.replace(s.camera, noise_sigma=5.0),
+        )
+    )
     assert measure_tool(s, seed=0).grasp_along == pytest.approx(-0.01, abs=0.001)

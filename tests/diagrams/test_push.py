@@ -3,25 +3,33 @@
 import gymnasium as gym
 import numpy as np
 import pytest
-from pydrake.systems.framework import DiagramBuilder
 
 import drake_tooluse  # noqa: F401
 from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
-from drake_tooluse.systems.policy import PolicySystem
-from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.train import train
+from drake_tooluse.systems.policy import PolicySystem
+from drake_tooluse.world.scenario import Scenario
 
 
 @pytest.fixture(scope="module")
 def policy_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("policy") / "run"
-    overrides = {"n_steps": 256, "batch_size": 64, "n_epochs": 1, "eval_freq": 10_000_000,
-                 "eval_episodes": 1, "checkpoint_freq": 10_000_000,
-                 "env_kwargs": {"action_mode": "position", "ik_mode": "differential"}}
-    train(resolve_config("drake_tooluse/ToolPush-v0", "ppo", 512, 1, 0, overrides=overrides),
-          out, progress_bar=False)
+    overrides = {
+        "n_steps": 256,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "eval_freq": 10_000_000,
+        "eval_episodes": 1,
+        "checkpoint_freq": 10_000_000,
+        "env_kwargs": {"action_mode": "position", "ik_mode": "differential"},
+    }
+    train(
+        resolve_config("drake_tooluse/ToolPush-v0", "ppo", 512, 1, 0, overrides=overrides),
+        out,
+        progress_bar=False,
+    )
     return out / "final"
 
 
@@ -63,12 +71,24 @@ def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
 
 def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
     out = tmp_path_factory.mktemp("tip_policy") / "run"
-    overrides = {"n_steps": 128, "batch_size": 64, "n_epochs": 1, "eval_freq": 10_000_000,
-                 "eval_episodes": 1, "checkpoint_freq": 10_000_000,
-                 "env_kwargs": {"action_mode": "position", "ik_mode": "differential",
-                                "observation_mode": "tip"}}
-    train(resolve_config("drake_tooluse/ToolPush-v0", "ppo", 128, 1, 0, overrides=overrides),
-          out, progress_bar=False)
+    overrides = {
+        "n_steps": 128,
+        "batch_size": 64,
+        "n_epochs": 1,
+        "eval_freq": 10_000_000,
+        "eval_episodes": 1,
+        "checkpoint_freq": 10_000_000,
+        "env_kwargs": {
+            "action_mode": "position",
+            "ik_mode": "differential",
+            "observation_mode": "tip",
+        },
+    }
+    train(
+        resolve_config("drake_tooluse/ToolPush-v0", "ppo", 128, 1, 0, overrides=overrides),
+        out,
+        progress_bar=False,
+    )
     built = build_policy_diagram(Scenario(), load_policy(out / "final"), ik_mode="differential")
     assert built.observation.get_output_port().size() == 12
     run = run_policy(built, max_steps=5)

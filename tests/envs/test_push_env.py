@@ -119,16 +119,26 @@ def test_out_of_bounds_actions_are_clipped():
     b = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **FAST)
     a.reset(seed=0)
     b.reset(seed=0)
-    np.testing.assert_array_equal(a.step(np.array([5.0, -7.0, 0.3]))[0],
-                                  b.step(np.array([1.0, -1.0, 0.3]))[0])
+    np.testing.assert_array_equal(
+        a.step(np.array([5.0, -7.0, 0.3]))[0], b.step(np.array([1.0, -1.0, 0.3]))[0]
+    )
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['scenario'"),
-    ({"action_mode": "joint"}, r"action_mode='joint' is not allowed; choose one of \['paper', 'pose', 'position'\]"),
-    ({"ik_mode": "fast"}, r"ik_mode='fast' is not allowed; choose one of \['full', 'differential'\]"),
-    ({"tool_length": 0.9}, r"tool length=0.9 m is outside the allowed range \(0, 0.6\]"),
-])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['scenario'"),
+        (
+            {"action_mode": "joint"},
+            r"action_mode='joint' is not allowed; choose one of \['paper', 'pose', 'position'\]",
+        ),
+        (
+            {"ik_mode": "fast"},
+            r"ik_mode='fast' is not allowed; choose one of \['full', 'differential'\]",
+        ),
+        ({"tool_length": 0.9}, r"tool length=0.9 m is outside the allowed range \(0, 0.6\]"),
+    ],
+)
 def test_bad_kwargs_list_what_is_allowed(kwargs, message):
     with pytest.raises((TypeError, ValueError), match=message):
         gym.make("drake_tooluse/ToolPush-v0", **kwargs)
@@ -164,6 +174,7 @@ def _make(rank):
     def thunk():
         # Workers start fresh (forkserver): "module:id" makes Gymnasium import the package.
         return gym.make("drake_tooluse:drake_tooluse/ToolPush-v0", ik_mode="differential")
+
     return thunk
 
 
@@ -187,8 +198,12 @@ def test_tip_observation_is_the_same_for_any_tool():
 
     observations = {}
     for length in (0.125, 0.175):
-        env = gym.make("drake_tooluse/ToolPush-v0", observation_mode="tip", action_mode="position",
-                       tool_length=length)
+        env = gym.make(
+            "drake_tooluse/ToolPush-v0",
+            observation_mode="tip",
+            action_mode="position",
+            tool_length=length,
+        )
         obs, _ = env.reset(seed=0)
         assert obs.shape == (OBSERVATION_SIZES["tip"],) == env.observation_space.shape
         X_WT, _ = env.unwrapped.believed_poses()

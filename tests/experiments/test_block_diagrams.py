@@ -1,7 +1,7 @@
 """The committed block diagrams are current."""
 
-from drake_tooluse.paths import SCENARIOS_DIR as DIAGRAMS_DIR
 from drake_tooluse.experiments.block_diagrams import DIAGRAMS, render_all
+from drake_tooluse.paths import SCENARIOS_DIR as DIAGRAMS_DIR
 
 
 def test_committed_block_diagrams_are_current():

@@ -18,12 +18,20 @@ def test_demo_end_to_end(tmp_path, capsys):
     tool = metrics["tool"]
     assert tool["true_length_m"] == 0.125
     assert abs(tool["measurement_error_m"]) < 0.002
-    assert metrics["seed"] == 1 and set(metrics["perturbation"]) >= {"grasp_along", "box_mass_scale"}
+    assert metrics["seed"] == 1 and set(metrics["perturbation"]) >= {
+        "grasp_along",
+        "box_mass_scale",
+    }
     push = metrics["push"]
     assert 1 <= push["steps"] <= 100 and push["final_box_to_goal_m"] >= 0
     html = (out / "recording.html").read_text()
     assert "meshcat" in html.lower() and len(html) > 100_000  # the scene and its animation
-    for name in ("trajectory.png", "summary.png", "final_scene.png", "camera/measure_grip_right.png"):
+    for name in (
+        "trajectory.png",
+        "summary.png",
+        "final_scene.png",
+        "camera/measure_grip_right.png",
+    ):
         assert (out / name).stat().st_size > 5_000, name
     assert metrics["times"]["total_s"] < 180
 

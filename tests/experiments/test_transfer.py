@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from drake_tooluse.cli import main
+from drake_tooluse.experiments.transfer import run_transfer, run_worlds
 from drake_tooluse.paths import SCENARIOS_DIR, SHIPPED_POLICY
+from drake_tooluse.systems.tip_trajectory import TipTrajectory, tip_trajectory_source
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
-from drake_tooluse.systems.tip_trajectory import TipTrajectory, tip_trajectory_source
-from drake_tooluse.experiments.transfer import run_transfer, run_worlds
 
 
 def test_reality_is_perturbed_and_the_nominal_world_is_not():
@@ -44,8 +44,10 @@ def test_draws_cover_the_ranges():
     assert apply_draw(s, draws[0], box_pose_only=True).tool == s.tool
 
 
-@pytest.mark.parametrize("delay, match", [(0.03, "multiple of plant.time_step"),
-                                          (0.5, r"control.actuation_delay=0.5.*\[0, 0.2\]")])
+@pytest.mark.parametrize(
+    "delay, match",
+    [(0.03, "multiple of plant.time_step"), (0.5, r"control.actuation_delay=0.5.*\[0, 0.2\]")],
+)
 def test_bad_actuation_delay_is_refused(delay, match):
     s = Scenario()
     with pytest.raises(ValueError, match=match):
@@ -58,8 +60,9 @@ def test_delayed_arm_holds_still_at_the_start():
 
     import drake_tooluse  # noqa: F401
 
-    env = gym.make("drake_tooluse/ToolPush-v0", scenario=SCENARIOS_DIR / "reality.yaml",
-                   action_mode="position")
+    env = gym.make(
+        "drake_tooluse/ToolPush-v0", scenario=SCENARIOS_DIR / "reality.yaml", action_mode="position"
+    )
     obs, _ = env.reset(seed=0)
     for _ in range(5):
         obs2, *_ = env.step(np.zeros(3))
@@ -83,8 +86,10 @@ def test_tip_trajectory_source_interpolates_holds_and_leads():
 
 
 def test_transfer_closed_loop_json(tmp_path, capsys):
-    assert main(["transfer", "--runs", "1", "--tools", "0.15", "--out", str(tmp_path / "t"),
-                 "--json"]) == 0
+    assert (
+        main(["transfer", "--runs", "1", "--tools", "0.15", "--out", str(tmp_path / "t"), "--json"])
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["mode"] == "closed-loop" and out["runs"] == 1
     (tool,) = out["tools"]
@@ -102,7 +107,8 @@ def test_transfer_closed_loop_json(tmp_path, capsys):
     assert tool["nominal"]["per_run"][0]["believed_grasp_along_m"] == 0.0
     reality_run = tool["reality"]["per_run"][0]
     assert reality_run["believed_grasp_along_m"] == pytest.approx(
-        reality_run["perturbation"]["grasp_along"], abs=0.001)
+        reality_run["perturbation"]["grasp_along"], abs=0.001
+    )
     assert out["goals"]["tool_travel_difference_m"] is None  # one tool
     assert json.loads((tmp_path / "t" / "transfer.json").read_text())["tools"] == out["tools"]
     assert (tmp_path / "t" / "transfer_boxplot.png").stat().st_size > 1000
@@ -116,22 +122,35 @@ def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
     quat = X.rotation().ToQuaternion().wxyz()
     # Down to the table beside the box, then along +y through it.
     times = np.arange(0, 2.0, 0.04)
-    path = np.array([p0 + [0.08, 0.0, -0.08 * min(1, t)] if t < 1 else
-                     p0 + [0.08, 0.25 * (t - 1), -0.08] for t in times])
+    path = np.array(
+        [
+            p0 + [0.08, 0.0, -0.08 * min(1, t)] if t < 1 else p0 + [0.08, 0.25 * (t - 1), -0.08]
+            for t in times
+        ]
+    )
     traj = TipTrajectory(times, path, np.tile(quat, (len(times), 1)))
-    result = run_transfer(SHIPPED_POLICY, tools=[0.175], runs=1, mode="open-loop",
-                          trajectory=traj, log=lambda text: None)
+    result = run_transfer(
+        SHIPPED_POLICY,
+        tools=[0.175],
+        runs=1,
+        mode="open-loop",
+        trajectory=traj,
+        log=lambda text: None,
+    )
     (tool,) = result["tools"]
     for world in ("nominal", "reality"):
         assert tool[world]["per_run"][0]["steps"] == int(np.ceil((1.96 + 1.0) / 0.04))
     assert tool["nominal"]["box_travel_mean_m"] > 0.02  # the scripted sweep hit the box
 
 
-@pytest.mark.parametrize("argv, match", [
-    (["--mode", "sideways"], r"mode='sideways'.*closed-loop"),
-    (["--tools", "0.7"], r"0.7.*\(0, 0.6\]"),
-    (["--runs", "0"], "runs=0 must be an integer >= 1"),
-])
+@pytest.mark.parametrize(
+    "argv, match",
+    [
+        (["--mode", "sideways"], r"mode='sideways'.*closed-loop"),
+        (["--tools", "0.7"], r"0.7.*\(0, 0.6\]"),
+        (["--runs", "0"], "runs=0 must be an integer >= 1"),
+    ],
+)
 def test_transfer_bad_input(argv, match, capsys, tmp_path):
     assert main(["transfer", "--out", str(tmp_path / "t"), *argv]) == 2
     err = capsys.readouterr().err
@@ -147,8 +166,20 @@ def test_open_loop_needs_a_trajectory():
 def test_malformed_trajectory_file_is_refused(tmp_path, capsys):
     bad = tmp_path / "bad.npz"
     np.savez(bad, times=[0.0, 1.0], positions=[[0, 0, 0]])
-    assert main(["transfer", "--mode", "open-loop", "--trajectory", str(bad), "--out",
-                 str(tmp_path / "t")]) == 2
+    assert (
+        main(
+            [
+                "transfer",
+                "--mode",
+                "open-loop",
+                "--trajectory",
+                str(bad),
+                "--out",
+                str(tmp_path / "t"),
+            ]
+        )
+        == 2
+    )
     assert "malformed trajectory file" in capsys.readouterr().err
     assert not (tmp_path / "t").exists()
 
@@ -170,8 +201,11 @@ def test_actuation_delay_is_the_configured_time(delay):
         world, ik, q0 = add_world_at_home(builder, s)
         q1 = q0.copy()
         q1[0] += 0.1
-        step = builder.AddSystem(TrajectorySource(PiecewisePolynomial.ZeroOrderHold(
-            [0.0, 0.21, 5.0], np.array([q0, q1, q1]).T)))
+        step = builder.AddSystem(
+            TrajectorySource(
+                PiecewisePolynomial.ZeroOrderHold([0.0, 0.21, 5.0], np.array([q0, q1, q1]).T)
+            )
+        )
         control = TipControl(None, ik, q0)
         add_joint_command(builder, world, step.get_output_port(), control)
         simulator = Simulator(builder.Build())
@@ -192,12 +226,14 @@ def test_worlds_posing_different_tasks_are_refused():
     reality = load_scenario(SCENARIOS_DIR / "reality.yaml")
     moved = dc.replace(reality, box=dc.replace(reality.box, position=[0.65, -0.25, 0.0]))
     with pytest.raises(ValueError, match=r"different tasks: box.position: nominal \[0.7"):
-        run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, nominal_scenario=nominal,
-                     reality_scenario=moved)
+        run_transfer(
+            SHIPPED_POLICY, tools=[0.15], runs=1, nominal_scenario=nominal, reality_scenario=moved
+        )
 
 
 def test_transfer_length_only_is_the_papers_measurement(tmp_path):
-    result = run_transfer(SHIPPED_POLICY, tools=[0.15], runs=1, log=lambda text: None,
-                          use_grasp_estimate=False)
+    result = run_transfer(
+        SHIPPED_POLICY, tools=[0.15], runs=1, log=lambda text: None, use_grasp_estimate=False
+    )
     (run,) = result["tools"][0]["reality"]["per_run"]
     assert not result["use_grasp_estimate"] and run["believed_grasp_along_m"] == 0.0

@@ -40,8 +40,9 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
     result = evaluate(POLICIES / name, episodes=3, seed=metrics["seed"])
     for ours, shipped in zip(result.per_episode, metrics["per_episode"][:3]):
         assert ours["seed"] == shipped["seed"] and ours["success"] == shipped["success"]
-        assert ours["final_box_to_goal_m"] == pytest.approx(shipped["final_box_to_goal_m"],
-                                                            abs=1e-6)
+        assert ours["final_box_to_goal_m"] == pytest.approx(
+            shipped["final_box_to_goal_m"], abs=1e-6
+        )
 
 
 @pytest.mark.slow
@@ -49,6 +50,7 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
 def test_evaluate_reproduces_all_shipped_metrics(name):
     metrics = _metrics(name)
     result = evaluate(POLICIES / name, episodes=metrics["episodes"], seed=metrics["seed"])
-    assert result.final_box_to_goal_mean_m == pytest.approx(metrics["final_box_to_goal_mean_m"],
-                                                            abs=1e-6)
+    assert result.final_box_to_goal_mean_m == pytest.approx(
+        metrics["final_box_to_goal_mean_m"], abs=1e-6
+    )
     assert result.success_rate == metrics["success_rate"]

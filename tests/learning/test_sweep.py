@@ -10,11 +10,32 @@ ray = pytest.importorskip("ray")
 
 
 def test_tiny_grid_on_local_ray(tmp_path, capsys):
-    hp = {"n_envs": 1, "n_steps": 128, "eval_freq": 10_000_000, "eval_episodes": 1,
-          "checkpoint_freq": 10_000_000}
-    argv = ["sweep", "--algos", "ppo", "a2c", "--seeds", "0", "--timesteps", "256", "--out",
-            str(tmp_path), "--num-cpus", "2", "--episodes", "1", "--hyperparams", json.dumps(hp),
-            "--json"]
+    hp = {
+        "n_envs": 1,
+        "n_steps": 128,
+        "eval_freq": 10_000_000,
+        "eval_episodes": 1,
+        "checkpoint_freq": 10_000_000,
+    }
+    argv = [
+        "sweep",
+        "--algos",
+        "ppo",
+        "a2c",
+        "--seeds",
+        "0",
+        "--timesteps",
+        "256",
+        "--out",
+        str(tmp_path),
+        "--num-cpus",
+        "2",
+        "--episodes",
+        "1",
+        "--hyperparams",
+        json.dumps(hp),
+        "--json",
+    ]
     assert main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     assert {(r["algo"], r["seed"]) for r in out["runs"]} == {("ppo", 0), ("a2c", 0)}

@@ -18,10 +18,12 @@ from drake_tooluse.learning.train import train
 
 ENV = "drake_tooluse/ToolPush-v0"
 TINY = {"eval_freq": 10_000_000, "checkpoint_freq": 512, "eval_episodes": 1}
-PER_ALGO = {"ppo": {"n_steps": 256, "batch_size": 64, "n_epochs": 1},
-            "a2c": {"n_steps": 8},
-            "trpo": {"n_steps": 256, "batch_size": 64},
-            "ddpg": {"learning_starts": 200, "buffer_size": 5000}}
+PER_ALGO = {
+    "ppo": {"n_steps": 256, "batch_size": 64, "n_epochs": 1},
+    "a2c": {"n_steps": 8},
+    "trpo": {"n_steps": 256, "batch_size": 64},
+    "ddpg": {"learning_starts": 200, "buffer_size": 5000},
+}
 
 
 @pytest.mark.parametrize("algo", list(PER_ALGO))
@@ -40,22 +42,47 @@ def test_smoke_run_per_algorithm(algo, tmp_path):
 def test_resume_after_sigkill_loses_at_most_one_checkpoint_interval(tmp_path):
     out = tmp_path / "run"
     hp = json.dumps({**TINY, **PER_ALGO["ppo"]})
-    args = [sys.executable, "-m", "drake_tooluse.cli", "train", "--env", ENV, "--algo", "ppo",
-            "--timesteps", "6000", "--n-envs", "1", "--seed", "1", "--out", str(out),
-            "--hyperparams", hp, "--no-progress"]
-    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    args = [
+        sys.executable,
+        "-m",
+        "drake_tooluse.cli",
+        "train",
+        "--env",
+        ENV,
+        "--algo",
+        "ppo",
+        "--timesteps",
+        "6000",
+        "--n-envs",
+        "1",
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+        "--hyperparams",
+        hp,
+        "--no-progress",
+    ]
+    proc = subprocess.Popen(
+        args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+    )
     latest = out / "checkpoints" / "latest.json"
     deadline = time.time() + 120
-    while time.time() < deadline and not (latest.is_file()
-                                          and json.loads(latest.read_text())["timesteps"] >= 1024):
+    while time.time() < deadline and not (
+        latest.is_file() and json.loads(latest.read_text())["timesteps"] >= 1024
+    ):
         time.sleep(0.2)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     saved = json.loads(latest.read_text())["timesteps"]
     assert 1024 <= saved < 6000
-    resume = args[:args.index("--out")] + ["--resume", str(out), "--hyperparams", hp,
-                                           "--no-progress"]
+    resume = args[: args.index("--out")] + [
+        "--resume",
+        str(out),
+        "--hyperparams",
+        hp,
+        "--no-progress",
+    ]
     assert subprocess.run(resume, capture_output=True).returncode == 0
     assert json.loads(latest.read_text())["timesteps"] >= 6000
     assert json.loads((out / "summary.json").read_text())["timesteps"] >= 6000
@@ -70,8 +97,9 @@ def test_a_hyperparameter_the_algorithm_does_not_take(tmp_path):
 def test_resume_with_different_hyperparameters_is_refused(tmp_path):
     config = resolve_config(ENV, "ppo", 300, 1, 0, overrides={**TINY, **PER_ALGO["ppo"]})
     train(config, tmp_path / "run", progress_bar=False)
-    changed = resolve_config(ENV, "ppo", 600, 1, 0, overrides={**TINY, **PER_ALGO["ppo"],
-                                                                "learning_rate": 0.1})
+    changed = resolve_config(
+        ENV, "ppo", 600, 1, 0, overrides={**TINY, **PER_ALGO["ppo"], "learning_rate": 0.1}
+    )
     with pytest.raises(ValueError, match=r"different settings.*learning_rate"):
         train(changed, tmp_path / "run", resume=True, progress_bar=False)
     with pytest.raises(FileExistsError, match="already holds a run"):
@@ -92,9 +120,14 @@ def test_evaluate_json_is_reproducible(tiny_policy, capsys):
     first = json.loads(capsys.readouterr().out)
     assert main(argv) == 0
     assert json.loads(capsys.readouterr().out) == first
-    for key in ("final_box_to_goal_mean_m", "final_box_to_goal_median_m",
-                "final_box_to_goal_std_m", "success_rate", "box_travel_mean_m",
-                "episode_length_mean"):
+    for key in (
+        "final_box_to_goal_mean_m",
+        "final_box_to_goal_median_m",
+        "final_box_to_goal_std_m",
+        "success_rate",
+        "box_travel_mean_m",
+        "episode_length_mean",
+    ):
         assert key in first
 
 
@@ -114,13 +147,19 @@ def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
         load_policy(broken)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["train", "--algo", "sac", "--out", "x"], "unknown algorithm 'sac'; choose one of ['ppo', 'a2c', 'ddpg', 'trpo']"),
-    (["train", "--env", "Nope-v0", "--out", "x"], "unknown env 'Nope-v0'; choose one of"),
-    (["train", "--timesteps", "0", "--out", "x"], "timesteps=0 must be at least 1"),
-    (["train"], "give --out DIR for a new run"),
-    (["evaluate", "--policy", "/nonexistent"], "is not a policy directory"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["train", "--algo", "sac", "--out", "x"],
+            "unknown algorithm 'sac'; choose one of ['ppo', 'a2c', 'ddpg', 'trpo']",
+        ),
+        (["train", "--env", "Nope-v0", "--out", "x"], "unknown env 'Nope-v0'; choose one of"),
+        (["train", "--timesteps", "0", "--out", "x"], "timesteps=0 must be at least 1"),
+        (["train"], "give --out DIR for a new run"),
+        (["evaluate", "--policy", "/nonexistent"], "is not a policy directory"),
+    ],
+)
 def test_train_and_evaluate_bad_input(argv, message, capsys):
     assert main(argv) == 2
     assert message in capsys.readouterr().err

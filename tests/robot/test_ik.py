@@ -5,7 +5,12 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 
 from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER
-from drake_tooluse.robot.ik import ToolTipIK, gripper_target_from_tip_target, pose_from_vector, rotation_angle_between
+from drake_tooluse.robot.ik import (
+    ToolTipIK,
+    gripper_target_from_tip_target,
+    pose_from_vector,
+    rotation_angle_between,
+)
 
 LENGTHS = [None, 0.05, 0.125, 0.175, 0.30, 0.60]
 
@@ -103,5 +108,4 @@ def test_robot_model_with_a_believed_grasp_offset():
     ik = ToolTipIK(0.2, grasp_offset=(0.004, -0.01), library_size=1)
     q = np.array([0.3, -0.5, 0.1, 1.2, 0.2, 0.8, -0.4])
     X_WG, X_WT = ik.fk_gripper(q), ik.fk(q)
-    np.testing.assert_allclose(X_WG.inverse() @ X_WT.translation(), [0.004, 0.0, 0.19],
-                               atol=1e-12)
+    np.testing.assert_allclose(X_WG.inverse() @ X_WT.translation(), [0.004, 0.0, 0.19], atol=1e-12)

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
+from drake_tooluse.paths import MODELS_DIR
 from drake_tooluse.robot.baxter_model import ARM_LIMITS, RIGHT_ARM_JOINTS, baxter_urdf
 from drake_tooluse.robot.ik import ToolTipIK
-from drake_tooluse.world.scenario import Scenario, with_tool_length
-from drake_tooluse.paths import MODELS_DIR
 from drake_tooluse.robot.model import make_robot_model
+from drake_tooluse.world.scenario import Scenario, with_tool_length
 from drake_tooluse.world.scene import add_world, goal_position, initial_box_pose
 
 DATA = Path(__file__).parent / "data"
@@ -47,9 +47,13 @@ def test_tool_tip_frame_is_length_along_gripper_z(length):
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, np.random.default_rng(0).uniform(-1, 1, 7))
     X_GT = plant.GetFrameByName("tool_tip").CalcPose(context, plant.GetFrameByName("right_gripper"))
-    np.testing.assert_allclose(X_GT.GetAsMatrix4(), np.block(
-        [[np.eye(3), np.array([[0], [0], [length]])], [np.zeros((1, 3)), np.ones((1, 1))]]),
-        atol=1e-12)
+    np.testing.assert_allclose(
+        X_GT.GetAsMatrix4(),
+        np.block(
+            [[np.eye(3), np.array([[0], [0], [length]])], [np.zeros((1, 3)), np.ones((1, 1))]]
+        ),
+        atol=1e-12,
+    )
 
 
 def test_world_has_seven_actuated_arm_joints_and_a_free_box():

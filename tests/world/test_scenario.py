@@ -11,8 +11,9 @@ DIAGRAMS = Path(__file__).resolve().parents[2] / "diagrams"
 
 
 def test_push_scenarios_hold_the_papers_two_tools():
-    lengths = {load_scenario(DIAGRAMS / name).tool.length
-               for name in ("push.yaml", "push_tool_125.yaml")}
+    lengths = {
+        load_scenario(DIAGRAMS / name).tool.length for name in ("push.yaml", "push_tool_125.yaml")
+    }
     assert lengths == set(PAPER_TOOL_LENGTHS)
 
 
@@ -28,14 +29,17 @@ def test_missing_file_is_an_error_naming_it(tmp_path):
         load_scenario(tmp_path / "nope.yaml")
 
 
-@pytest.mark.parametrize("yaml_text, message", [
-    ("tool:\n  length: 0.0\n", r"tool.length=0 m is outside the allowed range \(0, 0.6\]"),
-    ("tool:\n  length: 0.9\n", r"tool.length=0.9 m is outside"),
-    ("tool:\n  length: .nan\n", r"tool.length=nan must be a finite number"),
-    ("box:\n  mass: -1.0\n", r"box.mass=-1 kg is outside the allowed range \[0.01, 10\]"),
-    ("plant:\n  contact_model: soft\n", r"plant.contact_model='soft' is not allowed"),
-    ("control:\n  kp: [1, 2]\n", r"control.kp has 2 values; it needs exactly 7"),
-])
+@pytest.mark.parametrize(
+    "yaml_text, message",
+    [
+        ("tool:\n  length: 0.0\n", r"tool.length=0 m is outside the allowed range \(0, 0.6\]"),
+        ("tool:\n  length: 0.9\n", r"tool.length=0.9 m is outside"),
+        ("tool:\n  length: .nan\n", r"tool.length=nan must be a finite number"),
+        ("box:\n  mass: -1.0\n", r"box.mass=-1 kg is outside the allowed range \[0.01, 10\]"),
+        ("plant:\n  contact_model: soft\n", r"plant.contact_model='soft' is not allowed"),
+        ("control:\n  kp: [1, 2]\n", r"control.kp has 2 values; it needs exactly 7"),
+    ],
+)
 def test_bad_values_name_value_and_range(tmp_path, yaml_text, message):
     path = tmp_path / "s.yaml"
     path.write_text(yaml_text)

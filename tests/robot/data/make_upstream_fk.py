@@ -15,9 +15,8 @@ import numpy as np
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 
-from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
-from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER, RIGHT_ARM_JOINTS
 
 
 def upstream_fk(urdf: str, configurations: np.ndarray) -> list[list[float]]:
@@ -42,9 +41,15 @@ def main(urdf: str) -> None:
     rng = np.random.default_rng(2024)
     qs = np.vstack([np.zeros(7), rng.uniform(Q_LOWER, Q_UPPER, size=(49, 7))])
     out = Path(__file__).with_name("upstream_fk.json")
-    atomic_write_json(out, {"source": "hpp-baxter baxter.urdf (Rethink baxter_description)",
-                            "frame": "right_gripper in base", "q": qs.tolist(),
-                            "X_34_rowmajor": upstream_fk(urdf, qs)})
+    atomic_write_json(
+        out,
+        {
+            "source": "hpp-baxter baxter.urdf (Rethink baxter_description)",
+            "frame": "right_gripper in base",
+            "q": qs.tolist(),
+            "X_34_rowmajor": upstream_fk(urdf, qs),
+        },
+    )
     print(f"wrote {out}")
 
 

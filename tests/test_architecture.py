@@ -1,0 +1,151 @@
+"""The package's layers (docs/ARCHITECTURE.md), checked on the source: no import cycle, no
+import up the data flow, nothing in the library imports the command line, and no library
+import of the package hidden inside a function."""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "drake_tooluse"
+# In data-flow order; a module may import from its own layer and the layers before it.
+LAYERS = [
+    {"paths", "validation", "files"},
+    {"perception"},
+    {"robot"},
+    {"world"},
+    {"systems"},
+    {"diagrams"},
+    {"envs"},
+    {"learning"},
+    {"experiments"},
+    {"cli"},
+]
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _imports(tree: ast.AST, module: str):
+    """(imported drake_tooluse module, line, inside a function) for each import in `tree`."""
+    functions = [
+        n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))
+    ]
+    in_function = {id(sub) for f in functions for sub in ast.walk(f)}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            assert not node.level, f"{module} line {node.lineno}: use absolute imports"
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        else:
+            continue
+        for name in names:
+            if name == "drake_tooluse" or name.startswith("drake_tooluse."):
+                yield name, node.lineno, id(node) in in_function
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _known(name: str) -> str | None:
+    """The package module an imported name refers to (a module, or a name in one)."""
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def _graph() -> dict:
+    graph = {}
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text())
+        graph[module] = {
+            (_known(n), line, inside)
+            for n, line, inside in _imports(tree, module)
+            if _known(n) not in (None, module)
+        }
+    return graph
+
+
+def _layer(module: str) -> int:
+    parts = module.split(".")
+    if len(parts) == 1:
+        return -1  # the package itself: the public surface, above the layers
+    for i, names in enumerate(LAYERS):
+        if parts[1] in names:
+            return i
+    raise AssertionError(f"{module} is in no layer: add it to LAYERS and docs/ARCHITECTURE.md")
+
+
+GRAPH = _graph()
+
+
+def test_every_module_is_in_a_layer():
+    for module in MODULES:
+        _layer(module)
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_upward_import(module):
+    here = _layer(module)
+    upward = [
+        f"line {line}: {target} (layer {LAYERS[_layer(target)]})"
+        for target, line, _ in GRAPH[module]
+        if here >= 0 and _layer(target) > here
+    ]
+    assert not upward, f"{module} (layer {LAYERS[here]}) imports up the data flow: {upward}"
+
+
+def test_nothing_outside_the_cli_imports_it():
+    offenders = [
+        f"{m} line {line}"
+        for m, edges in GRAPH.items()
+        if _layer(m) != len(LAYERS) - 1
+        for target, line, _ in edges
+        if _layer(target) == len(LAYERS) - 1
+    ]
+    assert not offenders, f"the command line is a leaf; imported by {offenders}"
+
+
+def test_library_imports_of_the_package_are_at_module_level():
+    """Imports inside functions hide the graph; only the command line defers its imports (so
+    that `--help` and argument errors come before Drake and torch load)."""
+    hidden = [
+        f"{m} line {line}: {target}"
+        for m, edges in GRAPH.items()
+        if _layer(m) != len(LAYERS) - 1
+        for target, line, inside in edges
+        if inside
+    ]
+    assert not hidden, f"imports inside functions: {hidden}"
+
+
+def test_no_import_cycle():
+    edges = {m: {t for t, _, _ in e} for m, e in GRAPH.items()}
+    state, stack = {}, []
+
+    def visit(m):
+        state[m] = "open"
+        stack.append(m)
+        for t in sorted(edges[m]):
+            if state.get(t) == "open":
+                cycle = stack[stack.index(t) :] + [t]
+                raise AssertionError("import cycle: " + " -> ".join(cycle))
+            if t not in state:
+                visit(t)
+        stack.pop()
+        state[m] = "done"
+
+    for m in sorted(edges):
+        if m not in state:
+            visit(m)
+
+
+def test_the_checker_sees_a_planted_upward_import(tmp_path):
+    """The checks above can fail: an upward import written into a module is found."""
+    tree = ast.parse("from drake_tooluse.learning.train import train\n")
+    found = [_known(n) for n, _, _ in _imports(tree, "drake_tooluse.world.scene")]
+    assert "drake_tooluse.learning.train" in found
+    assert _layer("drake_tooluse.learning.train") > _layer("drake_tooluse.world.scene")
