@@ -146,16 +146,16 @@ def add_joint_command(builder, world: World, q_commanded, control: TipControl) -
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
 
 
-class _DifferentialIKNoSolutionFilter(logging.Filter):
-    """Drops the differential IK's "no solution" switches (a target it cannot reach in one
-    step: the arm holds), which it logs at every change; too chatty for training. Everything
-    else Drake logs passes."""
+class _DifferentialIKStatusFilter(logging.Filter):
+    """Drops the differential IK's status switches ('Differential IK started returning
+    status:"no solution" …': a target it cannot reach in one step, the arm holds), which it
+    logs at every change; too chatty for training. Everything else Drake logs passes."""
 
     def filter(self, record: logging.LogRecord) -> bool:
-        return "DifferentialInverseKinematics" not in record.getMessage()
+        return not record.getMessage().startswith("Differential IK ")
 
 
-_DIFFERENTIAL_IK_FILTER = _DifferentialIKNoSolutionFilter()
+_DIFFERENTIAL_IK_FILTER = _DifferentialIKStatusFilter()
 
 
 def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):

@@ -5,11 +5,17 @@ import pytest
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
+from drake_tooluse.experiments.baxter_csv import CSV_HEADER, export_baxter_csv, read_baxter_csv
+from drake_tooluse.experiments.trajectory import (
+    average_episodes,
+    average_quaternions,
+    filter_reachable,
+    pad_episodes,
+    smooth,
+)
 from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
 from drake_tooluse.robot.ik import ToolTipIK, rotation_angle_between
 from drake_tooluse.robot.model import TOOL_DOWN_RPY
-from drake_tooluse.experiments.baxter_csv import CSV_HEADER, export_baxter_csv, read_baxter_csv
-from drake_tooluse.experiments.trajectory import average_episodes, average_quaternions, filter_reachable, pad_episodes, smooth
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 
 
@@ -45,8 +51,9 @@ def test_average_of_episodes_and_padding():
 
 def test_reachability_filter_drops_unreachable_poses():
     q_down = _quat(TOOL_DOWN_RPY)
-    positions = np.array([[0.65, -0.25, -0.1], [0.66, -0.24, -0.1], [3.0, 0.0, 0.0],
-                          [0.67, -0.23, -0.1]])
+    positions = np.array(
+        [[0.65, -0.25, -0.1], [0.66, -0.24, -0.1], [3.0, 0.0, 0.0], [0.67, -0.23, -0.1]]
+    )
     traj = TipTrajectory(np.arange(4) * 0.04, positions, np.tile(q_down, (4, 1)))
     report = filter_reachable(traj, 0.175)
     assert report.poses == 4 and report.reachable == 3 and report.dropped_indices == [2]
@@ -57,8 +64,7 @@ def test_reachability_filter_drops_unreachable_poses():
 
 
 def test_trajectory_file_round_trip_and_malformed_file(tmp_path):
-    traj = TipTrajectory([0, 0.04], [[0.6, 0, 0], [0.6, 0.01, 0]],
-                         [_quat(TOOL_DOWN_RPY)] * 2)
+    traj = TipTrajectory([0, 0.04], [[0.6, 0, 0], [0.6, 0.01, 0]], [_quat(TOOL_DOWN_RPY)] * 2)
     path = traj.save(tmp_path / "t.npz")
     back = TipTrajectory.load(path)
     np.testing.assert_array_equal(back.positions, traj.positions)
@@ -104,21 +110,59 @@ def test_export_csv_cli_refuses_unreachable_or_malformed_trajectories(tmp_path, 
     from drake_tooluse.cli import main
 
     q_down = _quat(TOOL_DOWN_RPY)
-    good = TipTrajectory([0, 0.5, 1.0], [[0.62, -0.3, -0.1], [0.63, -0.29, -0.1],
-                                         [0.64, -0.28, -0.1]], [q_down] * 3)
+    good = TipTrajectory(
+        [0, 0.5, 1.0], [[0.62, -0.3, -0.1], [0.63, -0.29, -0.1], [0.64, -0.28, -0.1]], [q_down] * 3
+    )
     good.save(tmp_path / "good.npz")
     out = tmp_path / "t.csv"
-    assert main(["export-csv", "--trajectory", str(tmp_path / "good.npz"), "--tool-length",
-                 "0.175", "--out", str(out), "--json"]) == 0
+    assert (
+        main(
+            [
+                "export-csv",
+                "--trajectory",
+                str(tmp_path / "good.npz"),
+                "--tool-length",
+                "0.175",
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     assert len(out.read_text().splitlines()) == 4
     far = TipTrajectory([0, 0.5], [[0.62, -0.3, -0.1], [3.0, 0, 0]], [q_down] * 2)
     far.save(tmp_path / "far.npz")
-    assert main(["export-csv", "--trajectory", str(tmp_path / "far.npz"), "--tool-length",
-                 "0.175", "--out", str(tmp_path / "far.csv")]) == 2
+    assert (
+        main(
+            [
+                "export-csv",
+                "--trajectory",
+                str(tmp_path / "far.npz"),
+                "--tool-length",
+                "0.175",
+                "--out",
+                str(tmp_path / "far.csv"),
+            ]
+        )
+        == 2
+    )
     assert "1 of 2 poses" in capsys.readouterr().err and not (tmp_path / "far.csv").exists()
     (tmp_path / "bad.npz").write_text("no")
-    assert main(["export-csv", "--trajectory", str(tmp_path / "bad.npz"), "--tool-length",
-                 "0.175", "--out", str(tmp_path / "bad.csv")]) == 2
+    assert (
+        main(
+            [
+                "export-csv",
+                "--trajectory",
+                str(tmp_path / "bad.npz"),
+                "--tool-length",
+                "0.175",
+                "--out",
+                str(tmp_path / "bad.csv"),
+            ]
+        )
+        == 2
+    )
     assert "malformed trajectory file" in capsys.readouterr().err
 
 
@@ -139,3 +183,31 @@ def test_bad_alignment_is_refused(capsys):
 
     assert main(["transfer", "--mode", "open-loop", "--align", "middle"]) == 2
     assert "align" in capsys.readouterr().err
+
+
+def test_extraction_time_step_is_the_scenarios_control_period():
+    """Regression: `extract` hard-coded period=0.04 s for the averaged trajectory; with a
+    scenario whose control period is 0.08 s its poses are 0.08 s apart."""
+    import dataclasses as dc
+
+    from drake_tooluse.experiments.trajectory import extract
+    from drake_tooluse.paths import SHIPPED_POLICY
+    from drake_tooluse.world.scenario import Scenario, validate_scenario
+
+    s = Scenario()
+    slow = validate_scenario(dc.replace(s, control=dc.replace(s.control, control_period=0.08)))
+    ex = extract(
+        SHIPPED_POLICY,
+        episodes=1,
+        seed=0,
+        window=3,
+        tool_length=slow.tool.length,
+        env_kwargs={"scenario": slow},
+    )
+    steps = ex.tip_positions.shape[1]
+    assert steps >= 3
+    np.testing.assert_allclose(ex.mean.times, np.arange(steps) * 0.08)
+    np.testing.assert_array_equal(ex.smoothed.times, ex.mean.times)
+    kept = ex.reachability.kept.times
+    assert ex.reachability.reachable >= 1
+    np.testing.assert_allclose(kept, ex.mean.times[np.searchsorted(ex.mean.times, kept)])
