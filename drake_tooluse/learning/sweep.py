@@ -1,5 +1,5 @@
 """A grid of training runs (algorithms × envs × seeds) on Ray: all local cores by default, or
-an existing Ray cluster by `address`. Optional: `pip install -e ".[cluster]"`.
+an existing Ray cluster by `address`. Optional: the `cluster` extra (`pip install ".[cluster]"`).
 
 Each run is a `train` + `evaluate` in its own Ray task, written to `OUT/<algo>_<env>_s<seed>/`;
 the results table is written atomically to `OUT/sweep.json` and `OUT/sweep.md` at the end.
@@ -66,7 +66,9 @@ def sweep(
     try:
         import ray
     except ImportError:
-        raise RuntimeError("the sweep needs Ray: pip install -e '.[cluster]'") from None
+        raise RuntimeError(
+            "the sweep needs Ray: install the cluster extra (pip install '.[cluster]')"
+        ) from None
     for a in algos:
         check_algo(a)
     for e in envs:
