@@ -1,9 +1,9 @@
 """Memory over a long run: random-action steps with resets; the process must not grow.
 
-    python benchmarks/env_memory.py [--steps 200000] [--ik-mode differential]
+    python benchmarks/env_memory.py [--steps 200000] [--ik-mode differential] [--out FILE]
 
 Prints the resident set size after a warm-up and at the end, and writes
-docs/results/env_memory.json. Goal: growth <= 50 MB over 200,000 steps.
+docs/results/env_memory_<ik-mode>.json (or --out). Goal: growth <= 50 MB over 200,000 steps.
 """
 
 import argparse
@@ -32,7 +32,11 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=200_000)
     ap.add_argument("--ik-mode", default="differential", choices=["full", "differential"])
     ap.add_argument("--warmup", type=int, default=2000)
+    ap.add_argument(
+        "--out", type=Path, help="JSON file (default docs/results/env_memory_<ik-mode>.json)"
+    )
     args = ap.parse_args()
+    out = args.out or OUT / f"env_memory_{args.ik_mode}.json"
     env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=args.ik_mode)
     env.reset(seed=0)
     env.action_space.seed(0)
@@ -50,14 +54,25 @@ def main() -> None:
             samples.append((i - args.warmup, rss_mb()))
     end = rss_mb()
     wall = time.perf_counter() - start
-    print(f"ik_mode={args.ik_mode}: {args.steps} steps, {resets} resets, {wall:.0f} s; "
-          f"RSS {base:.1f} MB after {args.warmup} warm-up steps -> {end:.1f} MB "
-          f"(growth {end - base:+.1f} MB)")
-    atomic_write_json(OUT / f"env_memory_{args.ik_mode}.json", {
-        "command": f"python benchmarks/env_memory.py --steps {args.steps} --ik-mode {args.ik_mode}",
-        "machine": platform.platform(), "steps": args.steps, "resets": resets,
-        "rss_start_mb": base, "rss_end_mb": end, "growth_mb": end - base,
-        "samples_steps_mb": samples, "wall_s": wall})
+    print(
+        f"ik_mode={args.ik_mode}: {args.steps} steps, {resets} resets, {wall:.0f} s; "
+        f"RSS {base:.1f} MB after {args.warmup} warm-up steps -> {end:.1f} MB "
+        f"(growth {end - base:+.1f} MB)"
+    )
+    atomic_write_json(
+        out,
+        {
+            "command": f"python benchmarks/env_memory.py --steps {args.steps} --ik-mode {args.ik_mode}",
+            "machine": platform.platform(),
+            "steps": args.steps,
+            "resets": resets,
+            "rss_start_mb": base,
+            "rss_end_mb": end,
+            "growth_mb": end - base,
+            "samples_steps_mb": samples,
+            "wall_s": wall,
+        },
+    )
 
 
 if __name__ == "__main__":

@@ -2,9 +2,9 @@
 FetchPushDense-v4 (MuJoCo) measured in the same run, and where a step's time goes.
 
     pip install -e ".[bench]"        # mujoco < 3.4 + gymnasium-robotics 1.4.2 (optional)
-    python benchmarks/env_throughput.py [--steps 4000]
+    python benchmarks/env_throughput.py [--steps 4000] [--out FILE]
 
-Prints a Markdown table and writes docs/results/env_throughput.json.
+Prints a Markdown table and writes docs/results/env_throughput.json (or --out).
 """
 
 import argparse
@@ -56,9 +56,11 @@ def breakdown(ik_mode: str, steps: int) -> dict:
     metrics (reward/info), and the rest (plant + Drake framework + DrakeGymEnv)."""
     env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode)
     u = env.unwrapped
-    timers = {"tip target": _Timer(u.target_system, "_target"),
-              "observation": _Timer(u.observation_system, "observation"),
-              "metrics (reward, info)": _Timer(u, "_read_metrics")}
+    timers = {
+        "tip target": _Timer(u.target_system, "_target"),
+        "observation": _Timer(u.observation_system, "observation"),
+        "metrics (reward, info)": _Timer(u, "_read_metrics"),
+    }
     if u.ik_system is not None:
         timers["IK (InverseKinematics)"] = _Timer(u.ik_system.ik, "solve")
     total = run_random(env, steps)
@@ -73,19 +75,16 @@ def plant_only_ms(steps: int = 500) -> float:
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource
 
-    from drake_tooluse.diagrams.control import home_configuration
+    from drake_tooluse.diagrams.control import add_world_at_home
     from drake_tooluse.world.scenario import Scenario
-    from drake_tooluse.world.scene import add_world
 
     s = Scenario()
     builder = DiagramBuilder()
-    world = add_world(builder, s)
-    q0 = home_configuration(s, s.tool.length)
-    for joint, q in zip(world.arm_joints(), q0):
-        joint.set_default_angle(q)
+    world, _, q0 = add_world_at_home(builder, s)
     source = builder.AddSystem(ConstantVectorSource(np.concatenate([q0, np.zeros(7)])))
-    builder.Connect(source.get_output_port(),
-                    world.plant.get_desired_state_input_port(world.baxter))
+    builder.Connect(
+        source.get_output_port(), world.plant.get_desired_state_input_port(world.baxter)
+    )
     simulator = Simulator(builder.Build())
     simulator.Initialize()
     period = s.control.control_period
@@ -107,6 +106,7 @@ def fetch_push(steps: int):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=4000)
+    ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     rows = []
     fetch = fetch_push(args.steps)
@@ -115,32 +115,54 @@ def main() -> None:
     for ik_mode in ("full", "differential"):
         for action_mode in ("paper", "position"):
             env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode, action_mode=action_mode)
-            rows.append((f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}",
-                         run_random(env, args.steps)))
+            rows.append(
+                (
+                    f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}",
+                    run_random(env, args.steps),
+                )
+            )
     print("| env | steps/s | ms/step | ratio ours / FetchPush |")
     print("| --- | --- | --- | --- |")
     results = []
     for name, sec in rows:
         ratio = f"{fetch / sec:.2f}" if fetch is not None and not name.startswith("Fetch") else "—"
         print(f"| {name} | {1 / sec:.0f} | {sec * 1e3:.3f} | {ratio} |")
-        results.append({"env": name, "steps_per_s": 1 / sec, "ms_per_step": sec * 1e3,
-                        "ratio_to_fetchpush": None if fetch is None or name.startswith("Fetch")
-                        else fetch / sec})
+        results.append(
+            {
+                "env": name,
+                "steps_per_s": 1 / sec,
+                "ms_per_step": sec * 1e3,
+                "ratio_to_fetchpush": None
+                if fetch is None or name.startswith("Fetch")
+                else fetch / sec,
+            }
+        )
     if fetch is None:
         print("(FetchPushDense-v4 not installed: pip install -e '.[bench]' to compare)")
     plant = plant_only_ms()
     parts = {mode: breakdown(mode, max(args.steps // 2, 200)) for mode in ("full", "differential")}
-    print(f"\nWhere a step's time goes (ms per step, action_mode=paper; the world alone: "
-          f"{plant:.3f} ms per 40 ms control period):\n")
+    print(
+        f"\nWhere a step's time goes (ms per step, action_mode=paper; the world alone: "
+        f"{plant:.3f} ms per 40 ms control period):\n"
+    )
     names = sorted({k for p in parts.values() for k in p})
     print("| part | ik_mode=full | ik_mode=differential |")
     print("| --- | --- | --- |")
     for k in names:
-        print(f"| {k} | {parts['full'].get(k, 0.0):.3f} | {parts['differential'].get(k, 0.0):.3f} |")
-    atomic_write_json(OUT, {"command": f"python benchmarks/env_throughput.py --steps {args.steps}",
-                            "machine": platform.platform(), "results": results,
-                            "plant_only_ms_per_control_period": plant, "breakdown_ms": parts})
-    print(f"\nwrote {OUT}")
+        print(
+            f"| {k} | {parts['full'].get(k, 0.0):.3f} | {parts['differential'].get(k, 0.0):.3f} |"
+        )
+    atomic_write_json(
+        args.out,
+        {
+            "command": f"python benchmarks/env_throughput.py --steps {args.steps}",
+            "machine": platform.platform(),
+            "results": results,
+            "plant_only_ms_per_control_period": plant,
+            "breakdown_ms": parts,
+        },
+    )
+    print(f"\nwrote {args.out}")
 
 
 if __name__ == "__main__":

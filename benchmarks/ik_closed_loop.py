@@ -9,9 +9,10 @@ model hold the length the head camera measured (with the same shifted grasp), an
 adds the camera's estimate of the grasp shift along the tool.
 
     python benchmarks/ik_closed_loop.py [--grid 5] [--settle 1.5] [--grasp-shift 0.005 0.002]
+        [--out FILE] [--figure FILE]
 
-Prints a Markdown table, writes docs/results/ik_closed_loop.json and
-docs/figures/ik_closed_loop.png.
+Prints a Markdown table, writes docs/results/ik_closed_loop.json (or --out) and
+docs/figures/ik_closed_loop.png (or --figure).
 """
 
 import argparse
@@ -27,10 +28,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from pydrake.math import RigidTransform, RollPitchYaw  # noqa: E402
 
-from drake_tooluse.files import atomic_write_json  # noqa: E402
-from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
-from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
 from drake_tooluse.diagrams.trajectory import simulate_waypoints  # noqa: E402
+from drake_tooluse.files import atomic_write_json  # noqa: E402
+from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief  # noqa: E402
+from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 TOOLS = [None, 0.125, 0.175]
@@ -38,9 +39,13 @@ TOOLS = [None, 0.125, 0.175]
 
 def scenario_for(tool_length, along: float = 0.0, across: float = 0.0) -> Scenario:
     s = Scenario()
-    tool = dc.replace(s.tool, attached=tool_length is not None,
-                      length=tool_length or s.tool.length, grasp_offset_along=along,
-                      grasp_offset_across=across)
+    tool = dc.replace(
+        s.tool,
+        attached=tool_length is not None,
+        length=tool_length or s.tool.length,
+        grasp_offset_along=along,
+        grasp_offset_across=across,
+    )
     box = dc.replace(s.box, position=[0.95, 0.60, 0.0])  # out of the way
     return validate_scenario(dc.replace(s, tool=tool, box=box))
 
@@ -48,25 +53,32 @@ def scenario_for(tool_length, along: float = 0.0, across: float = 0.0) -> Scenar
 def targets(scenario: Scenario, grid: int) -> list[RigidTransform]:
     z = scenario.table.top_z + 0.02
     R = RollPitchYaw(*TOOL_DOWN_RPY)
-    return [RigidTransform(R, [x, y, z]) for x in np.linspace(0.55, 0.79, grid)
-            for y in np.linspace(-0.45, -0.05, grid)]
+    return [
+        RigidTransform(R, [x, y, z])
+        for x in np.linspace(0.55, 0.79, grid)
+        for y in np.linspace(-0.45, -0.05, grid)
+    ]
 
 
-def run_condition(length, along, across, args, measure: bool = False,
-                  grasp_estimate: bool = False) -> dict:
+def run_condition(
+    length, along, across, args, measure: bool = False, grasp_estimate: bool = False
+) -> dict:
     scenario = scenario_for(length, along, across)
-    believed, grasp = None, (0.0, 0.0)
+    belief = RobotBelief(length)  # the true length, the nominal grasp
     if measure:  # the robot model holds the length the head camera measured
-        from drake_tooluse.diagrams.measurement import measure_tool
+        from drake_tooluse.diagrams.measurement import measure_belief
 
-        measurement = measure_tool(scenario)
-        believed = measurement.length
-        if grasp_estimate:  # and where the camera saw the hand hold it along the tool
-            grasp = (0.0, measurement.grasp_along)
+        # ... and, with grasp_estimate, where the camera saw the hand hold it along the tool
+        belief, _ = measure_belief(scenario, use_grasp_estimate=grasp_estimate)
+    believed, grasp = belief.tool_length, belief.grasp_offset
     start = time.perf_counter()
-    run = simulate_waypoints(scenario, targets(scenario, args.grid), move_time=args.move_time,
-                             dwell=args.settle, believed_tool_length=believed,
-                             believed_grasp=grasp)
+    run = simulate_waypoints(
+        scenario,
+        targets(scenario, args.grid),
+        move_time=args.move_time,
+        dwell=args.settle,
+        belief=belief,
+    )
     wall = time.perf_counter() - start
     e = np.array([r.position_error for r in run.results]) * 1e3
     rot = np.array([r.orientation_error for r in run.results])
@@ -76,11 +88,19 @@ def run_condition(length, along, across, args, measure: bool = False,
         label += f", measured length {believed * 1e3:.2f} mm"
     if grasp_estimate:
         label += f" and grasp {grasp[1] * 1e3:+.2f} mm along"
-    return {"tool": tool, "grasp": label, "targets": len(e), "mean_mm": float(e.mean()),
-            "median_mm": float(np.median(e)), "max_mm": float(e.max()),
-            "orientation_max_rad": float(rot.max()),
-            "ik_failures": int(sum(not r.ik_success for r in run.results)),
-            "sim_time_s": run.sim_time, "wall_time_s": wall, "errors_mm": e.tolist()}
+    return {
+        "tool": tool,
+        "grasp": label,
+        "targets": len(e),
+        "mean_mm": float(e.mean()),
+        "median_mm": float(np.median(e)),
+        "max_mm": float(e.max()),
+        "orientation_max_rad": float(rot.max()),
+        "ik_failures": int(sum(not r.ik_success for r in run.results)),
+        "sim_time_s": run.sim_time,
+        "wall_time_s": wall,
+        "errors_mm": e.tolist(),
+    }
 
 
 def main() -> None:
@@ -88,53 +108,78 @@ def main() -> None:
     ap.add_argument("--grid", type=int, default=5, help="targets per side (grid x grid)")
     ap.add_argument("--move-time", type=float, default=1.0)
     ap.add_argument("--settle", type=float, default=1.5)
-    ap.add_argument("--grasp-shift", type=float, nargs=2, default=[0.005, 0.002],
-                    metavar=("ALONG", "ACROSS"),
-                    help="second condition: the true grasp shifted along and across the tool "
-                         "(m) while the robot believes the nominal grasp")
+    ap.add_argument(
+        "--grasp-shift",
+        type=float,
+        nargs=2,
+        default=[0.005, 0.002],
+        metavar=("ALONG", "ACROSS"),
+        help="second condition: the true grasp shifted along and across the tool "
+        "(m) while the robot believes the nominal grasp",
+    )
+    ap.add_argument("--out", type=Path, default=DOCS / "results" / "ik_closed_loop.json")
+    ap.add_argument("--figure", type=Path, default=DOCS / "figures" / "ik_closed_loop.png")
     args = ap.parse_args()
     along, across = args.grasp_shift
     results = [run_condition(L, 0.0, 0.0, args) for L in TOOLS]
     results += [run_condition(L, along, across, args) for L in TOOLS if L is not None]
     # The camera measures the tool as held (marker to marker, the grasp shift included).
-    results += [run_condition(L, along, across, args, measure=True) for L in TOOLS
-                if L is not None]
+    results += [run_condition(L, along, across, args, measure=True) for L in TOOLS if L is not None]
     # ... and where the hand holds it along the tool (the grip marker's end in the gripper).
-    results += [run_condition(L, along, across, args, measure=True, grasp_estimate=True)
-                for L in TOOLS if L is not None]
-    print("| tool | grasp (along/across) | targets | tip error mean / median / max (mm) | "
-          "orientation max (rad) | IK failures | simulated / wall (s) |")
+    results += [
+        run_condition(L, along, across, args, measure=True, grasp_estimate=True)
+        for L in TOOLS
+        if L is not None
+    ]
+    print(
+        "| tool | grasp (along/across) | targets | tip error mean / median / max (mm) | "
+        "orientation max (rad) | IK failures | simulated / wall (s) |"
+    )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for r in results:
-        print(f"| {r['tool']} | {r['grasp']} | {r['targets']} | {r['mean_mm']:.2e} / "
-              f"{r['median_mm']:.2e} / {r['max_mm']:.2e} | {r['orientation_max_rad']:.1e} | "
-              f"{r['ik_failures']} | {r['sim_time_s']:.1f} / {r['wall_time_s']:.1f} |")
+        print(
+            f"| {r['tool']} | {r['grasp']} | {r['targets']} | {r['mean_mm']:.2e} / "
+            f"{r['median_mm']:.2e} / {r['max_mm']:.2e} | {r['orientation_max_rad']:.1e} | "
+            f"{r['ik_failures']} | {r['sim_time_s']:.1f} / {r['wall_time_s']:.1f} |"
+        )
     fig, ax = plt.subplots(figsize=(7, 3.8))
     errors = [np.maximum(r["errors_mm"], 1e-9) for r in results]
     labels = [f"{r['tool']}\n{r['grasp']}" for r in results]
     ax.boxplot(errors, tick_labels=labels)
     for i, e in enumerate(errors, start=1):
-        ax.scatter(np.full(len(e), i) + np.random.default_rng(i).uniform(-0.12, 0.12, len(e)),
-                   e, s=8, alpha=0.6)
+        ax.scatter(
+            np.full(len(e), i) + np.random.default_rng(i).uniform(-0.12, 0.12, len(e)),
+            e,
+            s=8,
+            alpha=0.6,
+        )
     ax.axhline(10.0, color="grey", ls="--", lw=0.8)
     ax.text(0.55, 10.0, "paper: < 1 cm (real robot)", va="bottom", fontsize=8, color="grey")
     ax.set_yscale("log")
     ax.set_ylim(1e-7, 50)
     ax.tick_params(axis="x", labelsize=8)
     ax.set_ylabel("settled tool-tip error (mm)")
-    ax.set_title(f"Closed-loop tool-tip error, {results[0]['targets']} table-top targets per "
-                 "tool (the robot believes the nominal grasp)", fontsize=9)
+    ax.set_title(
+        f"Closed-loop tool-tip error, {results[0]['targets']} table-top targets per "
+        "tool (the robot believes the nominal grasp)",
+        fontsize=9,
+    )
     fig.tight_layout()
-    (DOCS / "figures").mkdir(parents=True, exist_ok=True)
-    tmp = DOCS / "figures" / ".ik_closed_loop.tmp.png"
+    args.figure.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.figure.with_name(f".{args.figure.stem}.tmp.png")
     fig.savefig(tmp, dpi=120)
-    tmp.replace(DOCS / "figures" / "ik_closed_loop.png")
-    atomic_write_json(DOCS / "results" / "ik_closed_loop.json", {
-        "command": f"python benchmarks/ik_closed_loop.py --grid {args.grid} "
-                   f"--move-time {args.move_time} --settle {args.settle} "
-                   f"--grasp-shift {along} {across}",
-        "machine": platform.platform(), "results": results})
-    print("wrote docs/results/ik_closed_loop.json, docs/figures/ik_closed_loop.png")
+    tmp.replace(args.figure)
+    atomic_write_json(
+        args.out,
+        {
+            "command": f"python benchmarks/ik_closed_loop.py --grid {args.grid} "
+            f"--move-time {args.move_time} --settle {args.settle} "
+            f"--grasp-shift {along} {across}",
+            "machine": platform.platform(),
+            "results": results,
+        },
+    )
+    print(f"wrote {args.out}, {args.figure}")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The paper's experiments, with this project's tools: each run is a `drake-tooluse train`
 command, evaluated with `drake-tooluse evaluate` over 100 seeded episodes.
 
-    python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only NAME ...]
+    python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only NAME ...] [--out FILE]
 
 Runs (budgets are this machine's, smaller than the paper's 1.25 M steps; see docs/TRAINING.md):
   ppo_env1            PPO on Env1, position action, first-order (differential) IK in the loop
@@ -14,7 +14,7 @@ Runs (budgets are this machine's, smaller than the paper's 1.25 M steps; see doc
   ppo_env3_finetune   PPO on Env3 fine-tuned from ppo_env1's best policy
 
 A run whose directory already has summary.json is not trained again (delete it to redo).
-Writes docs/results/paper_experiments.json and the figures in docs/figures/.
+Writes docs/results/paper_experiments.json (or --out) and the figures in docs/figures/.
 """
 
 import argparse
@@ -28,13 +28,19 @@ from pathlib import Path
 from drake_tooluse.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parent.parent
-ENV1, ENV2, ENV3 = ("drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPushBoxReward-v0",
-                    "drake_tooluse/ToolPushFar-v0")
-PAPER_ACTION = ('{"env_kwargs": {"action_mode": "paper", "ik_mode": "differential", '
-                '"randomize": true}}')
+ENV1, ENV2, ENV3 = (
+    "drake_tooluse/ToolPush-v0",
+    "drake_tooluse/ToolPushBoxReward-v0",
+    "drake_tooluse/ToolPushFar-v0",
+)
+PAPER_ACTION = (
+    '{"env_kwargs": {"action_mode": "paper", "ik_mode": "differential", "randomize": true}}'
+)
 FULL_IK = '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", "randomize": true}}'
-TIP_OBSERVATION = ('{"env_kwargs": {"action_mode": "position", "ik_mode": "full", '
-                   '"randomize": true, "observation_mode": "tip"}}')
+TIP_OBSERVATION = (
+    '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", '
+    '"randomize": true, "observation_mode": "tip"}}'
+)
 RUNS = {
     "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=500_000),
     "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=FULL_IK),
@@ -51,9 +57,21 @@ RUNS = {
 
 def train_command(name: str, runs_dir: Path, seed: int) -> list[str]:
     r = RUNS[name]
-    cmd = ["drake-tooluse", "train", "--env", r["env"], "--algo", r["algo"], "--timesteps",
-           str(r["timesteps"]), "--seed", str(seed), "--out", str(runs_dir / name),
-           "--no-progress"]
+    cmd = [
+        "drake-tooluse",
+        "train",
+        "--env",
+        r["env"],
+        "--algo",
+        r["algo"],
+        "--timesteps",
+        str(r["timesteps"]),
+        "--seed",
+        str(seed),
+        "--out",
+        str(runs_dir / name),
+        "--no-progress",
+    ]
     if "hyperparams" in r:
         cmd += ["--hyperparams", r["hyperparams"]]
     if "init_from" in r:
@@ -62,8 +80,20 @@ def train_command(name: str, runs_dir: Path, seed: int) -> list[str]:
 
 
 def evaluate_command(policy: Path, env_id: str, episodes: int, extra=()) -> list[str]:
-    return ["drake-tooluse", "evaluate", "--policy", str(policy), "--env", env_id,
-            "--episodes", str(episodes), "--seed", "1000", "--json", *extra]
+    return [
+        "drake-tooluse",
+        "evaluate",
+        "--policy",
+        str(policy),
+        "--env",
+        env_id,
+        "--episodes",
+        str(episodes),
+        "--seed",
+        "1000",
+        "--json",
+        *extra,
+    ]
 
 
 def run_json(cmd: list[str]) -> dict:
@@ -72,15 +102,22 @@ def run_json(cmd: list[str]) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--runs-dir", type=Path, default=ROOT / "runs" / "paper")
     ap.add_argument("--only", nargs="+", choices=list(RUNS))
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--episodes", type=int, default=100)
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=ROOT / "docs" / "results" / "paper_experiments.json",
+        help="results JSON, updated run by run",
+    )
     args = ap.parse_args()
     names = args.only or list(RUNS)
-    results_path = ROOT / "docs" / "results" / "paper_experiments.json"
+    results_path = args.out
     results = json.loads(results_path.read_text()) if results_path.is_file() else {}
     for name in names:
         out = args.runs_dir / name
@@ -91,20 +128,28 @@ def main() -> None:
         summary = json.loads((out / "summary.json").read_text())
         env_id = RUNS[name]["env"]
         evaluation = run_json(evaluate_command(out / "best", env_id, args.episodes))
-        entry = {"command": shlex.join(cmd), "train": summary, "evaluate_best": evaluation,
-                 "evaluate_command": shlex.join(evaluate_command(out / "best", env_id,
-                                                               args.episodes))}
+        entry = {
+            "command": shlex.join(cmd),
+            "train": summary,
+            "evaluate_best": evaluation,
+            "evaluate_command": shlex.join(evaluate_command(out / "best", env_id, args.episodes)),
+        }
         if name == "ppo_env1":  # the same policy with the full tool-tip IK in the loop
-            entry["evaluate_best_full_ik"] = run_json(evaluate_command(
-                out / "best", env_id, args.episodes,
-                ["--env-kwargs", '{"ik_mode": "full"}']))
+            entry["evaluate_best_full_ik"] = run_json(
+                evaluate_command(
+                    out / "best", env_id, args.episodes, ["--env-kwargs", '{"ik_mode": "full"}']
+                )
+            )
         results[name] = entry
         atomic_write_json(results_path, results)
         e = evaluation
-        print(f"[{time.strftime('%H:%M:%S')}] {name}: final box-goal mean "
-              f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
-              f"{e['success_rate'] * 100:.0f} %, {summary['timesteps']} steps in "
-              f"{summary['wall_time_s'] / 60:.1f} min", flush=True)
+        print(
+            f"[{time.strftime('%H:%M:%S')}] {name}: final box-goal mean "
+            f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
+            f"{e['success_rate'] * 100:.0f} %, {summary['timesteps']} steps in "
+            f"{summary['wall_time_s'] / 60:.1f} min",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

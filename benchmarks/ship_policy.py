@@ -2,6 +2,7 @@
 commands that trained and evaluated it.
 
     python benchmarks/ship_policy.py --run runs/paper/ppo_env1_fullik --name ppo_toolpush
+        [--out DIR]    # default models/policies/NAME
 
 The metrics are re-measured here with `drake-tooluse evaluate` on the copied policy, so the
 shipped metrics.json is what that command prints for the shipped files.
@@ -9,7 +10,6 @@ shipped metrics.json is what that command prints for the shipped files.
 
 import argparse
 import json
-import shlex
 import shutil
 import subprocess
 from pathlib import Path
@@ -25,29 +25,51 @@ def main() -> None:
     ap.add_argument("--name", required=True, help="directory name under models/policies")
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1000)
+    ap.add_argument(
+        "--out", type=Path, help="the policy directory to write (default models/policies/NAME)"
+    )
     args = ap.parse_args()
-    target = ROOT / "models" / "policies" / args.name
-    tmp = target.with_name(f".{args.name}.tmp")
+    target = (args.out or ROOT / "models" / "policies" / args.name).resolve()
+    # As the command is recorded: relative to the repository (its cwd) where it lies in it.
+    shown = target.relative_to(ROOT) if target.is_relative_to(ROOT) else target
+    tmp = target.with_name(f".{target.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     shutil.copytree(args.run / "best", tmp)
     meta = json.loads((tmp / "policy.json").read_text())
-    evaluate = ["drake-tooluse", "evaluate", "--policy", f"models/policies/{args.name}",
-                "--episodes", str(args.episodes), "--seed", str(args.seed), "--json",
-                "--per-episode"]
+    evaluate = [
+        "drake-tooluse",
+        "evaluate",
+        "--policy",
+        str(shown),
+        "--episodes",
+        str(args.episodes),
+        "--seed",
+        str(args.seed),
+        "--json",
+        "--per-episode",
+    ]
     if target.exists():
         shutil.rmtree(target)
     tmp.rename(target)
-    metrics = json.loads(subprocess.run(evaluate, capture_output=True, text=True, check=True,
-                                        cwd=ROOT).stdout)
+    metrics = json.loads(
+        subprocess.run(evaluate, capture_output=True, text=True, check=True, cwd=ROOT).stdout
+    )
     summary = json.loads((args.run / "summary.json").read_text())
-    atomic_write_json(target / "metrics.json", {
-        "trained_with": meta["command"],  # as run (cwd: the repository)
-        "trained_timesteps": meta["trained_timesteps"],
-        "training_wall_time_s": summary["wall_time_s"], "evaluated_with": " ".join(evaluate),
-        "evaluation": metrics})
-    print(f"shipped {args.run / 'best'} -> {target}: final box-goal mean "
-          f"{metrics['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
-          f"{metrics['success_rate'] * 100:.0f} %")
+    atomic_write_json(
+        target / "metrics.json",
+        {
+            "trained_with": meta["command"],  # as run (cwd: the repository)
+            "trained_timesteps": meta["trained_timesteps"],
+            "training_wall_time_s": summary["wall_time_s"],
+            "evaluated_with": " ".join(evaluate),
+            "evaluation": metrics,
+        },
+    )
+    print(
+        f"shipped {args.run / 'best'} -> {target}: final box-goal mean "
+        f"{metrics['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
+        f"{metrics['success_rate'] * 100:.0f} %"
+    )
 
 
 if __name__ == "__main__":

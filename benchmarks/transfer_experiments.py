@@ -1,7 +1,7 @@
 """The transfer experiment for each policy and mode, and the table quoted in docs/TRANSFER.md.
 
     python benchmarks/transfer_experiments.py [--runs 10] [--episodes 100] [--seed 0]
-        [--only NAME ...]
+        [--only NAME ...] [--out DIR]
 
 Runs `drake-tooluse transfer` (tools 0.125 and 0.175 m, the perturbed reality of
 diagrams/reality.yaml against the nominal simulation) for
@@ -12,8 +12,8 @@ diagrams/reality.yaml against the nominal simulation) for
   camera's estimate of the grasp along the tool (the paper's measurement);
 
 each closed-loop and open-loop (the paper's: the policy's averaged trajectory replayed), writing
-docs/results/transfer/<name>_<mode>/ (transfer.json, transfer_boxplot.png, and for open loop
-trajectory.npz/.png), then prints the Markdown table.
+docs/results/transfer/<name>_<mode>/ (or --out DIR/<name>_<mode>/: transfer.json,
+transfer_boxplot.png, and for open loop trajectory.npz/.png), then prints the Markdown table.
 """
 
 import argparse
@@ -28,18 +28,31 @@ OUT = Path("docs") / "results" / "transfer"
 TIP = Path("models") / "policies" / "ppo_toolpush_tip"
 PAPER = Path("models") / "policies" / "ppo_toolpush"
 # name -> (policy, extra `transfer` arguments)
-POLICIES = {"tip": (TIP, []), "paper": (PAPER, []),
-            "tip-length-only": (TIP, ["--length-only"])}
+POLICIES = {"tip": (TIP, []), "paper": (PAPER, []), "tip-length-only": (TIP, ["--length-only"])}
 MODES = ("closed-loop", "open-loop")
 
 
-def run(name: str, mode: str, runs: int, episodes: int, seed: int) -> dict:
+def run(name: str, mode: str, runs: int, episodes: int, seed: int, out_dir: Path = OUT) -> dict:
     from drake_tooluse.cli import main
 
-    out = OUT / f"{name}_{mode}"
+    out = out_dir / f"{name}_{mode}"
     policy, extra = POLICIES[name]
-    argv = ["transfer", "--policy", str(policy), "--mode", mode, "--runs", str(runs),
-            "--episodes", str(episodes), "--seed", str(seed), "--out", str(out), *extra]
+    argv = [
+        "transfer",
+        "--policy",
+        str(policy),
+        "--mode",
+        mode,
+        "--runs",
+        str(runs),
+        "--episodes",
+        str(episodes),
+        "--seed",
+        str(seed),
+        "--out",
+        str(out),
+        *extra,
+    ]
     print("drake-tooluse " + " ".join(argv), file=sys.stderr, flush=True)
     if main(argv) != 0:
         raise SystemExit(f"transfer {name} {mode} failed")
@@ -47,10 +60,12 @@ def run(name: str, mode: str, runs: int, episodes: int, seed: int) -> dict:
 
 
 def table(results: dict) -> str:
-    lines = ["| policy | mode | tool (m) | measured (mm) | box travel nominal (cm) | box travel "
-             "reality (cm) | reality / nominal | final box–goal reality (cm) | success nominal / "
-             "reality | tools' travel differ (cm) |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [
+        "| policy | mode | tool (m) | measured (mm) | box travel nominal (cm) | box travel "
+        "reality (cm) | reality / nominal | final box–goal reality (cm) | success nominal / "
+        "reality | tools' travel differ (cm) |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
     for (name, mode), r in results.items():
         diff = r["goals"]["tool_travel_difference_m"]
         for t in r["tools"]:
@@ -63,7 +78,8 @@ def table(results: dict) -> str:
                 f"{re_['box_travel_mean_m'] * 100:.1f} ± {re_['box_travel_std_m'] * 100:.1f} | "
                 f"{ratio} | {re_['final_box_to_goal_mean_m'] * 100:.1f} | "
                 f"{n['success_rate'] * 100:.0f} % / {re_['success_rate'] * 100:.0f} % | "
-                f"{'–' if diff is None else f'{diff * 100:.2f}'} |")
+                f"{'–' if diff is None else f'{diff * 100:.2f}'} |"
+            )
     return "\n".join(lines)
 
 
@@ -73,18 +89,26 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", nargs="+", choices=list(POLICIES), default=list(POLICIES))
-    parser.add_argument("--report", action="store_true",
-                        help="only print the table of the results already written")
+    parser.add_argument(
+        "--report", action="store_true", help="only print the table of the results already written"
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=OUT,
+        help=f"results directory (default {OUT}; relative: to the repository)",
+    )
     args = parser.parse_args()
     os.chdir(ROOT)
     results = {}
     for name in args.only:
         for mode in MODES:
             if args.report:
-                results[name, mode] = json.loads((OUT / f"{name}_{mode}" / "transfer.json")
-                                                 .read_text())
+                results[name, mode] = json.loads(
+                    (args.out / f"{name}_{mode}" / "transfer.json").read_text()
+                )
             else:
-                results[name, mode] = run(name, mode, args.runs, args.episodes, args.seed)
+                results[name, mode] = run(name, mode, args.runs, args.episodes, args.seed, args.out)
     print(table(results))
 
 
