@@ -142,6 +142,13 @@ RED = (0.62, 0.06, 0.06, 1.0)
 DARK = (0.18, 0.18, 0.2, 1.0)
 BLACK = (0.05, 0.05, 0.05, 1.0)
 SCREEN = (0.95, 0.55, 0.1, 1.0)
+# URDF materials are named (urdfdom, and so KDL and TRAC-IK, require a name).
+MATERIAL_NAMES = {
+    RED: "baxter_red",
+    DARK: "baxter_dark",
+    BLACK: "baxter_black",
+    SCREEN: "baxter_screen",
+}
 # Radius of each arm link's visual "bone" (m).
 BONE_RADIUS = {
     "upper_shoulder": 0.07,
@@ -216,7 +223,10 @@ def _link_xml(name, inertial=None, visuals=(), collisions=()) -> str:
                 f"      <geometry>{_geometry_xml(s)}</geometry>",
             ]
             if tag == "visual":
-                lines.append(f'      <material><color rgba="{_fmt(s.rgba)}"/></material>')
+                lines.append(
+                    f'      <material name="{MATERIAL_NAMES[s.rgba]}">'
+                    f'<color rgba="{_fmt(s.rgba)}"/></material>'
+                )
             lines.append(f"    </{tag}>")
     lines.append("  </link>")
     return "\n".join(lines)

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
 from drake_tooluse.robot.baxter_model import Q_LOWER, Q_UPPER
 from drake_tooluse.robot.ik import (
@@ -109,3 +109,63 @@ def test_robot_model_with_a_believed_grasp_offset():
     q = np.array([0.3, -0.5, 0.1, 1.2, 0.2, 0.8, -0.4])
     X_WG, X_WT = ik.fk_gripper(q), ik.fk(q)
     np.testing.assert_allclose(X_WG.inverse() @ X_WT.translation(), [0.004, 0.0, 0.19], atol=1e-12)
+
+
+def test_fast_path_is_held_to_the_solver_of_record():
+    """The Levenberg–Marquardt answer satisfies Drake InverseKinematics' own constraints (the
+    program the SNOPT path solves), and SNOPT started at it stays there."""
+    ik = ToolTipIK(0.175)
+    rng = np.random.default_rng(11)
+    for q_true in rng.uniform(Q_LOWER, Q_UPPER, size=(20, 7)):
+        X = ik.fk(q_true)
+        fast = ik.solve(X)
+        assert fast.success and fast.solver == "newton"
+        program = ik._new_ik(X)
+        program.AddOrientationConstraint(
+            ik.plant.world_frame(), X.rotation(), ik.tip_frame, RotationMatrix(), 1e-6
+        )
+        constraints = program.prog().GetAllConstraints()
+        assert program.prog().CheckSatisfied(constraints, fast.q, tol=1e-8)
+        polished = ik.solve_with_snopt(X, fast.q)
+        assert polished.success and np.max(np.abs(polished.q - fast.q)) < 1e-6
+
+
+def test_snopt_remains_the_fallback(monkeypatch):
+    """Where the fast path finds nothing, the answer comes from InverseKinematics."""
+    ik = ToolTipIK(0.175)
+    X = ik.fk([0.3, -0.5, 0.2, 1.2, 0.1, 0.8, -0.3])
+    monkeypatch.setattr(ik, "_fast_starts", lambda X_WT, q_seed: iter(()))
+    result = ik.solve(X)
+    assert result.success and result.solver == "snopt"
+
+
+def test_warm_solves_along_a_smooth_path_stay_on_their_branch():
+    """A tip path made by a smooth joint path (steps up to 0.05 rad), each solve seeded by the
+    last answer: no joint jumps (the answer follows the path's own branch)."""
+    ik = ToolTipIK(0.30)
+    t = np.linspace(0.0, 2 * np.pi, 800)
+    mid, half = (Q_LOWER + Q_UPPER) / 2, (Q_UPPER - Q_LOWER) / 2
+    path = mid + 0.5 * half * np.sin(np.outer(t, np.arange(1, 8) * 0.5) + np.arange(7))
+    assert np.max(np.abs(np.diff(path, axis=0))) <= 0.05
+    q = path[0]
+    for q_path in path[1:]:
+        result = ik.solve(ik.fk(q_path), q)
+        assert result.success
+        assert np.max(np.abs(result.q - q)) < 0.5
+        q = result.q
+
+
+@pytest.mark.parametrize("bad", [[np.nan] * 7, [0.0] * 6, [0.0] * 8])
+def test_fk_with_bad_joint_angles_is_a_value_error(bad):
+    ik = ToolTipIK(0.175, library_size=1)
+    for call in (ik.fk, ik.fk_gripper, lambda q: ik.errors(q, ik.fk(np.zeros(7)))):
+        with pytest.raises(ValueError, match="q"):
+            call(bad)
+
+
+def test_a_target_rotation_that_is_not_orthonormal_is_refused():
+    ik = ToolTipIK(0.175, library_size=1)
+    R = RollPitchYaw(np.pi, 0, np.pi / 2).ToRotationMatrix().matrix()
+    X = RigidTransform(RotationMatrix(np.diag([2.0, 1.0, 1.0]) @ R), [0.65, -0.25, -0.1])
+    with pytest.raises(ValueError, match="not orthonormal"):
+        ik.solve(X)
