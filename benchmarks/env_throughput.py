@@ -1,5 +1,6 @@
 """Env throughput: random-action steps per second on one core, ours beside Gymnasium-Robotics'
-FetchPushDense-v4 (MuJoCo) measured in the same run, and where a step's time goes.
+FetchPushDense-v4 (MuJoCo) measured in the same run (interleaved rounds, the median round),
+and where a step's time goes.
 
     pip install -e ".[bench]"        # mujoco < 3.4 + gymnasium-robotics 1.4.2 (optional)
     python benchmarks/env_throughput.py [--steps 4000] [--out FILE]
@@ -34,6 +35,16 @@ def run_random(env, steps: int, seed: int = 0) -> float:
         if terminated or truncated:
             env.reset()
     return (time.perf_counter() - start) / steps
+
+
+def interleaved(envs: dict, steps: int, rounds: int) -> dict:
+    """Seconds per step of each env: `rounds` rounds, each env taking `steps // rounds` steps
+    in turn (so a slow spell of the machine falls on all of them), the median round."""
+    times = {name: [] for name in envs}
+    for r in range(rounds):
+        for name, env in envs.items():
+            times[name].append(run_random(env, max(steps // rounds, 1), seed=r))
+    return {name: float(np.median(t)) for name, t in times.items()}
 
 
 class _Timer:
@@ -94,33 +105,37 @@ def plant_only_ms(steps: int = 500) -> float:
     return (time.perf_counter() - start) / steps * 1e3
 
 
-def fetch_push(steps: int):
+def fetch_push_env():
     try:
         import gymnasium_robotics
     except ImportError:
         return None
     gym.register_envs(gymnasium_robotics)
-    return run_random(gym.make("FetchPushDense-v4"), steps)
+    return gym.make("FetchPushDense-v4")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--steps", type=int, default=4000)
+    ap.add_argument("--steps", type=int, default=4000, help="random-action steps per env")
+    ap.add_argument("--rounds", type=int, default=8, help="interleaved rounds (median taken)")
+    ap.add_argument("--core", type=int, default=1, help="the one CPU core to run on")
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
-    rows = []
-    fetch = fetch_push(args.steps)
-    if fetch is not None:
-        rows.append(("FetchPushDense-v4 (MuJoCo)", fetch))
+    os.sched_setaffinity(0, {args.core})  # one core, as FetchPush runs
+    envs = {}
+    fetch_env = fetch_push_env()
+    if fetch_env is not None:
+        envs["FetchPushDense-v4 (MuJoCo)"] = fetch_env
     for ik_mode in ("full", "differential"):
         for action_mode in ("paper", "position"):
-            env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode, action_mode=action_mode)
-            rows.append(
-                (
-                    f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}",
-                    run_random(env, args.steps),
-                )
+            envs[f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}"] = gym.make(
+                "drake_tooluse/ToolPush-v0", ik_mode=ik_mode, action_mode=action_mode
             )
+    for env in envs.values():  # warm up: compiled kernels, caches
+        run_random(env, 50)
+    per_step = interleaved(envs, args.steps, args.rounds)
+    rows = list(per_step.items())
+    fetch = per_step.get("FetchPushDense-v4 (MuJoCo)")
     print("| env | steps/s | ms/step | ratio ours / FetchPush |")
     print("| --- | --- | --- | --- |")
     results = []
@@ -155,7 +170,8 @@ def main() -> None:
     atomic_write_json(
         args.out,
         {
-            "command": f"python benchmarks/env_throughput.py --steps {args.steps}",
+            "command": f"python benchmarks/env_throughput.py --steps {args.steps} "
+            f"--rounds {args.rounds}",
             "machine": platform.platform(),
             "results": results,
             "plant_only_ms_per_control_period": plant,

@@ -42,8 +42,11 @@ from drake_tooluse.world.scenario import tool_length_or_none
 from drake_tooluse.world.scene import World, add_world, home_tip_pose
 
 IK_MODES = ("full", "differential")
-# Solves of the IK in the loop per control step (the warm start, then library seeds); the
-# home pose, solved once per diagram, may take more.
+# The IK in the loop, per control step: the warm start (the last answer) nearly always holds;
+# if not, a few fast-path starts from each seed library, then SNOPT solves (the target has
+# usually left the arm's reach: each costs milliseconds and finds nothing). The home pose,
+# solved once per diagram, may take more.
+IK_LIBRARY_STARTS = 4
 IK_ATTEMPTS = 3
 HOME_IK_ATTEMPTS = 16
 
@@ -107,6 +110,7 @@ def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
         belief.tool_length,
         grasp_offset=belief.grasp_offset,
         max_attempts=IK_ATTEMPTS,
+        library_starts=IK_LIBRARY_STARTS,
         **joint_limit_kwargs(scenario.robot.conservative_limits),
     )
 
@@ -124,15 +128,17 @@ def add_world_at_home(builder, scenario, belief: RobotBelief | None = None):
     return world, ik, q0
 
 
-def add_joint_command(builder, world: World, q_commanded, control: TipControl) -> None:
-    """Desired state [q*, 0] (joint targets held over the control period, zero velocity) to
-    the plant's PD controllers, through the actuation delay if the scenario has one."""
+def add_joint_command(builder, world: World, command, control: TipControl) -> None:
+    """Joint targets to the plant's PD controllers, through the actuation delay if the
+    scenario has one. `command` is an output port of the desired state [q* (7), v* (7)], or
+    of q* alone (7: held over the control period, zero velocity appended)."""
     s = world.scenario
-    zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
-    desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
-    builder.Connect(q_commanded, desired_state.get_input_port(0))
-    builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
-    command = desired_state.get_output_port()
+    if command.size() == 7:
+        zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
+        desired_state = builder.AddNamedSystem("desired_state", Multiplexer([7, 7]))
+        builder.Connect(command, desired_state.get_input_port(0))
+        builder.Connect(zeros.get_output_port(), desired_state.get_input_port(1))
+        command = desired_state.get_output_port()
     steps = round(s.control.actuation_delay / s.plant.time_step)
     if steps > 0:
         # A DiscreteTimeDelay of N updates, sampled on the plant's own ticks, reaches the
@@ -197,7 +203,7 @@ def add_tip_control(
         "tip_target",
         TipTargetSystem(
             action_mode,
-            ik.plant,
+            ik.chain,
             pose_to_vector(home_tip_pose(s)),
             Workspace.above_table(s.table.top_z),
         ),
@@ -211,7 +217,7 @@ def add_tip_control(
             target.GetOutputPort("tip_pose_desired"),
             control.ik_system.GetInputPort("tip_pose_desired"),
         )
-        q_commanded = control.ik_system.GetOutputPort("q_desired")
+        q_commanded = control.ik_system.GetOutputPort("desired_state")
     else:
         control.differential = add_differential_ik(builder, ik, q0, period)
         builder.Connect(
@@ -239,5 +245,5 @@ def add_trajectory_control(builder, world: World, ik: ToolTipIK, q0, tip_source)
     builder.Connect(
         tip_source.get_output_port(), control.ik_system.GetInputPort("tip_pose_desired")
     )
-    add_joint_command(builder, world, control.ik_system.GetOutputPort("q_desired"), control)
+    add_joint_command(builder, world, control.ik_system.GetOutputPort("desired_state"), control)
     return control

@@ -44,6 +44,8 @@ from drake_tooluse.robot.kinematics import (
     ArmChain,
     levenberg_marquardt,
     library_poses,
+    pose_errors,
+    rotation_from_quaternion,
     task_distances,
 )
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME, make_robot_model
@@ -70,13 +72,18 @@ BASIN_ANGLE = 0.02  # rad
 WARM_START_DISTANCE = 0.15
 # A warm start within this distance is tried first with the constrained solve alone.
 NEAR_DISTANCE = 0.05
-# The fast path: library seeds tried after the warm start, the error it drives down to (m and
-# rad: well below the success tolerances), its iterations per start, and its largest joint
-# step per iteration (rad: a cap that keeps a far start from swinging through a singularity).
+# The fast path: library seeds tried after the warm start (from each of the two libraries, by
+# default), the error it drives down to (m and rad: well below the success tolerances), its
+# iterations per start, and its largest joint step per iteration (rad: a cap that keeps a far
+# start from swinging through a singularity).
 FAST_LIBRARY_STARTS = 24
 FAST_TOLERANCE = 1e-10
 FAST_ITERATIONS = 100
 FAST_MAX_STEP = 0.5
+# The pull of each step toward mid-range along the arm's self-motions (a fraction of the
+# offset): solve after solve along a path, it keeps the redundant joint from drifting to a
+# limit, where the next warm start would fail and a library start land on another branch.
+FAST_CENTERING = 0.05
 
 
 @dataclass
@@ -138,6 +145,17 @@ def check_pose(X_WT) -> RigidTransform:
     return pose_from_vector(X_WT)
 
 
+def target_arrays(X_WT) -> tuple[np.ndarray, np.ndarray]:
+    """(p_WT (3,), R_WT (3, 3)) of a target given as a RigidTransform or as a 7-vector [p,
+    quaternion wxyz] (normalized here), checked as `check_pose` checks it."""
+    if isinstance(X_WT, RigidTransform):
+        X_WT = check_pose(X_WT)
+        return X_WT.translation(), X_WT.rotation().matrix()
+    x = check_finite_vector(X_WT, 7, "tool-tip pose [x y z qw qx qy qz]")
+    quat = check_unit_quaternion(x[3:], "tool-tip orientation quaternion (w, x, y, z)")
+    return x[:3], rotation_from_quaternion(quat)
+
+
 def tool_offset(tool_length: float) -> np.ndarray:
     """v = p_GT: the tool vector in the gripper frame (the tool axis is +z of G)."""
     return np.array([0.0, 0.0, float(tool_length)])
@@ -161,7 +179,9 @@ class ToolTipIK:
             frame's origin (m; default 0, 0): with the camera's estimate the IK also knows
             where the hand holds the tool (see `diagrams.measurement`).
         joint_lower, joint_upper: joint limits (rad) s0 … w2; default Baxter's.
-        max_attempts: solves tried (the warm start, then deterministic random seeds).
+        max_attempts: SNOPT solves tried where the fast path finds nothing (the warm start,
+            then library seeds).
+        library_starts: fast-path starts from each seed library after the warm start.
         library_size: configurations in the central seed library (drawn with a fixed seed,
             so the same call gives the same result); the full-range library has half as many.
     """
@@ -175,6 +195,7 @@ class ToolTipIK:
         joint_upper=None,
         max_attempts: int = 16,
         library_size: int = 4000,
+        library_starts: int = FAST_LIBRARY_STARTS,
     ):
         self.tool_length = tool_length
         self.grasp_offset = tuple(float(v) for v in grasp_offset)
@@ -199,6 +220,9 @@ class ToolTipIK:
         if max_attempts < 1:
             raise ValueError(f"max_attempts={max_attempts} must be at least 1")
         self.max_attempts = int(max_attempts)
+        if library_starts < 0:
+            raise ValueError(f"library_starts={library_starts} must be at least 0")
+        self.library_starts = int(library_starts)
         self.q_nominal = np.clip(Q_MID, self.lower, self.upper)
         self.chain = ArmChain.from_plant(self.plant, self.tip_frame)
         self._solver = SnoptSolver()
@@ -226,23 +250,28 @@ class ToolTipIK:
         library_poses(self.chain.fixed, self.chain.axes, q, p, R)
         return q, p, R
 
-    @staticmethod
-    def _task_distance(X_WT: RigidTransform, p, R) -> np.ndarray:
-        """Position distance (m) + 0.2 m/rad x rotation angle, for arrays of poses."""
-        return task_distances(p, R, X_WT.translation(), X_WT.rotation().matrix())
-
     def _seed_distance(self, X_WT: RigidTransform, q_seed: np.ndarray) -> float:
+        """Position distance (m) + 0.2 m/rad x rotation angle of the seed's tip from X_WT."""
         X = self.fk(q_seed)
+        p_target, R_target = X_WT.translation(), X_WT.rotation().matrix()
         return float(
-            self._task_distance(X_WT, X.translation()[None], X.rotation().matrix()[None])[0]
+            task_distances(X.translation()[None], X.rotation().matrix()[None], p_target, R_target)[
+                0
+            ]
         )
 
-    def library_seeds(self, X_WT: RigidTransform, count: int) -> list[np.ndarray]:
-        """The `count` nearest entries (task space) of each of the two libraries, nearest
-        first, alternating."""
+    def library_seeds(self, X_WT, count: int) -> list[np.ndarray]:
+        """The `count` nearest entries (task space: m + 0.2 m/rad) of each of the two
+        libraries to the target X_WT (a RigidTransform or (p, R) arrays), nearest first,
+        alternating."""
+        p_target, R_target = (
+            (X_WT.translation(), X_WT.rotation().matrix())
+            if isinstance(X_WT, RigidTransform)
+            else X_WT
+        )
         nearest = []
         for q, p, R in self._libraries:
-            d = self._task_distance(X_WT, p, R)
+            d = task_distances(p, R, p_target, R_target)
             k = min(count, len(d))
             closest = np.argpartition(d, k - 1)[:k]
             nearest.append([q[i] for i in closest[np.argsort(d[closest])]])
@@ -291,12 +320,16 @@ class ToolTipIK:
         self.plant.SetPositions(self.context, check_finite_vector(q, 7, "q"))
         return self.gripper_frame.CalcPoseInWorld(self.context)
 
-    def errors(self, q, X_WT: RigidTransform) -> tuple[float, float]:
-        X = self.fk(q)
-        return (
-            float(np.linalg.norm(X.translation() - X_WT.translation())),
-            rotation_angle_between(X.rotation(), X_WT.rotation()),
+    def errors(self, q, X_WT) -> tuple[float, float]:
+        """(position error m, orientation error rad) of the tip at q from the target X_WT (a
+        RigidTransform or (p, R) arrays), by Drake's forward kinematics of the robot model."""
+        p_target, R_target = (
+            (X_WT.translation(), X_WT.rotation().matrix())
+            if isinstance(X_WT, RigidTransform)
+            else X_WT
         )
+        X = self.fk(q)
+        return pose_errors(X.translation(), X.rotation().matrix(), p_target, R_target)
 
     # -- IK ---------------------------------------------------------------------------------
     def _new_ik(self, X_WT: RigidTransform) -> InverseKinematics:
@@ -338,43 +371,43 @@ class ToolTipIK:
         """Joint angles that put T at X_WT_desired (a RigidTransform or [p, quaternion wxyz]),
         warm-started from `q_seed` (default: mid-range): the fast path, then, where it finds
         nothing, at most `max_attempts` SNOPT solves (default: the solver's own)."""
-        X_WT = check_pose(X_WT_desired)
+        p, R = target_arrays(X_WT_desired)
         q_seed = self.q_nominal if q_seed is None else check_finite_vector(q_seed, 7, "q_seed")
         q_seed = np.clip(q_seed, self.lower, self.upper)
         limit = self.max_attempts if max_attempts is None else int(max_attempts)
         if limit < 1:
             raise ValueError(f"max_attempts={limit} must be at least 1")
         start = time.perf_counter()
-        q, starts, pos_err, rot_err = self._solve_fast(X_WT, q_seed)
+        q, starts, pos_err, rot_err = self._solve_fast(p, R, q_seed)
         if q is not None:
             return IKResult(q, True, pos_err, rot_err, time.perf_counter() - start, starts)
-        result = self.solve_with_snopt(X_WT, q_seed, limit)
+        result = self.solve_with_snopt(RigidTransform(RotationMatrix(R), p), q_seed, limit)
         result.solve_time = time.perf_counter() - start
         result.attempts += starts
         return result
 
-    def _solve_fast(self, X_WT: RigidTransform, q_seed: np.ndarray):
+    def _solve_fast(self, p: np.ndarray, R: np.ndarray, q_seed: np.ndarray):
         """Levenberg–Marquardt from the seed, then from the nearest library entries, until an
         answer that Drake's forward kinematics certifies. Returns (q, starts tried, position
         error, orientation error); q is None if no start gave one."""
-        p, R = X_WT.translation(), X_WT.rotation().matrix()
         starts = 0
-        for q_start in self._fast_starts(X_WT, q_seed):
+        for q_start in self._fast_starts(p, R, q_seed):
             starts += 1
             q, distance, angle, _ = levenberg_marquardt(
                 self.chain.fixed, self.chain.axes, self.lower, self.upper, p, R, q_start,
-                FAST_TOLERANCE, FAST_ITERATIONS, FAST_MAX_STEP,
+                FAST_TOLERANCE, FAST_ITERATIONS, FAST_MAX_STEP, FAST_CENTERING,
             )  # fmt: skip
             if distance <= POSITION_TOLERANCE and angle <= ORIENTATION_TOLERANCE:
-                pos_err, rot_err = self.errors(q, X_WT)  # certified by Drake
+                pos_err, rot_err = self.errors(q, (p, R))  # certified by Drake
                 if pos_err <= POSITION_TOLERANCE and rot_err <= ORIENTATION_TOLERANCE:
                     return q, starts, pos_err, rot_err
         return None, starts, np.inf, np.inf
 
-    def _fast_starts(self, X_WT: RigidTransform, q_seed: np.ndarray):
+    def _fast_starts(self, p: np.ndarray, R: np.ndarray, q_seed: np.ndarray):
         """The seed, then (only if needed) the nearest library entries."""
         yield q_seed
-        yield from self.library_seeds(X_WT, FAST_LIBRARY_STARTS)
+        if self.library_starts:
+            yield from self.library_seeds((p, R), self.library_starts)
 
     def solve_with_snopt(self, X_WT_desired, q_seed=None, max_attempts: int | None = None):
         """The solver of record: Drake `InverseKinematics` (position and orientation

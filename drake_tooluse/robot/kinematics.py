@@ -149,9 +149,9 @@ def _tip_error(p_target, R_target, p, R, e):
 
 
 @numba.njit(cache=True)
-def _solve_spd6(M, b, out):
-    """out = M⁻¹ b for a symmetric positive definite 6x6 M (Cholesky)."""
-    L = np.zeros((6, 6))
+def _cholesky6(M, L):
+    """L Lᵀ = M for a symmetric positive definite 6x6 M."""
+    L[:, :] = 0.0
     for i in range(6):
         for j in range(i + 1):
             s = M[i, j]
@@ -161,6 +161,11 @@ def _solve_spd6(M, b, out):
                 L[i, i] = np.sqrt(max(s, 1e-300))
             else:
                 L[i, j] = s / L[j, j]
+
+
+@numba.njit(cache=True)
+def _cholesky_solve6(L, b, out):
+    """out = (L Lᵀ)⁻¹ b."""
     y = np.empty(6)
     for i in range(6):
         s = b[i]
@@ -176,22 +181,27 @@ def _solve_spd6(M, b, out):
 
 @numba.njit(cache=True)
 def levenberg_marquardt(
-    fixed, axes, lower, upper, p_target, R_target, q_start, tolerance, max_iterations, max_step
-):
+    fixed, axes, lower, upper, p_target, R_target, q_start, tolerance, max_iterations, max_step,
+    centering,
+):  # fmt: skip
     """Joint angles within [lower, upper] that put the tip at (p*, R*), from `q_start`.
 
     Each step is the damped least-squares step dq = Jᵀ (J Jᵀ + λ I)⁻¹ e (the smallest joint
-    motion that reduces the 6-d tip error e, so a warm start stays on its branch), joints at
-    a limit that the step would push further out are frozen for the step, |dq| is capped at
-    `max_step` rad, and λ adapts: a step that lowers |e|² is taken and λ shrinks, else λ
-    grows. Stops when |p* - p| and the angle to R* are both below `tolerance` (m, rad).
-    Returns (q, position error m, angle rad, iterations)."""
+    motion that reduces the 6-d tip error e, so a warm start stays on its branch), plus
+    on the first step `centering` × the mid-range offset projected onto the self-motions
+    (I - Jᵀ (J Jᵀ + λ I)⁻¹ J): it leaves the tip where it is and keeps the redundant arm from
+    drifting, solve after solve, toward its limits. Joints at a limit that the step would push further out are
+    frozen for the step, |dq| is capped at `max_step` rad, and λ adapts: a step that lowers
+    |e|² is taken (without the centering if only that lowers it) and λ shrinks, else λ grows.
+    Stops when |p* - p| and the angle to R* are both below `tolerance` (m, rad). Returns (q,
+    position error m, angle rad, iterations)."""
     q = q_start.copy()
     R, p, J = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
     Rn, pn, Jn = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
     e, en, y = np.empty(6), np.empty(6), np.empty(6)
-    M = np.empty((6, 6))
-    qn, dq = np.empty(7), np.empty(7)
+    M, L = np.empty((6, 6)), np.empty((6, 6))
+    qn, dq, null = np.empty(7), np.empty(7), np.empty(7)
+    Jc, Jc_y = np.empty(6), np.empty(6)
     free = np.empty(7, dtype=np.bool_)
     fk_jacobian(fixed, axes, q, R, p, J)
     angle = _tip_error(p_target, R_target, p, R, e)
@@ -219,26 +229,45 @@ def levenberg_marquardt(
                 M[r, c] = s
                 M[c, r] = s
             M[r, r] += damping
-        _solve_spd6(M, e, y)
+        _cholesky6(M, L)
+        _cholesky_solve6(L, e, y)
+        # The centering's self-motion: c - Jᵀ (J Jᵀ + λ I)⁻¹ J c, c toward mid-range.
+        pull = centering if iteration == 1 else 0.0  # once per solve: a nudge, not a fight
+        for i in range(7):
+            null[i] = pull * (0.5 * (lower[i] + upper[i]) - q[i]) if free[i] else 0.0
+        for r in range(6):
+            s = 0.0
+            for i in range(7):
+                s += J[r, i] * null[i]
+            Jc[r] = s
+        _cholesky_solve6(L, Jc, Jc_y)
         largest = 0.0
         for i in range(7):
-            s = 0.0
+            s, t = 0.0, 0.0
             if free[i]:
                 for r in range(6):
                     s += J[r, i] * y[r]
+                    t += J[r, i] * Jc_y[r]
+                null[i] -= t
             dq[i] = s
-            largest = max(largest, abs(s))
+            largest = max(largest, abs(s + null[i]))
         scale = max_step / largest if largest > max_step else 1.0
-        for i in range(7):
-            qn[i] = min(max(q[i] + scale * dq[i], lower[i]), upper[i])
-        fk_jacobian(fixed, axes, qn, Rn, pn, Jn)
-        angle_n = _tip_error(p_target, R_target, pn, Rn, en)
-        cost_n = 0.0
-        for k in range(6):
-            cost_n += en[k] * en[k]
-        if cost_n < cost:
-            q[:], R[:, :], p[:], J[:, :], e[:] = qn, Rn, pn, Jn, en
-            cost, angle = cost_n, angle_n
+        taken = False
+        for with_centering in (True, False):
+            for i in range(7):
+                step = dq[i] + null[i] if with_centering else dq[i]
+                qn[i] = min(max(q[i] + scale * step, lower[i]), upper[i])
+            fk_jacobian(fixed, axes, qn, Rn, pn, Jn)
+            angle_n = _tip_error(p_target, R_target, pn, Rn, en)
+            cost_n = 0.0
+            for k in range(6):
+                cost_n += en[k] * en[k]
+            if cost_n < cost:
+                q[:], R[:, :], p[:], J[:, :], e[:] = qn, Rn, pn, Jn, en
+                cost, angle = cost_n, angle_n
+                taken = True
+                break
+        if taken:
             damping = max(0.1 * damping, 1e-12)
         else:
             damping *= 10.0
@@ -246,6 +275,28 @@ def levenberg_marquardt(
                 break
     distance = np.sqrt(e[0] ** 2 + e[1] ** 2 + e[2] ** 2)
     return q, distance, angle, iteration
+
+
+@numba.njit(cache=True)
+def rotation_from_quaternion(quaternion):
+    """R (3, 3) of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = quaternion[0], quaternion[1], quaternion[2], quaternion[3]
+    R = np.empty((3, 3))
+    R[0, 0], R[0, 1], R[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+    R[1, 0], R[1, 1], R[1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+    R[2, 0], R[2, 1], R[2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    return R
+
+
+@numba.njit(cache=True)
+def pose_errors(p_a, R_a, p_b, R_b):
+    """(|p_a - p_b| m, the angle of the rotation between R_a and R_b, rad: atan2 of the sine
+    and cosine, accurate near zero)."""
+    d = 0.0
+    for j in range(3):
+        d += (p_a[j] - p_b[j]) ** 2
+    e = np.empty(6)
+    return np.sqrt(d), _tip_error(p_a, R_a, p_a, R_b, e)
 
 
 @numba.njit(cache=True)

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform
+from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from drake_tooluse.robot.model import TIP_FRAME
+from drake_tooluse.robot.kinematics import ArmChain
 
 ACTION_MODES = {"paper": 7, "pose": 6, "position": 3}
 MAX_TRANSLATION_STEP = 0.02  # m per step
@@ -50,7 +50,7 @@ def check_action(action, mode: str) -> np.ndarray:
     size = ACTION_MODES[mode]
     if a.size != size:
         raise ValueError(f"action has {a.size} values; action_mode={mode!r} needs {size}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(
             f"action {a.tolist()} holds NaN or infinite values; actions must be "
             "finite (they are clipped to [-1, 1])"
@@ -97,20 +97,21 @@ class TipTargetSystem(LeafSystem):
         action: the policy's action (size by mode, see the module docstring); clipped to
             [-1, 1]. Unfixed, the target is the current tip pose.
         arm_state: measured right-arm state [q (7), v (7)]; the tip pose is the forward
-            kinematics of q on the robot model (the believed tool).
+            kinematics of q on the robot model (the believed tool: its arm chain, see
+            `robot.kinematics`).
     Output ports:
         tip_pose_desired: [p_WT (3, m), quaternion wxyz (4)] — the current tip pose moved by
             the action (`position` mode holds the initial orientation instead).
         X_WT_desired: the same as a RigidTransform (for Drake's differential IK).
     """
 
-    def __init__(self, mode: str, robot_model, initial_target: np.ndarray, workspace: Workspace):
+    def __init__(
+        self, mode: str, chain: ArmChain, initial_target: np.ndarray, workspace: Workspace
+    ):
         super().__init__()
         self._mode = mode
         self._workspace = workspace
-        self._model = robot_model
-        self._model_context = robot_model.CreateDefaultContext()
-        self._tip = robot_model.GetFrameByName(TIP_FRAME)
+        self._chain = chain
         self._held_quaternion = np.asarray(initial_target, float)[3:]
         self._action = self.DeclareVectorInputPort("action", ACTION_MODES[mode])
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
@@ -120,14 +121,13 @@ class TipTargetSystem(LeafSystem):
         )
 
     def _target(self, context) -> np.ndarray:
-        self._model.SetPositions(self._model_context, self._arm_state.Eval(context)[:7])
-        X_WT = self._tip.CalcPoseInWorld(self._model_context)
+        R_WT, p_WT = self._chain.pose(self._arm_state.Eval(context)[:7])
         quat = (
             self._held_quaternion
             if self._mode == "position"
-            else X_WT.rotation().ToQuaternion().wxyz()
+            else RotationMatrix(R_WT).ToQuaternion().wxyz()
         )
-        current = np.concatenate([X_WT.translation(), quat])
+        current = np.concatenate([p_WT, quat])
         if not self._action.HasValue(context):
             return current
         action = check_action(self._action.Eval(context), self._mode)

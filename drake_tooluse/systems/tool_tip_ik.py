@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from drake_tooluse.robot.ik import ToolTipIK, pose_from_vector
+from drake_tooluse.robot.ik import ToolTipIK
 
 
 class ToolTipIKSystem(LeafSystem):
@@ -55,8 +55,8 @@ class ToolTipIKSystem(LeafSystem):
     def _update(self, context, discrete_state):
         x = context.get_discrete_state(self._state).get_value()
         q_last, failures = x[:7], x[10]
-        X_WT = pose_from_vector(self._pose_port.Eval(context))
-        result = self._ik.solve(X_WT, q_seed=q_last)
+        # [p, quaternion]: the solver checks it and normalizes the quaternion.
+        result = self._ik.solve(self._pose_port.Eval(context), q_seed=q_last)
         if result.success:
             new = np.concatenate(
                 [result.q, [1.0, result.position_error, result.orientation_error, 0.0]]

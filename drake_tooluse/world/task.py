@@ -6,9 +6,8 @@ x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-
-import numpy as np
 
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
@@ -57,9 +56,9 @@ class PushMetricsReader:
             tool_touch |= other == self._tool_index
             gripper_touch |= other in self._robot_bodies
         return PushMetrics(
-            box_to_goal=float(np.linalg.norm(p_box - goal)),
-            tip_to_box=float(np.linalg.norm(p_tip - p_box)),
-            box_travel=float(np.linalg.norm(p_box[:2] - box_start[:2])),
+            box_to_goal=math.dist(p_box, goal),
+            tip_to_box=math.dist(p_tip, p_box),
+            box_travel=math.dist(p_box[:2], box_start[:2]),
             tool_touches_box=bool(tool_touch),
             gripper_touches_box=bool(gripper_touch),
         )

@@ -134,19 +134,22 @@ def test_snopt_remains_the_fallback(monkeypatch):
     """Where the fast path finds nothing, the answer comes from InverseKinematics."""
     ik = ToolTipIK(0.175)
     X = ik.fk([0.3, -0.5, 0.2, 1.2, 0.1, 0.8, -0.3])
-    monkeypatch.setattr(ik, "_fast_starts", lambda X_WT, q_seed: iter(()))
+    monkeypatch.setattr(ik, "_fast_starts", lambda p, R, q_seed: iter(()))
     result = ik.solve(X)
     assert result.success and result.solver == "snopt"
 
 
 def test_warm_solves_along_a_smooth_path_stay_on_their_branch():
-    """A tip path made by a smooth joint path (steps up to 0.05 rad), each solve seeded by the
-    last answer: no joint jumps (the answer follows the path's own branch)."""
+    """A tip path made by a smooth joint path (steps up to 0.05 rad) away from the wrist and
+    elbow singularities (w1, e1 > 0.2 rad), each solve seeded by the last answer: no joint
+    jumps (the answer follows the path's own branch)."""
     ik = ToolTipIK(0.30)
-    t = np.linspace(0.0, 2 * np.pi, 800)
-    mid, half = (Q_LOWER + Q_UPPER) / 2, (Q_UPPER - Q_LOWER) / 2
-    path = mid + 0.5 * half * np.sin(np.outer(t, np.arange(1, 8) * 0.5) + np.arange(7))
+    t = np.linspace(0.0, 2 * np.pi, 800)[:, None]
+    centre = np.array([0.0, -0.5, 0.0, 1.3, 0.0, 1.0, 0.0])
+    amplitude = np.array([0.8, 0.6, 1.2, 0.8, 1.2, 0.7, 1.5])
+    path = centre + amplitude * np.sin(t * np.arange(1, 8) * 0.5 + np.arange(7))
     assert np.max(np.abs(np.diff(path, axis=0))) <= 0.05
+    assert path[:, 3].min() > 0.2 and path[:, 5].min() > 0.2
     q = path[0]
     for q_path in path[1:]:
         result = ik.solve(ik.fk(q_path), q)
