@@ -6,14 +6,19 @@ import math
 
 import numpy as np
 
+SEED_MAX = 2**32 - 1  # Drake's RandomGenerator and numpy's legacy seeding take 32 bits
 
-def _as_float(value, name: str) -> float:
+
+def _as_float(value, name: str, allowed: str = "") -> float:
+    where = f" {allowed}" if allowed else ""
+    if isinstance(value, (bool, complex, np.complexfloating)):
+        raise ValueError(f"{name}={value!r} is not a real number{where}")
     try:
         x = float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}={value!r} is not a number") from None
+        raise ValueError(f"{name}={value!r} is not a number{where}") from None
     if not math.isfinite(x):
-        raise ValueError(f"{name}={x} must be a finite number")
+        raise ValueError(f"{name}={x} must be a finite number{where}")
     return x
 
 
@@ -21,11 +26,12 @@ def check_in_range(
     value, lo: float, hi: float, name: str, unit: str = "", lower_inclusive: bool = True
 ) -> float:
     """Returns `value` as a float if lo <= value <= hi (lo < value when not inclusive)."""
-    x = _as_float(value, name)
+    bracket = "[" if lower_inclusive else "("
+    u = f" {unit}" if unit else ""
+    allowed = f"in the allowed range {bracket}{lo:g}, {hi:g}]{u}"
+    x = _as_float(value, name, allowed)
     ok_lo = x >= lo if lower_inclusive else x > lo
     if not (ok_lo and x <= hi):
-        bracket = "[" if lower_inclusive else "("
-        u = f" {unit}" if unit else ""
         raise ValueError(
             f"{name}={x:g}{u} is outside the allowed range {bracket}{lo:g}, {hi:g}]{u}"
         )
@@ -44,7 +50,7 @@ def check_finite_vector(values, size: int, name: str) -> np.ndarray:
         raise ValueError(f"{name}={values!r} is not a vector of {size} numbers") from None
     if a.size != size:
         raise ValueError(f"{name} has {a.size} values; it needs exactly {size}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"{name}={a.tolist()} must be finite (no NaN or inf)")
     return a
 
@@ -65,3 +71,37 @@ def check_unit_quaternion(wxyz, name: str = "quaternion") -> np.ndarray:
             "quaternion (w, x, y, z)"
         )
     return q / norm
+
+
+def check_int(value, lo: int, hi: int, name: str) -> int:
+    """Returns `value` as an int if it is an integer (not a bool, not a float) in [lo, hi]."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name}={value!r} must be an integer in [{lo}, {hi}]")
+    if not lo <= int(value) <= hi:
+        raise ValueError(f"{name}={int(value)} is outside the allowed range [{lo}, {hi}]")
+    return int(value)
+
+
+def check_seed(value, name: str = "seed", count: int = 1) -> int:
+    """A seed: an integer in [0, 2**32 - 1]; with `count`, seeds value … value + count - 1
+    must all be in range (an evaluation of `count` episodes)."""
+    return check_int(value, 0, SEED_MAX - (count - 1), name)
+
+
+def check_bool(value, name: str) -> bool:
+    """A flag must be True or False (not 'no', not 0/1)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise ValueError(f"{name}={value!r} must be True or False")
+
+
+def check_mapping(value, name: str) -> dict:
+    """A keyword-argument mapping: a dict with string keys (None is an empty one)."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+        raise ValueError(
+            f'{name} must be a mapping of names to values, e.g. {{"key": 1}}; '
+            f"got {type(value).__name__} {value!r}"[:300]
+        )
+    return value
