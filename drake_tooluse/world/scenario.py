@@ -15,12 +15,13 @@ Frames and units: the world frame W is Baxter's `base` frame (x forward, y left,
 # No `from __future__ import annotations`: Drake's YAML loader reads the field types.
 import dataclasses as dc
 import math
+import typing
 from pathlib import Path
 
-import yaml
 from pydrake.common.yaml import yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 
+from drake_tooluse.files import read_yaml
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
 from drake_tooluse.robot.model import check_tool_length
 from drake_tooluse.validation import (
@@ -297,30 +298,92 @@ def load_scenario(filename) -> Scenario:
 
 
 def _load_layers(path: Path, seen: tuple) -> Scenario:
-    if not path.is_file():
-        raise FileNotFoundError(f"scenario file not found: {str(path)!r}")
     if path.resolve() in seen:
         chain = " -> ".join(str(p) for p in (*seen, path.resolve()))
         raise ValueError(f"scenario bases form a cycle: {chain}")
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as e:
-        raise ValueError(f"invalid scenario {str(path)!r}: not YAML ({e})") from None
+    raw = read_yaml(path, "scenario file")  # size-limited, duplicate keys refused
     if raw is not None and not isinstance(raw, dict):
         raise ValueError(
             f"invalid scenario {str(path)!r}: it must be a mapping of groups "
             f"(tool, box, ...), not a {type(raw).__name__}"
         )
+    _check_types(raw or {}, Scenario, "", path)
     base_name = (raw or {}).get("base") or ""
-    if not isinstance(base_name, str):
-        raise ValueError(f"invalid scenario {str(path)!r}: base={base_name!r} must be a file name")
     defaults = (
         _load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name else Scenario()
     )
     try:
         return yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
-    except RuntimeError as e:  # Drake's loader names the offending key.
+    except (RuntimeError, ValueError, TypeError, AssertionError, KeyError) as e:
+        # Drake's loader names an unknown key; the types were checked above.
         raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
+
+
+def _kind(t) -> str:
+    return {float: "a number", int: "an integer", bool: "true or false", str: "a string"}.get(
+        t, getattr(t, "__name__", str(t))
+    )
+
+
+def _fields(schema) -> dict:
+    """{name: type} of a scenario group: a dataclass, or a Drake config struct (`__fields__`)."""
+    if dc.is_dataclass(schema):
+        return typing.get_type_hints(schema)
+    return {f.name: f.type for f in getattr(schema, "__fields__", ())}
+
+
+def _check_types(raw: dict, schema, where: str, path: Path) -> None:
+    """Each value of `raw` must have the type its field in `schema` declares (a group where a
+    group belongs, a number where a number does, a list of numbers ...): Drake's typed loader
+    would fail on a wrong one without naming the field."""
+    fields = _fields(schema)
+    for key, value in raw.items():
+        t = fields.get(key)
+        if t is None:
+            continue  # an unknown key: Drake's loader names it
+        name = f"{where}{key}"
+        expected = None
+        if _fields(t):  # a group
+            if not isinstance(value, dict):
+                expected = f"a group of values ({', '.join(_fields(t))})"
+            else:
+                _check_types(value, t, name + ".", path)
+        elif typing.get_origin(t) is list:
+            (item,) = typing.get_args(t)
+            if not isinstance(value, list) or not all(_is(v, item) for v in value):
+                expected = f"a list of {_kind(item).split(' ', 1)[1]}s"
+        elif t in (float, int, bool, str) and not _is(value, t):
+            expected = _kind(t)
+        if expected is not None:
+            raise ValueError(
+                f"invalid scenario {str(path)!r}: {name}={value!r} must be {expected}"[:400]
+            )
+
+
+def _is(value, t) -> bool:
+    """Whether Drake's loader takes `value` for a field of type `t` (it parses strings with
+    Python's number parsers, and takes a float for an int when it is whole)."""
+    if isinstance(value, bool):
+        return t is bool
+    if t is float:
+        return isinstance(value, (int, float)) or (isinstance(value, str) and _parses(float, value))
+    if t is int:
+        return (
+            isinstance(value, int)
+            or (isinstance(value, float) and value.is_integer())
+            or (isinstance(value, str) and _parses(int, value))
+        )
+    if t is bool:
+        return value in ("true", "false")
+    return isinstance(value, t)
+
+
+def _parses(parse, text: str) -> bool:
+    try:
+        parse(text)
+    except ValueError:
+        return False
+    return True
 
 
 def tool_length_or_none(scenario: Scenario) -> float | None:
