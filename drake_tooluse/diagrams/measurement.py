@@ -75,6 +75,7 @@ from drake_tooluse.systems.camera import (
     camera_info,
     head_camera_pose,
 )
+from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.validation import check_in_range, check_one_of
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, add_world
@@ -475,52 +476,59 @@ def measure_tool(
         move_time=move_time,
         settle_time=settle_time,
     )
-    simulator = Simulator(built.diagram)
-    simulator.Initialize()
-    context = simulator.get_context()
-    diagram = built.diagram
-    want_images = keep_images or save_images_dir is not None
-    images, X_GC = [], []
-    plant_context = built.world.plant.GetMyContextFromRoot(context)
-    for t in built.capture_times:
-        simulator.AdvanceTo(t)
-        # The camera in the gripper frame at the capture: the robot's joint encoders and its
-        # head camera's calibration (the world plant's kinematics are the robot's own).
-        X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
-        X_GC.append(X_WG.inverse() @ head_camera_pose(built.world.plant, plant_context))
-        if want_images:  # the images the estimator takes at t (cached, rendered once)
-            color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
-            depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
-            images.append((color, depth))
-    # The capture at the last time runs at the start of the next step.
-    t_end = built.capture_times[-1] + built.world.plant.time_step()
-    simulator.AdvanceTo(t_end)
-    measurement: ToolLengthMeasurement = diagram.GetOutputPort("measurement").Eval(context)
-    files = []
-    if save_images_dir is not None:
-        out_dir = Path(save_images_dir)
-        info = camera_info(scenario.camera)
-        for view, (color, _) in zip(measurement.views, images):
-            files.append(
-                atomic_write_image(
-                    out_dir / f"measure_{view.view}.png", annotate_view(color, view, info), bgr=True
+    try:
+        simulator = Simulator(built.diagram)
+        simulator.Initialize()
+        context = simulator.get_context()
+        diagram = built.diagram
+        want_images = keep_images or save_images_dir is not None
+        images, X_GC = [], []
+        plant_context = built.world.plant.GetMyContextFromRoot(context)
+        for t in built.capture_times:
+            simulator.AdvanceTo(t)
+            # The camera in the gripper frame at the capture: the robot's joint encoders and its
+            # head camera's calibration (the world plant's kinematics are the robot's own).
+            X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
+            X_GC.append(X_WG.inverse() @ head_camera_pose(built.world.plant, plant_context))
+            if want_images:  # the images the estimator takes at t (cached, rendered once)
+                color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
+                depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
+                images.append((color, depth))
+        # The capture at the last time runs at the start of the next step.
+        t_end = built.capture_times[-1] + built.world.plant.time_step()
+        simulator.AdvanceTo(t_end)
+        measurement: ToolLengthMeasurement = diagram.GetOutputPort("measurement").Eval(context)
+        files = []
+        if save_images_dir is not None:
+            out_dir = Path(save_images_dir)
+            info = camera_info(scenario.camera)
+            for view, (color, _) in zip(measurement.views, images):
+                files.append(
+                    atomic_write_image(
+                        out_dir / f"measure_{view.view}.png",
+                        annotate_view(color, view, info),
+                        bgr=True,
+                    )
                 )
-            )
-    result = MeasurementResult(
-        length=measurement.length(),
-        spread=measurement.spread(),
-        method=method,
-        views=list(measurement.views),
-        wall_time=time.perf_counter() - start,
-        sim_time=t_end,
-        scenario_tool_length=float(scenario.tool.length) if scenario.tool.attached else math.nan,
-        images=images if keep_images else None,
-        image_files=files,
-        grasp_along=estimate_grasp_along(measurement.views, X_GC),
-        scenario_grasp_along=scenario.tool.grasp_offset_along,
-    )
-    measurement.length_or_raise()
-    return result
+        result = MeasurementResult(
+            length=measurement.length(),
+            spread=measurement.spread(),
+            method=method,
+            views=list(measurement.views),
+            wall_time=time.perf_counter() - start,
+            sim_time=t_end,
+            scenario_tool_length=float(scenario.tool.length)
+            if scenario.tool.attached
+            else math.nan,
+            images=images if keep_images else None,
+            image_files=files,
+            grasp_along=estimate_grasp_along(measurement.views, X_GC),
+            scenario_grasp_along=scenario.tool.grasp_offset_along,
+        )
+        measurement.length_or_raise()
+        return result
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 def measure_belief(

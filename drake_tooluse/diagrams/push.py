@@ -149,6 +149,10 @@ class PushRun:
     tip_path: np.ndarray  # (steps + 1, 3) true tool-tip positions at each control step
     box_path: np.ndarray  # (steps + 1, 3) box centre
     final_image: np.ndarray | None = None  # RGBA at the end, if the diagram has a scene camera
+    # The simulation failed (a RuntimeError from Drake, or a non-finite state) at `steps`; the
+    # figures are those of the last finite state.
+    sim_error: bool = False
+    error: str | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -158,6 +162,8 @@ class PushRun:
             "box_travel_m": self.box_travel,
             "tool_touched": self.tool_touched,
             "gripper_touched": self.gripper_touched,
+            "sim_error": self.sim_error,
+            **({"error": self.error} if self.error else {}),
         }
 
 
@@ -173,7 +179,8 @@ def run_push(
     """Simulates a push diagram from its default state one control period at a time, for
     `max_steps` or until the box reaches the goal (as the env terminates) if
     `stop_at_success`. With a `visualizer`, the run is recorded. `on_step(step)` is called
-    after each control step (progress displays)."""
+    after each control step (progress displays). A simulation failure ends the run flagged
+    `sim_error`, with the figures of the last finite state."""
     s = world.scenario
     simulator = Simulator(diagram)
     root = simulator.get_mutable_context()
@@ -189,26 +196,39 @@ def run_push(
     tool_touched = gripper_touched = False
     period = s.control.control_period
     metrics = reader.read(plant_context, goal, box_start)
-    step = 0
+    tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
+    box = world.box.EvalPoseInWorld(plant_context).translation()
+    step, error = 0, None
     for step in range(1, max_steps + 1):
-        tips.append(world.tip_frame.CalcPoseInWorld(plant_context).translation())
-        boxes.append(world.box.EvalPoseInWorld(plant_context).translation())
-        simulator.AdvanceTo(step * period)
-        metrics = reader.read(plant_context, goal, box_start)
+        tips.append(tip)
+        boxes.append(box)
+        try:
+            simulator.AdvanceTo(step * period)
+            now = reader.read(plant_context, goal, box_start)
+            tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
+            box = world.box.EvalPoseInWorld(plant_context).translation()
+        except RuntimeError as e:
+            error = f"simulation failed at step {step}: {str(e).splitlines()[0][:300]}"
+            break
+        finite = [now.box_to_goal, now.tip_to_box, now.box_travel, *tip, *box]
+        if not np.all(np.isfinite(finite)):
+            error = f"the state is no longer finite at step {step}"
+            break
+        metrics = now
         tool_touched |= metrics.tool_touches_box
         gripper_touched |= metrics.gripper_touches_box
         if on_step is not None:
             on_step(step)
         if stop_at_success and metrics.is_success:
             break
-    tips.append(world.tip_frame.CalcPoseInWorld(plant_context).translation())
-    boxes.append(world.box.EvalPoseInWorld(plant_context).translation())
+    tips.append(tip)
+    boxes.append(box)
     image = None
-    if diagram.HasOutputPort("color_image"):
+    if diagram.HasOutputPort("color_image") and error is None:
         image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
     return PushRun(
         step,
-        bool(metrics.is_success),
+        bool(metrics.is_success) and error is None,
         float(metrics.box_to_goal),
         float(metrics.box_travel),
         bool(tool_touched),
@@ -216,6 +236,8 @@ def run_push(
         np.array(tips),
         np.array(boxes),
         image,
+        sim_error=error is not None,
+        error=error,
     )
 
 

@@ -16,6 +16,10 @@ Registered ids (on `import drake_tooluse`), each truncated at 100 steps of 40 ms
 x: box centre, x*: goal, y: the true tool tip. Success (terminated) when d(x, x*) + d(x, y)
 ≤ 0.05 m. The box starts at (0.70, −0.25) on the table and is pushed along +y: the goal is
 0.20 m away (Env3: 0.30 m).
+
+A simulation failure (a `RuntimeError` from Drake, or a state that is no longer finite)
+truncates the episode with `info["sim_error"] = True` and finite values: the last finite
+observation, the last finite reward and metrics (NaN would poison a `VecNormalize`).
 """
 
 from __future__ import annotations
@@ -32,10 +36,18 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_tooluse.diagrams.control import IK_MODES
 from drake_tooluse.diagrams.push import add_push_task
 from drake_tooluse.diagrams.visualization import add_meshcat_visualizer, save_recording
+from drake_tooluse.robot.model import check_tool_length
 from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.observation import OBSERVATION_SIZES
 from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
-from drake_tooluse.validation import check_in_range, check_one_of
+from drake_tooluse.validation import (
+    check_bool,
+    check_in_range,
+    check_mapping,
+    check_one_of,
+    check_seed,
+)
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
 from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
@@ -61,12 +73,13 @@ class EnvConfig:
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
 
 
-def _config(kwargs) -> EnvConfig:
+def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
+    kwargs = check_mapping(kwargs, name)
     allowed = [f.name for f in dc.fields(EnvConfig)]
     unknown = sorted(set(kwargs) - set(allowed))
     if unknown:
-        raise TypeError(
-            f"unknown argument(s) {unknown} for a drake_tooluse env; allowed: {allowed}"
+        raise ValueError(
+            f"unknown argument(s) {unknown} for a drake_tooluse env ({name}); allowed: {allowed}"
         )
     config = EnvConfig(**kwargs)
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
@@ -75,7 +88,29 @@ def _config(kwargs) -> EnvConfig:
     check_one_of(config.ik_mode, IK_MODES, "ik_mode")
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
+    check_bool(config.include_tool_length, "include_tool_length")
+    check_bool(config.randomize, "randomize")
+    if config.tool_length is not None:
+        check_tool_length(config.tool_length, "tool_length")
+    if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
+        raise ValueError(
+            f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
+        )
     return config
+
+
+def check_env_kwargs(kwargs, name: str = "env kwargs") -> dict:
+    """Keyword arguments of the push envs, checked (names and values) without building an env:
+    an unknown name or a bad value is a ValueError naming it. Returns them as a dict."""
+    _config(kwargs, name)
+    return dict(kwargs or {})
+
+
+def env_spaces(kwargs) -> tuple[list, list]:
+    """(observation shape, action shape) of the env these keyword arguments make."""
+    config = _config(kwargs)
+    n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
+    return [n_obs], [ACTION_MODES[config.action_mode]]
 
 
 def _scenario(config: EnvConfig) -> Scenario:
@@ -127,6 +162,8 @@ class ToolPushEnv(DrakeGymEnv):
         self.metadata = dict(type(self).metadata)
         self._last_reward = 0.0
         self._episode = {}
+        self._last = None  # (observation, metrics) of the last finite state
+        self._closed = False
 
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, config: EnvConfig) -> None:
@@ -176,14 +213,31 @@ class ToolPushEnv(DrakeGymEnv):
             "gripper_touched": False,
         }
 
+    def _check_open(self) -> None:
+        if self._closed:
+            raise gym.error.Error("this env is closed; make a new one")
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._check_open()
         if options:
             raise ValueError(f"reset options {options!r} are not supported; pass none")
+        if seed is not None:
+            seed = check_seed(seed, "seed")
         observation, _ = super().reset(seed=seed)
-        info = self._info(self._read_metrics(), sim_error=False)
-        return np.asarray(observation, np.float32), info
+        observation = np.asarray(observation, np.float32)
+        m = self._read_metrics()
+        self._last_reward = reward(m, self.config.reward_type)
+        self._last = (observation, m)
+        return observation, self._info(m, sim_error=False)
 
     def step(self, action):
+        self._check_open()
+        if self._last is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        kind = np.asarray(action).dtype.kind
+        if kind not in "biuf":
+            what = "complex" if kind == "c" else f"{np.asarray(action).dtype} (not numbers)"
+            raise ValueError(f"action {action!r} is {what}; actions are real numbers in [-1, 1]")
         action = check_action(action, self.config.action_mode)
         context = self.simulator.get_mutable_context()
         self.action_port.FixValue(context, action)
@@ -192,16 +246,54 @@ class ToolPushEnv(DrakeGymEnv):
             self.simulator.AdvanceTo(context.get_time() + self.time_step)
         except RuntimeError:  # a simulation failure truncates the episode, with a flag
             sim_error = True
-        observation = np.asarray(self.observation_port.Eval(context), np.float32)
-        m = self._read_metrics()
-        self._last_reward = reward(m, self.config.reward_type)
+        observation, m = self._last
+        if not sim_error:
+            try:
+                observation = np.asarray(self.observation_port.Eval(context), np.float32)
+                m = self._read_metrics()
+            except RuntimeError:
+                sim_error = True
+            sim_error = sim_error or not (np.all(np.isfinite(observation)) and _finite(m))
+        if sim_error:  # the last finite state stands: no NaN reaches the learner
+            observation, m = self._last
+        else:
+            self._last = (observation, m)
+            self._last_reward = reward(m, self.config.reward_type)
         return (
             observation,
             self._last_reward,
-            bool(m.is_success),
+            bool(m.is_success) and not sim_error,
             sim_error,
             self._info(m, sim_error),
         )
+
+    def close(self) -> None:
+        """Frees the diagram (pydrake would keep its Python systems, and with them the whole
+        diagram, alive: `systems.lifetime`). The env cannot be used after."""
+        if self._closed:
+            return
+        self._closed = True
+        super().close()
+        diagram = getattr(self, "diagram", None)
+        if diagram is not None:
+            release_diagram(diagram)
+        for name in (
+            "diagram",
+            "simulator",
+            "_simulator",
+            "action_port",
+            "observation_port",
+            "render_rgb_port",
+            "world",
+            "control",
+            "ik_system",
+            "target_system",
+            "observation_system",
+            "visualizer",
+            "_metrics",
+        ):
+            if hasattr(self, name):
+                setattr(self, name, None)
 
     def render(self):
         """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
@@ -231,8 +323,9 @@ class ToolPushEnv(DrakeGymEnv):
     def _read_metrics(self):
         plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
         m = self._metrics.read(plant_context, self._episode["goal"], self._episode["box_start"])
-        self._episode["tool_touched"] |= m.tool_touches_box
-        self._episode["gripper_touched"] |= m.gripper_touches_box
+        if _finite(m):
+            self._episode["tool_touched"] |= m.tool_touches_box
+            self._episode["gripper_touched"] |= m.gripper_touches_box
         return m
 
     def _info(self, m, sim_error: bool) -> dict:
@@ -245,6 +338,10 @@ class ToolPushEnv(DrakeGymEnv):
             "gripper_touches_box": m.gripper_touches_box,
             "tool_touched_box_in_episode": self._episode["tool_touched"],
             "gripper_touched_box_in_episode": self._episode["gripper_touched"],
-            "ik_ok": self.control.ik_ok(self.simulator.get_context()),
+            "ik_ok": bool(self.control.ik_ok(self.simulator.get_context())) and not sim_error,
             "sim_error": sim_error,
         }
+
+
+def _finite(m) -> bool:
+    return all(np.isfinite(v) for v in (m.box_to_goal, m.tip_to_box, m.box_travel))

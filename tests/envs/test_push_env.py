@@ -136,7 +136,7 @@ def test_out_of_bounds_actions_are_clipped():
             {"ik_mode": "fast"},
             r"ik_mode='fast' is not allowed; choose one of \['full', 'differential'\]",
         ),
-        ({"tool_length": 0.9}, r"tool length=0.9 m is outside the allowed range \(0, 0.6\]"),
+        ({"tool_length": 0.9}, r"tool_length=0.9 m is outside the allowed range \(0, 0.6\]"),
     ],
 )
 def test_bad_kwargs_list_what_is_allowed(kwargs, message):
