@@ -43,7 +43,7 @@ need = ["drake_tooluse/models/package.xml", "drake_tooluse/models/baxter/baxter.
         "drake_tooluse/scenarios/push.yaml", "drake_tooluse/scenarios/reality.yaml",
         "drake_tooluse/paths.py"]
 need += [f"drake_tooluse/models/policies/{p}/{f}" for p in ("ppo_toolpush", "ppo_toolpush_tip")
-         for f in ("policy.json", "policy.zip", "vecnormalize.pkl", "metrics.json")]
+         for f in ("policy.json", "policy.safetensors", "normalization.json", "metrics.json")]
 missing = [n for n in need if n not in names]
 if not any(n.startswith("drake_tooluse/") and "/hyperparams/" in n and n.endswith(".yaml") for n in names):
     missing.append("drake_tooluse/**/hyperparams/*.yaml")

@@ -2,20 +2,30 @@
 
 Hyperparameters live in YAML beside the code (`learning/hyperparams/<algo>.yaml`, an entry per
 env id over a `default` one, as rl-zoo keeps them); `resolve_config` merges them with the
-command's overrides into a `TrainConfig`.
+command's overrides into a `TrainConfig` and checks every key and value before anything runs:
+an unknown key, one the algorithm does not take or a bad value is an error that names it.
 """
 
 from __future__ import annotations
 
+import inspect
+import json
+import math
 from dataclasses import asdict, dataclass
 
-import yaml
+import stable_baselines3 as sb3
+from sb3_contrib import TRPO
 
+from drake_tooluse.envs.push_env import check_env_kwargs
 from drake_tooluse.envs.registration import ENV_IDS
+from drake_tooluse.files import read_yaml
 from drake_tooluse.paths import HYPERPARAMS_DIR
+from drake_tooluse.validation import check_bool, check_int, check_mapping, check_seed
 
-ALGOS = ("ppo", "a2c", "ddpg", "trpo")
+ALGORITHMS = {"ppo": sb3.PPO, "a2c": sb3.A2C, "ddpg": sb3.DDPG, "trpo": TRPO}
+ALGOS = tuple(ALGORITHMS)
 OFF_POLICY = ("ddpg",)
+POLICIES = ("MlpPolicy",)
 # Keys of a hyperparameter entry that are not the algorithm's own arguments.
 RUN_KEYS = (
     "n_envs",
@@ -27,6 +37,21 @@ RUN_KEYS = (
     "checkpoint_freq",
     "eval_episodes",
 )
+# Arguments of the algorithms that the run sets itself (or that JSON cannot give).
+_NOT_HYPERPARAMETERS = {
+    "self",
+    "policy",
+    "env",
+    "seed",
+    "device",
+    "verbose",
+    "tensorboard_log",
+    "_init_setup_model",
+    "action_noise",
+    "rollout_buffer_class",
+    "replay_buffer_class",
+}
+MAX_TIMESTEPS = 10**10
 
 
 def check_algo(algo: str) -> str:
@@ -41,14 +66,64 @@ def check_env_id(env_id: str) -> str:
     return env_id
 
 
+def algorithm_arguments(algo: str) -> list[str]:
+    """The hyperparameters `algo`'s class takes (its constructor's arguments the run does not
+    set itself)."""
+    parameters = inspect.signature(ALGORITHMS[check_algo(algo)].__init__).parameters
+    return sorted(set(parameters) - _NOT_HYPERPARAMETERS)
+
+
+def check_hyperparams(algo: str, hp, name: str = "hyperparameters") -> dict:
+    """A hyperparameter entry for `algo`, every key known and every run key's value checked;
+    algorithm arguments are passed on as given (their class checks their values)."""
+    hp = dict(check_mapping(hp, name))
+    allowed = algorithm_arguments(algo)
+    unknown = sorted(k for k in hp if k not in RUN_KEYS and k not in allowed)
+    if unknown:
+        raise ValueError(
+            f"unknown hyperparameter(s) {unknown} for {algo} in {name}; allowed: the run's "
+            f"{list(RUN_KEYS)} and {algo}'s {allowed}"
+        )
+    for key in ("eval_freq", "checkpoint_freq", "eval_episodes"):
+        if key in hp:
+            check_int(hp[key], 1, MAX_TIMESTEPS, f"{name}: {key}")
+    if "n_envs" in hp:
+        check_int(hp["n_envs"], 1, 64, f"{name}: n_envs")
+    if "normalize" in hp:
+        check_bool(hp["normalize"], f"{name}: normalize")
+    if "policy" in hp and hp["policy"] not in POLICIES:
+        raise ValueError(
+            f"{name}: policy={hp['policy']!r} is not allowed; choose one of {POLICIES}"
+        )
+    if "noise_std" in hp:
+        x = hp["noise_std"]
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x <= 10:
+            raise ValueError(f"{name}: noise_std={x!r} is outside the allowed range (0, 10]")
+    if "env_kwargs" in hp:
+        hp["env_kwargs"] = check_env_kwargs(hp["env_kwargs"], f"{name}: env_kwargs")
+    if "policy_kwargs" in hp:
+        check_mapping(hp["policy_kwargs"], f"{name}: policy_kwargs")
+    try:
+        json.dumps(hp, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ValueError(
+            f"{name} must be plain JSON values (numbers, strings, lists): {e}"
+        ) from None
+    for key, value in hp.items():
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"{name}: {key}={value} must be finite")
+    return hp
+
+
 def load_hyperparams(algo: str, env_id: str) -> dict:
     """The YAML entry for `env_id` (or `default`) of `hyperparams/<algo>.yaml`."""
     check_algo(algo)
     check_env_id(env_id)
-    table = yaml.safe_load((HYPERPARAMS_DIR / f"{algo}.yaml").read_text())
+    path = HYPERPARAMS_DIR / f"{algo}.yaml"
+    table = read_yaml(path, "hyperparameter file") or {}
     entry = dict(table.get("default", {}))
     entry.update(table.get(env_id, {}))
-    return entry
+    return check_hyperparams(algo, entry, str(path))
 
 
 @dataclass
@@ -68,6 +143,19 @@ class TrainConfig:
         return d
 
 
+def config_differences(saved: dict, asked: dict, prefix: str = "") -> list[str]:
+    """The keys (dotted) whose values differ between two configurations, each with both."""
+    out = []
+    for key in sorted(set(saved) | set(asked), key=str):
+        a, b = saved.get(key, "<unset>"), asked.get(key, "<unset>")
+        name = f"{prefix}{key}"
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += config_differences(a, b, name + ".")
+        elif a != b:
+            out.append(f"{name}: saved {a!r}, asked {b!r}")
+    return out
+
+
 def resolve_config(
     env_id: str,
     algo: str,
@@ -79,14 +167,10 @@ def resolve_config(
 ) -> TrainConfig:
     check_env_id(env_id)
     check_algo(algo)
-    if timesteps < 1:
-        raise ValueError(f"timesteps={timesteps} must be at least 1")
+    check_int(timesteps, 1, MAX_TIMESTEPS, "timesteps")
+    check_seed(seed, "seed")
     hp = load_hyperparams(algo, env_id)
-    hp.update(overrides or {})
-    n = int(n_envs if n_envs is not None else hp.get("n_envs", 1))
-    if not 1 <= n <= 64:
-        raise ValueError(f"n_envs={n} is outside the allowed range [1, 64]")
+    hp.update(check_hyperparams(algo, overrides, "hyperparameter overrides"))
+    n = check_int(n_envs if n_envs is not None else hp.get("n_envs", 1), 1, 64, "n_envs")
     hp["n_envs"] = n
-    if seed < 0:
-        raise ValueError(f"seed={seed} must be a non-negative integer")
     return TrainConfig(env_id, algo, int(timesteps), n, int(seed), hp, init_from)

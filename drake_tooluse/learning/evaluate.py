@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 import gymnasium as gym
 import numpy as np
 
-from drake_tooluse.learning.config import check_env_id
-from drake_tooluse.learning.policy_dir import check_policy_matches, load_policy
+from drake_tooluse.learning.policy_dir import check_policy_env, check_policy_matches, load_policy
+from drake_tooluse.validation import check_int, check_seed
 
 
 @dataclass
@@ -23,17 +23,22 @@ class EvalResult:
     episode_length_mean: float
     tool_touched_rate: float
     gripper_touched_rate: float
+    # Episodes the simulation failed in (truncated with finite values; counted as failures).
+    sim_errors: int = 0
     per_episode: list = field(default_factory=list)
 
 
-def make_policy_env(policy_dir, env_id: str | None = None, env_kwargs: dict | None = None):
+def make_policy_env(
+    policy_dir,
+    env_id: str | None = None,
+    env_kwargs: dict | None = None,
+    trust_pickle: bool = False,
+):
     """Loads a policy directory and makes the env it acts in: its own env id and kwargs
-    unless `env_id` / `env_kwargs` override them. The policy's spaces must fit the env's.
-    Returns (policy, env)."""
-    policy = load_policy(policy_dir)
-    env_id = check_env_id(env_id or policy.meta.env_id)
-    kwargs = dict(policy.meta.env_kwargs)
-    kwargs.update(env_kwargs or {})
+    unless `env_id` / `env_kwargs` override them (`check_policy_env`: the id registered, the
+    kwargs valid, the spaces the policy's). Returns (policy, env)."""
+    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    env_id, kwargs = check_policy_env(policy, env_id, env_kwargs)
     env = gym.make(env_id, **kwargs)
     check_policy_matches(policy, env)
     return policy, env
@@ -62,26 +67,31 @@ def evaluate(
     episodes: int = 100,
     seed: int = 0,
     env_kwargs: dict | None = None,
+    trust_pickle: bool = False,
 ) -> EvalResult:
-    """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …"""
-    if episodes < 1:
-        raise ValueError(f"episodes={episodes} must be at least 1")
-    policy, env = make_policy_env(policy_dir, env_id, env_kwargs)
+    """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …; an
+    episode the simulation failed in counts as a failure and in `sim_errors`."""
+    check_int(episodes, 1, 1_000_000, "episodes")
+    check_seed(seed, "seed", episodes)
+    policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
     rows = []
-    for ep in range(episodes):
-        info, steps = run_episode(env, policy, seed + ep)
-        rows.append(
-            {
-                "seed": seed + ep,
-                "final_box_to_goal_m": info["box_to_goal"],
-                "success": bool(info["is_success"]),
-                "box_travel_m": info["box_travel"],
-                "length": steps,
-                "tool_touched": info["tool_touched_box_in_episode"],
-                "gripper_touched": info["gripper_touched_box_in_episode"],
-            }
-        )
-    env.close()
+    try:
+        for ep in range(episodes):
+            info, steps = run_episode(env, policy, seed + ep)
+            rows.append(
+                {
+                    "seed": seed + ep,
+                    "final_box_to_goal_m": info["box_to_goal"],
+                    "success": bool(info["is_success"]) and not info["sim_error"],
+                    "box_travel_m": info["box_travel"],
+                    "length": steps,
+                    "tool_touched": info["tool_touched_box_in_episode"],
+                    "gripper_touched": info["gripper_touched_box_in_episode"],
+                    "sim_error": bool(info["sim_error"]),
+                }
+            )
+    finally:
+        env.close()
     d = np.array([r["final_box_to_goal_m"] for r in rows])
     return EvalResult(
         episodes=episodes,
@@ -94,5 +104,6 @@ def evaluate(
         episode_length_mean=float(np.mean([r["length"] for r in rows])),
         tool_touched_rate=float(np.mean([r["tool_touched"] for r in rows])),
         gripper_touched_rate=float(np.mean([r["gripper_touched"] for r in rows])),
+        sim_errors=sum(r["sim_error"] for r in rows),
         per_episode=rows,
     )

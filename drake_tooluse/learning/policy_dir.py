@@ -1,25 +1,53 @@
-"""The policy-directory format: a trained policy and what it needs to run.
+"""The policy-directory format: a trained policy and what it needs to run, loaded without
+running any code from its files.
 
-A policy directory holds `policy.zip` (the SB3 model), `vecnormalize.pkl` (observation
-normalisation, when used) and `policy.json` (`PolicyMeta`: env id, env kwargs, algorithm,
-spaces, the command that trained it).
+A policy directory holds:
+
+| file | what |
+| --- | --- |
+| `policy.json` | `PolicyMeta`: env id and kwargs, algorithm, policy class and kwargs, spaces, normalised or not, the command that trained it |
+| `policy.safetensors` | the policy network's weights (safetensors: tensors and a JSON header, nothing executable) |
+| `normalization.json` | the observation normalisation (`VecNormalize`'s running mean and variance, clip, epsilon), when normalised |
+
+Loading rebuilds the stable-baselines3 model from the algorithm's class and the spaces in
+`policy.json` and loads the weights into it; it checks the files against each other (the
+algorithm and spaces the weights were saved with, the normaliser's size, `normalized`) and
+against the env they name. Directories in the format before this one (`policy.zip`, an SB3
+zip with cloudpickled entries, and `vecnormalize.pkl`, a pickle) can run code when they are
+loaded: `load_policy` refuses them unless told `trust_pickle=True` (`--trust-pickle`), and
+`convert_policy` rewrites one in this format.
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses as dc
 import json
 import pickle
-from dataclasses import asdict, dataclass
+import zipfile
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
-import stable_baselines3 as sb3
-from sb3_contrib import TRPO
+from safetensors import SafetensorError
+from safetensors.torch import load_file, save_file
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-from drake_tooluse.files import atomic_dir
-from drake_tooluse.learning.config import check_algo
+from drake_tooluse.envs.push_env import check_env_kwargs, env_spaces
+from drake_tooluse.files import atomic_dir, to_json
+from drake_tooluse.learning.config import ALGORITHMS, OFF_POLICY, check_algo, check_env_id
 
-ALGORITHMS = {"ppo": sb3.PPO, "a2c": sb3.A2C, "ddpg": sb3.DDPG, "trpo": TRPO}
+FORMAT = 2
+META = "policy.json"
+WEIGHTS = "policy.safetensors"
+NORMALIZATION = "normalization.json"
+LEGACY_MODEL = "policy.zip"
+LEGACY_NORMALIZATION = "vecnormalize.pkl"
+MAX_JSON_BYTES = 1 << 20  # a policy.json or normalization.json is a few kB
+TRUST_HINT = (
+    "convert it once with `drake-tooluse convert-policy --policy DIR --out NEW --trust-pickle`, "
+    "or load it with --trust-pickle (trust_pickle=True) if you trust where it comes from"
+)
 
 
 def algorithm_class(algo: str):
@@ -27,7 +55,7 @@ def algorithm_class(algo: str):
     return ALGORITHMS[check_algo(algo)]
 
 
-@dataclass
+@dc.dataclass
 class PolicyMeta:
     env_id: str
     algo: str
@@ -37,19 +65,168 @@ class PolicyMeta:
     normalized: bool
     trained_timesteps: int = 0
     command: str = ""
+    policy: str = "MlpPolicy"
+    policy_kwargs: dict = dc.field(default_factory=dict)
+    # For a best policy: the evaluation that chose it ({"timesteps", "mean_reward", "episodes"}).
+    evaluation: dict | None = None
+    format: int = FORMAT
 
 
-def save_policy(model, vec_normalize, meta: PolicyMeta, directory: Path) -> Path:
-    """Writes a policy directory atomically (into a temporary sibling, then renamed)."""
+def _read_json(path: Path, what: str):
+    size = path.stat().st_size
+    if size > MAX_JSON_BYTES:
+        raise ValueError(f"{what} {str(path)!r} is {size / 2**20:.1f} MB; it is at most 1 MB")
+    try:
+        return json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"corrupt {what} {str(path)!r}: {e}") from None
+
+
+def _shape(value, name: str, path: Path) -> list:
+    if (
+        not isinstance(value, list)
+        or len(value) != 1
+        or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
+    ):
+        raise ValueError(f"{str(path)!r}: {name}={value!r} must be a list of one positive integer")
+    return value
+
+
+def parse_meta(raw, path: Path) -> PolicyMeta:
+    """A `PolicyMeta` from policy.json's contents, every field checked; errors name the file."""
+    if not isinstance(raw, dict):
+        raise ValueError(f"corrupt policy metadata {str(path)!r}: not a JSON object")
+    names = [f.name for f in dc.fields(PolicyMeta)]
+    unknown = sorted(set(raw) - set(names))
+    missing = [f.name for f in dc.fields(PolicyMeta) if f.name not in raw and _required(f)]
+    if unknown or missing:
+        raise ValueError(
+            f"corrupt policy metadata {str(path)!r}: "
+            + "; ".join(
+                ([f"unknown keys {unknown}"] if unknown else [])
+                + ([f"missing keys {missing}"] if missing else [])
+            )
+            + f" (keys: {names})"
+        )
+    raw = dict(raw)
+    raw.setdefault("format", 1)  # files without it are the format before this one
+    meta = PolicyMeta(**raw)
+    where = f"{str(path)!r}: "
+    try:
+        check_env_id(meta.env_id)
+        check_algo(meta.algo)
+        meta.env_kwargs = check_env_kwargs(meta.env_kwargs, "env_kwargs")
+    except ValueError as e:
+        raise ValueError(where + str(e)) from None
+    _shape(meta.observation_shape, "observation_shape", path)
+    _shape(meta.action_shape, "action_shape", path)
+    for name in ("normalized",):
+        if not isinstance(getattr(meta, name), bool):
+            raise ValueError(where + f"{name}={getattr(meta, name)!r} must be true or false")
+    if not isinstance(meta.trained_timesteps, int) or meta.trained_timesteps < 0:
+        raise ValueError(where + f"trained_timesteps={meta.trained_timesteps!r} must be >= 0")
+    if not isinstance(meta.command, str) or not isinstance(meta.policy, str):
+        raise ValueError(where + "command and policy must be strings")
+    if not isinstance(meta.policy_kwargs, dict):
+        raise ValueError(where + f"policy_kwargs={meta.policy_kwargs!r} must be a mapping")
+    if meta.format not in (1, FORMAT):
+        raise ValueError(where + f"format={meta.format!r} is not one this version reads (1, 2)")
+    obs, act = env_spaces(meta.env_kwargs)
+    if meta.observation_shape != obs or meta.action_shape != act:
+        raise ValueError(
+            where + f"observation_shape {meta.observation_shape} and action_shape "
+            f"{meta.action_shape} do not fit its env_kwargs {meta.env_kwargs}, whose env "
+            f"observes {obs} and acts {act}"
+        )
+    return meta
+
+
+def _required(field: dc.Field) -> bool:
+    return field.default is dc.MISSING and field.default_factory is dc.MISSING
+
+
+# -- the model ------------------------------------------------------------------------------
+
+
+def spaces_of(meta: PolicyMeta) -> tuple[gym.spaces.Box, gym.spaces.Box]:
+    """The observation and action spaces of a policy (as the push envs declare them)."""
+    return (
+        gym.spaces.Box(-np.inf, np.inf, tuple(meta.observation_shape), np.float32),
+        gym.spaces.Box(-1.0, 1.0, tuple(meta.action_shape), np.float32),
+    )
+
+
+def build_model(meta: PolicyMeta):
+    """A fresh stable-baselines3 model of `meta`'s algorithm, policy class and kwargs and spaces
+    (no env: for acting and for its weights), as SB3's own `load` builds one."""
+    cls = algorithm_class(meta.algo)
+    extra = {"buffer_size": 1} if meta.algo in OFF_POLICY else {}
+    model = cls(
+        meta.policy,
+        env=None,
+        device="cpu",
+        policy_kwargs=copy.deepcopy(meta.policy_kwargs) or None,
+        _init_setup_model=False,
+        **extra,
+    )
+    model.observation_space, model.action_space = spaces_of(meta)
+    model.n_envs = 1
+    try:
+        model._setup_model()
+    except (TypeError, ValueError, KeyError) as e:
+        raise ValueError(
+            f"cannot build a {meta.algo} {meta.policy} with policy_kwargs {meta.policy_kwargs}: {e}"
+        ) from None
+    return model
+
+
+def _normalization_dict(vec_normalize) -> dict:
+    rms = vec_normalize.obs_rms
+    out = {
+        "obs_mean": np.asarray(rms.mean, float).tolist(),
+        "obs_var": np.asarray(rms.var, float).tolist(),
+        "obs_count": float(rms.count),
+        "clip_obs": float(vec_normalize.clip_obs),
+        "epsilon": float(vec_normalize.epsilon),
+    }
+    ret = getattr(vec_normalize, "ret_rms", None)
+    if ret is not None:
+        out.update(
+            ret_mean=float(np.asarray(ret.mean)),
+            ret_var=float(np.asarray(ret.var)),
+            ret_count=float(ret.count),
+        )
+    return out
+
+
+def save_policy(
+    model, vec_normalize, meta: PolicyMeta, directory: Path, extra_files: dict | None = None
+) -> Path:
+    """Writes a policy directory atomically (into a temporary sibling, then renamed or swapped
+    in): `policy.json`, `policy.safetensors` and, normalised, `normalization.json`, and the
+    `extra_files` ({name: bytes}) beside them."""
+    meta = dc.replace(meta, format=FORMAT, normalized=vec_normalize is not None)
+    tensors = {
+        k: v.detach().cpu().clone().contiguous() for k, v in model.policy.state_dict().items()
+    }
+    header = {
+        "format": "drake_tooluse.policy",
+        "version": str(FORMAT),
+        "algo": meta.algo,
+        "observation_shape": json.dumps(meta.observation_shape),
+        "action_shape": json.dumps(meta.action_shape),
+    }
     with atomic_dir(directory, replace=True) as tmp:
-        model.save(tmp / "policy.zip")
+        save_file(tensors, str(tmp / WEIGHTS), metadata=header)
         if vec_normalize is not None:
-            vec_normalize.save(str(tmp / "vecnormalize.pkl"))
-        (tmp / "policy.json").write_text(json.dumps(asdict(meta), indent=2) + "\n")
+            (tmp / NORMALIZATION).write_text(to_json(_normalization_dict(vec_normalize)) + "\n")
+        (tmp / META).write_text(to_json(dc.asdict(meta)) + "\n")
+        for name, data in (extra_files or {}).items():
+            (tmp / name).write_bytes(data)
     return Path(directory)
 
 
-@dataclass
+@dc.dataclass
 class LoadedPolicy:
     model: object
     meta: PolicyMeta
@@ -67,44 +244,270 @@ class LoadedPolicy:
         ).astype(np.float32)
 
     def act(self, obs) -> np.ndarray:
-        action, _ = self.model.predict(
-            self.normalize(np.asarray(obs, np.float32)), deterministic=True
-        )
+        obs = np.asarray(obs, np.float32)
+        if list(obs.shape) != list(self.meta.observation_shape):
+            raise ValueError(
+                f"the policy observes {self.meta.observation_shape[0]} values; this "
+                f"observation has shape {list(obs.shape)}"
+            )
+        action, _ = self.model.predict(self.normalize(obs), deterministic=True)
         return action
 
 
-def load_policy(directory) -> LoadedPolicy:
-    """Loads a policy directory; a missing or corrupt file is a clear error."""
-    directory = Path(directory)
-    meta_path = directory / "policy.json"
-    if not directory.is_dir() or not meta_path.is_file():
+def _read_normalization(path: Path, meta: PolicyMeta):
+    raw = _read_json(path, "normalisation")
+    try:
+        mean = np.asarray(raw["obs_mean"], float)
+        var = np.asarray(raw["obs_var"], float)
+        clip_obs, epsilon = float(raw["clip_obs"]), float(raw["epsilon"])
+        count = float(raw.get("obs_count", 1.0))
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(
+            f"corrupt normalisation {str(path)!r}: {e} (it needs obs_mean, obs_var, clip_obs, "
+            "epsilon)"
+        ) from None
+    if list(mean.shape) != meta.observation_shape or var.shape != mean.shape:
+        raise ValueError(
+            f"{str(path)!r} normalises {list(mean.shape)} / {list(var.shape)} values but the "
+            f"policy observes {meta.observation_shape}"
+        )
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(var)) and np.all(var >= 0)):
+        raise ValueError(f"{str(path)!r}: obs_mean and obs_var must be finite, obs_var >= 0")
+    if not (np.isfinite(clip_obs) and clip_obs > 0 and np.isfinite(epsilon) and epsilon > 0):
+        raise ValueError(f"{str(path)!r}: clip_obs and epsilon must be positive")
+    rms = RunningMeanStd(shape=tuple(mean.shape))
+    rms.mean, rms.var, rms.count = mean, var, count
+    return rms, clip_obs, epsilon
+
+
+def _load_weights(directory: Path, meta: PolicyMeta):
+    path = directory / WEIGHTS
+    try:
+        tensors = load_file(str(path), device="cpu")
+        with open(path, "rb") as f:  # the header: 8 bytes of length, then JSON
+            n = int.from_bytes(f.read(8), "little")
+            header = json.loads(f.read(n)).get("__metadata__", {}) if n < MAX_JSON_BYTES else {}
+    except (SafetensorError, OSError, ValueError) as e:
+        raise ValueError(f"cannot load {str(path)!r}: {e}") from None
+    saved_algo = header.get("algo")
+    if saved_algo is not None and saved_algo != meta.algo:
+        raise ValueError(
+            f"{str(directory / META)!r} says algo {meta.algo!r} but {str(path)!r} holds a "
+            f"{saved_algo!r} policy"
+        )
+    for name in ("observation_shape", "action_shape"):
+        if name in header and json.loads(header[name]) != getattr(meta, name):
+            raise ValueError(
+                f"{str(directory / META)!r} says {name} {getattr(meta, name)} but "
+                f"{str(path)!r} was saved for {json.loads(header[name])}"
+            )
+    model = build_model(meta)
+    _set_weights(model, tensors, path, meta)
+    return model
+
+
+def _set_weights(model, tensors: dict, path, meta: PolicyMeta) -> None:
+    expected = model.policy.state_dict()
+    missing = sorted(set(expected) - set(tensors))
+    unexpected = sorted(set(tensors) - set(expected))
+    wrong = [
+        f"{k}: file {list(tensors[k].shape)}, the policy {list(expected[k].shape)}"
+        for k in expected
+        if k in tensors and tensors[k].shape != expected[k].shape
+    ]
+    if missing or unexpected or wrong:
+        detail = "; ".join(
+            ([f"missing {missing[:4]}"] if missing else [])
+            + ([f"unexpected {unexpected[:4]}"] if unexpected else [])
+            + wrong[:4]
+        )
+        raise ValueError(
+            f"the weights in {str(path)!r} do not fit a {meta.algo} {meta.policy} "
+            f"(policy_kwargs {meta.policy_kwargs}) for observations {meta.observation_shape} "
+            f"and actions {meta.action_shape}: {detail}"
+        )
+    model.policy.load_state_dict(tensors, strict=True)
+    model.policy.set_training_mode(False)
+
+
+def _legacy_algo(zip_path: Path) -> str | None:
+    """The algorithm an SB3 zip was saved by, from the names in its `data` (plain JSON; the
+    cloudpickled values in it are not read)."""
+    try:
+        with zipfile.ZipFile(zip_path) as z:
+            keys = set(json.loads(z.read("data")))
+    except (zipfile.BadZipFile, KeyError, OSError, ValueError):
+        return None
+    if "cg_max_steps" in keys:
+        return "trpo"
+    if "clip_range" in keys:
+        return "ppo"
+    if "tau" in keys:
+        return "ddpg"
+    if "n_steps" in keys:
+        return "a2c"
+    return None
+
+
+def _load_legacy(directory: Path, meta: PolicyMeta) -> LoadedPolicy:
+    """The format before this one: an SB3 zip and a pickled VecNormalize (trusted)."""
+    zip_path = directory / LEGACY_MODEL
+    if not zip_path.is_file():
         raise FileNotFoundError(
-            f"{str(directory)!r} is not a policy directory (it needs "
-            "policy.json, policy.zip and, if normalised, vecnormalize.pkl)"
+            f"{str(directory)!r} has no {WEIGHTS} (nor the older {LEGACY_MODEL})"
+        )
+    saved_algo = _legacy_algo(zip_path)
+    if saved_algo is not None and saved_algo != meta.algo:
+        raise ValueError(
+            f"{str(directory / META)!r} says algo {meta.algo!r} but {str(zip_path)!r} was "
+            f"saved by {saved_algo!r}"
         )
     try:
-        meta = PolicyMeta(**json.loads(meta_path.read_text()))
-    except (json.JSONDecodeError, TypeError) as e:
-        raise ValueError(f"corrupt policy metadata {str(meta_path)!r}: {e}") from None
-    try:
-        model = algorithm_class(meta.algo).load(directory / "policy.zip", device="cpu")
+        model = algorithm_class(meta.algo).load(zip_path, device="cpu")
     except Exception as e:  # SB3 raises several kinds on a damaged zip
-        raise ValueError(f"cannot load {str(directory / 'policy.zip')!r}: {e}") from None
+        raise ValueError(f"cannot load {str(zip_path)!r}: {e}") from None
+    for name, space in (("observation", model.observation_space), ("action", model.action_space)):
+        shape = list(getattr(space, "shape", None) or [])
+        if shape != getattr(meta, f"{name}_shape"):
+            raise ValueError(
+                f"{str(directory / META)!r} says {name}_shape {getattr(meta, f'{name}_shape')} "
+                f"but {str(zip_path)!r} holds a model for {name}s {shape}"
+            )
     loaded = LoadedPolicy(model, meta)
+    pkl = directory / LEGACY_NORMALIZATION
+    if meta.normalized != pkl.is_file():
+        raise ValueError(_normalized_mismatch(directory, meta, pkl))
     if meta.normalized:
         try:
-            with open(directory / "vecnormalize.pkl", "rb") as f:
+            with open(pkl, "rb") as f:
                 vec_normalize = pickle.load(f)
-        except (OSError, pickle.UnpicklingError, EOFError) as e:
-            raise ValueError(f"cannot load the normalisation of {str(directory)!r}: {e}") from None
-        loaded.obs_rms = vec_normalize.obs_rms
+            rms = vec_normalize.obs_rms
+        except Exception as e:  # a pickle can fail in any way
+            raise ValueError(f"cannot load the normalisation {str(pkl)!r}: {e}") from None
+        if list(np.shape(rms.mean)) != meta.observation_shape:
+            raise ValueError(
+                f"{str(pkl)!r} normalises {list(np.shape(rms.mean))} values but the policy "
+                f"observes {meta.observation_shape}"
+            )
+        loaded.obs_rms = rms
         loaded.clip_obs = vec_normalize.clip_obs
         loaded.epsilon = vec_normalize.epsilon
     return loaded
 
 
+def _normalized_mismatch(directory: Path, meta: PolicyMeta, path: Path) -> str:
+    if meta.normalized:
+        return (
+            f"{str(directory / META)!r} says normalized: true but {path.name} is missing: the "
+            "policy would see raw observations"
+        )
+    return (
+        f"{str(directory / META)!r} says normalized: false but {str(path)!r} is there: the "
+        "policy was trained on normalised observations (fix policy.json or remove the file)"
+    )
+
+
+def pickle_files(directory) -> list[str]:
+    """The files of a policy directory that are (or hold) pickles."""
+    directory = Path(directory)
+    return [n for n in (LEGACY_MODEL, LEGACY_NORMALIZATION) if (directory / n).exists()]
+
+
+def load_policy(directory, trust_pickle: bool = False) -> LoadedPolicy:
+    """Loads a policy directory. No code in its files runs: the weights are safetensors, the
+    rest JSON. A directory in the older pickle format is refused unless `trust_pickle`. A
+    missing, corrupt or inconsistent file is a clear error naming it."""
+    directory = Path(directory)
+    meta_path = directory / META
+    if not directory.is_dir() or not meta_path.is_file():
+        raise FileNotFoundError(
+            f"{str(directory)!r} is not a policy directory (it needs {META}, {WEIGHTS} and, if "
+            f"normalised, {NORMALIZATION})"
+        )
+    meta = parse_meta(_read_json(meta_path, "policy metadata"), meta_path)
+    if not (directory / WEIGHTS).is_file():
+        legacy = pickle_files(directory)
+        if not legacy:
+            raise FileNotFoundError(f"{str(directory)!r} has no {WEIGHTS}: not a policy directory")
+        if not trust_pickle:
+            raise ValueError(
+                f"{str(directory)!r} is in the older pickle format ({', '.join(legacy)}), whose "
+                f"files can run code when loaded; {TRUST_HINT}"
+            )
+        return _load_legacy(directory, meta)
+    norm = directory / NORMALIZATION
+    if meta.normalized and not norm.is_file():
+        raise ValueError(_normalized_mismatch(directory, meta, norm))
+    for path in (norm, directory / LEGACY_NORMALIZATION):
+        if not meta.normalized and path.is_file():
+            raise ValueError(_normalized_mismatch(directory, meta, path))
+    loaded = LoadedPolicy(_load_weights(directory, meta), meta)
+    if meta.normalized:
+        loaded.obs_rms, loaded.clip_obs, loaded.epsilon = _read_normalization(norm, meta)
+    return loaded
+
+
+def convert_policy(source, target, trust_pickle: bool = False) -> Path:
+    """Rewrites a policy directory of the older pickle format (`policy.zip`,
+    `vecnormalize.pkl`) in this one, into `target` (a new directory, or `source` itself; its
+    other files, such as metrics.json, go along). Loading the old files runs their pickles:
+    `trust_pickle` must be given."""
+    source, target = Path(source), Path(target)
+    if not trust_pickle:
+        raise ValueError(
+            f"converting {str(source)!r} loads its pickles, which can run code: pass "
+            "--trust-pickle (trust_pickle=True) if you trust where it comes from"
+        )
+    in_place = target.exists() and source.resolve() == target.resolve()
+    if not in_place and target.exists() and (not target.is_dir() or any(target.iterdir())):
+        raise FileExistsError(f"{str(target)!r} exists and is not empty; give a new directory")
+    old = load_policy(source, trust_pickle=True)
+    meta = dc.replace(old.meta, policy_kwargs=dict(old.model.policy_kwargs or {}))
+    try:
+        json.dumps(meta.policy_kwargs)
+    except TypeError:
+        raise ValueError(
+            f"{str(source)!r}: policy_kwargs {meta.policy_kwargs} hold a Python object "
+            "(a class?), which this format cannot store"
+        ) from None
+    skip = (META, WEIGHTS, NORMALIZATION, LEGACY_MODEL, LEGACY_NORMALIZATION)
+    extra = {p.name: p.read_bytes() for p in source.iterdir() if p.is_file() and p.name not in skip}
+    normalizer = None
+    if old.obs_rms is not None:
+        normalizer = _Normalizer(old.obs_rms, old.clip_obs, old.epsilon)
+    return save_policy(old.model, normalizer, meta, target, extra_files=extra)
+
+
+@dc.dataclass
+class _Normalizer:
+    """What `save_policy` reads of a VecNormalize."""
+
+    obs_rms: object
+    clip_obs: float
+    epsilon: float
+    ret_rms: object = None
+
+
+def check_policy_env(policy: LoadedPolicy, env_id: str | None = None, env_kwargs=None):
+    """The env a policy acts in, checked the same way by every command: `env_id` (default the
+    policy's) must be a registered id, the policy's env kwargs updated with `env_kwargs` must be
+    valid, and that env's spaces must be the policy's. Returns (env_id, env_kwargs)."""
+    env_id = check_env_id(env_id or policy.meta.env_id)
+    kwargs = dict(policy.meta.env_kwargs)
+    kwargs.update(check_env_kwargs(env_kwargs, "env kwargs"))
+    kwargs = check_env_kwargs(kwargs, "env kwargs")
+    obs, act = env_spaces(kwargs)
+    if policy.meta.observation_shape != obs or policy.meta.action_shape != act:
+        raise ValueError(
+            f"the policy was trained for observations {policy.meta.observation_shape} and "
+            f"actions {policy.meta.action_shape}, but this env has observations {obs} and "
+            f"actions {act} (check action_mode / observation_mode / include_tool_length)"
+        )
+    return env_id, kwargs
+
+
 def check_policy_matches(policy: LoadedPolicy, env) -> None:
-    """The policy's spaces must be the env's."""
+    """The policy's spaces must be the (built) env's."""
     obs, act = list(env.observation_space.shape), list(env.action_space.shape)
     if policy.meta.observation_shape != obs or policy.meta.action_shape != act:
         raise ValueError(

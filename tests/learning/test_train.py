@@ -32,7 +32,8 @@ def test_smoke_run_per_algorithm(algo, tmp_path):
     summary = train(config, tmp_path / "run", progress_bar=False)
     assert summary["timesteps"] >= 1000
     for sub in ("final", "best"):
-        assert (tmp_path / "run" / sub / "policy.zip").is_file()
+        assert (tmp_path / "run" / sub / "policy.safetensors").is_file()
+        assert not list((tmp_path / "run" / sub).glob("*.pkl"))
     assert (tmp_path / "run" / "logs" / "progress.csv").is_file()
     assert list((tmp_path / "run" / "logs").glob("events.out.tfevents.*"))
     policy = load_policy(tmp_path / "run" / "final")
@@ -89,9 +90,13 @@ def test_resume_after_sigkill_loses_at_most_one_checkpoint_interval(tmp_path):
 
 
 def test_a_hyperparameter_the_algorithm_does_not_take(tmp_path):
-    config = resolve_config(ENV, "a2c", 100, 1, 0, overrides={**TINY, "batch_size": 64})
-    with pytest.raises(ValueError, match="bad hyperparameters for a2c.*batch_size"):
+    with pytest.raises(ValueError, match=r"unknown hyperparameter\(s\) \['batch_size'\] for a2c"):
+        resolve_config(ENV, "a2c", 100, 1, 0, overrides={**TINY, "batch_size": 64})
+    # A value the algorithm refuses is found before anything is written.
+    config = resolve_config(ENV, "ppo", 100, 1, 0, overrides={**TINY, "n_steps": 1})
+    with pytest.raises(ValueError, match="bad hyperparameters for ppo"):
         train(config, tmp_path / "run", progress_bar=False)
+    assert not (tmp_path / "run" / "config.json").exists()
 
 
 def test_resume_with_different_hyperparameters_is_refused(tmp_path):
@@ -142,7 +147,10 @@ def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
     broken = tmp_path / "broken"
     broken.mkdir()
     (broken / "policy.json").write_text((Path(tiny_policy) / "policy.json").read_text())
-    (broken / "policy.zip").write_bytes(b"not a zip")
+    (broken / "normalization.json").write_text(
+        (Path(tiny_policy) / "normalization.json").read_text()
+    )
+    (broken / "policy.safetensors").write_bytes(b"not safetensors")
     with pytest.raises(ValueError, match="cannot load"):
         load_policy(broken)
 
@@ -155,7 +163,7 @@ def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
             "unknown algorithm 'sac'; choose one of ['ppo', 'a2c', 'ddpg', 'trpo']",
         ),
         (["train", "--env", "Nope-v0", "--out", "x"], "unknown env 'Nope-v0'; choose one of"),
-        (["train", "--timesteps", "0", "--out", "x"], "timesteps=0 must be at least 1"),
+        (["train", "--timesteps", "0", "--out", "x"], "--timesteps=0 is outside the allowed range"),
         (["train"], "give --out DIR for a new run"),
         (["evaluate", "--policy", "/nonexistent"], "is not a policy directory"),
     ],
