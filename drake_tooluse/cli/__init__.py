@@ -2,14 +2,26 @@
 
 Each group module adds its commands' parsers and imports the library only when a command
 runs, so `--help` and argument errors come fast. This is the one place where errors become
-exit codes and messages: 0 success, 2 an error (its message on stderr, and as
-`{"error": ...}` on stdout with `--json`). Nothing in the library imports this package.
+exit codes and messages, one line on stderr (and `{"error": ...}` on stdout with `--json`),
+never a traceback:
+
+| exit code | meaning |
+| --- | --- |
+| 0 | success |
+| 1 | an internal error (a bug: `DRAKE_TOOLUSE_TRACEBACK=1` shows its traceback) |
+| 2 | a usage error: a bad option, value, file or path, named in the message |
+| 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
+
+Output printed with `--json` is strict JSON (a non-finite number is `null`). Nothing in the
+library imports this package.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 
 from drake_tooluse.cli import experiments, learning, maintenance, measure, robot
@@ -19,10 +31,15 @@ DESCRIPTION = (
     "A Baxter robot that uses a straight tool of any length, in Drake: tool-tip IK, "
     "simulation, camera measurement, training, transfer."
 )
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EPILOG = (
+    "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
+    "or path), 130 interrupted"
+)
 
 
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="drake-tooluse", description=DESCRIPTION)
+    parser = argparse.ArgumentParser(prog="drake-tooluse", description=DESCRIPTION, epilog=EPILOG)
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_parsers(sub)
@@ -31,21 +48,58 @@ def make_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _strict(value):
+    """`value` with non-finite floats as None: JSON has no NaN or Infinity."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    return value
+
+
+def _one_line(text: str) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def _message(e: BaseException) -> str:
+    if isinstance(e, OSError) and e.filename is not None and e.strerror:
+        return f"{str(e.filename)!r}: {e.strerror}"
+    return _one_line(str(e)) or type(e).__name__
+
+
 def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
+
+    def fail(code: int, text: str) -> int:
+        if args.json:
+            print(json.dumps({"error": text, "exit_code": code}))
+        print(f"drake-tooluse {args.command}: error: {text}", file=sys.stderr)
+        return code
+
     try:
         out = args.run(args)
-    except (ValueError, FileNotFoundError, FileExistsError, RuntimeError) as e:
-        if args.json:
-            print(json.dumps({"error": str(e)}))
-        print(f"drake-tooluse {args.command}: error: {e}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        return fail(EXIT_INTERRUPTED, "interrupted")
+    except (ValueError, FileNotFoundError, FileExistsError, RuntimeError, OSError) as e:
+        # Every check at the boundary raises one of these, naming the value and what is allowed
+        # (OSError: a file or directory the system refused, named with the reason).
+        return fail(EXIT_USAGE, _message(e))
+    except Exception as e:  # a bug: one line, and the traceback on request
+        if os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):
+            raise
+        return fail(
+            EXIT_INTERNAL,
+            f"internal error {type(e).__name__}: {_message(e)} (a bug; set "
+            "DRAKE_TOOLUSE_TRACEBACK=1 to see where)",
+        )
     show = getattr(args, "show", None)
     if args.json or show is None:
-        print(json.dumps(out, indent=2))
+        print(json.dumps(_strict(out), indent=2, allow_nan=False))
     else:
         print(show(out))
-    return 0
+    return EXIT_OK
 
 
 if __name__ == "__main__":

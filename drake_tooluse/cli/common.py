@@ -82,13 +82,58 @@ def pose_dict(X) -> dict:
     }
 
 
-def parse_json_arg(text: str | None, name: str):
-    """A JSON option's value (None if not given); bad JSON is a usage error naming the option."""
+def parse_json_arg(text: str | None, name: str) -> dict | None:
+    """A JSON object option's value (None if not given); bad JSON, or JSON that is not an
+    object of names to values, is a usage error naming the option."""
     import json
 
     if not text:
         return None
     try:
-        return json.loads(text)
+        value = json.loads(text)
     except json.JSONDecodeError as e:
         raise UsageError(f"{name} is not valid JSON ({e}): {text!r}") from None
+    if not isinstance(value, dict):
+        raise UsageError(
+            f"{name} must be a JSON object of names to values, e.g. '{{\"key\": 1}}'; got {text!r}"
+        )
+    return value
+
+
+def seed_arg(value, option: str = "--seed", count: int = 1) -> int:
+    """A seed option: an integer in [0, 2**32 - 1] (with `count` runs or episodes, the last
+    seed, value + count - 1, too)."""
+    from drake_tooluse.validation import check_seed
+
+    return check_seed(value, option, count)
+
+
+def count_arg(value, option: str, lo: int = 1, hi: int = 1_000_000) -> int:
+    """A count option (episodes, runs, steps): an integer in [lo, hi]."""
+    from drake_tooluse.validation import check_int
+
+    return check_int(value, lo, hi, option)
+
+
+def output_dir_arg(path, option: str = "--out", must_be_new: bool = True):
+    """A directory a command writes, checked before any work (not a file, writable, new)."""
+    from drake_tooluse.files import check_output_dir
+
+    return check_output_dir(path, option, must_be_new)
+
+
+def output_file_arg(path, option: str, suffix: str | None = None):
+    """A file a command writes, checked before any work (not a directory, writable)."""
+    from drake_tooluse.files import check_output_file
+
+    return check_output_file(path, option, suffix)
+
+
+def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="load a policy directory of the older pickle format (policy.zip, vecnormalize.pkl); "
+        "its files can run code when loaded: only for files you trust. Convert it once with "
+        "`drake-tooluse convert-policy` instead",
+    )

@@ -5,8 +5,17 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from drake_tooluse.cli.common import (
+    add_trust_pickle_arg,
+    count_arg,
+    output_dir_arg,
+    output_file_arg,
+    seed_arg,
+)
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
+
+MAX_EPISODES = 100_000
 
 
 def cmd_trajectory(args) -> dict:
@@ -14,8 +23,20 @@ def cmd_trajectory(args) -> dict:
     from drake_tooluse.robot.model import check_tool_length
 
     length = check_tool_length(args.tool_length, "--tool-length")
+    episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    seed_arg(args.seed, "--seed", episodes)
+    count_arg(args.window, "--window", 1, 999)
+    output_dir_arg(args.out, "--out", must_be_new=False)
     start = time.perf_counter()
-    ex = extract(args.policy, args.episodes, args.seed, args.window, length, align=args.align)
+    ex = extract(
+        args.policy,
+        args.episodes,
+        args.seed,
+        args.window,
+        length,
+        align=args.align,
+        trust_pickle=args.trust_pickle,
+    )
     path = ex.reachability.kept.save(args.out / "trajectory.npz")
     figure = plot_extraction(ex, args.out / "trajectory.png")
     r = ex.reachability
@@ -33,15 +54,21 @@ def cmd_trajectory(args) -> dict:
 
 
 def cmd_export_csv(args) -> dict:
-    from drake_tooluse.experiments.baxter_csv import export_baxter_csv
+    from drake_tooluse.experiments.baxter_csv import (
+        check_clearance,
+        check_left_arm,
+        export_baxter_csv,
+    )
     from drake_tooluse.experiments.trajectory import filter_reachable
     from drake_tooluse.robot.model import check_tool_length
     from drake_tooluse.systems.tip_trajectory import TipTrajectory
     from drake_tooluse.validation import check_in_range
-    from drake_tooluse.world.scenario import RobotConfig
+    from drake_tooluse.world.scenario import load_scenario
 
     length = check_tool_length(args.tool_length, "--tool-length")
     scale = check_in_range(args.time_scale, 0.1, 100.0, "--time-scale")
+    output_file_arg(args.out, "--out")
+    left_q = check_left_arm(args.left_arm_q, "--left-arm-q")
     traj = TipTrajectory.load(args.trajectory)
     report = filter_reachable(traj, length)
     if report.dropped_indices:
@@ -52,8 +79,16 @@ def cmd_export_csv(args) -> dict:
             f"the conservative joint limits (at t = {times} s …); nothing written"
         )
     times = (report.kept.times - report.kept.times[0]) * scale
-    path = export_baxter_csv(args.out, times, report.joint_positions, RobotConfig().left_arm_q)
-    return {"csv": str(path), "rows": len(times), "duration_s": float(times[-1])}
+    table = load_scenario(args.scenario).table
+    clearance = check_clearance(report.joint_positions, left_q, length, table, times=times)
+    path = export_baxter_csv(args.out, times, report.joint_positions, left_q)
+    return {
+        "csv": str(path),
+        "rows": len(times),
+        "duration_s": float(times[-1]),
+        "left_arm_q": list(left_q),
+        "clearance": clearance,
+    }
 
 
 def cmd_transfer(args) -> dict:
@@ -61,7 +96,10 @@ def cmd_transfer(args) -> dict:
     from drake_tooluse.experiments.runs import new_run_dir
     from drake_tooluse.experiments.transfer import transfer_experiment
 
-    out = args.out or new_run_dir(f"transfer-{args.mode}")
+    out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
+    runs = count_arg(args.runs, "--runs", 1, 10_000)
+    seed_arg(args.seed, "--seed", runs)
+    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     return transfer_experiment(
         out,
         args.policy,
@@ -75,6 +113,7 @@ def cmd_transfer(args) -> dict:
         args.episodes,
         args.align,
         use_grasp_estimate=not args.length_only,
+        trust_pickle=args.trust_pickle,
     )
 
 
@@ -87,14 +126,19 @@ def format_transfer(out: dict) -> str:
 def cmd_demo(args) -> dict:
     from drake_tooluse.experiments.demo import run_demo
     from drake_tooluse.experiments.runs import new_run_dir
+    from drake_tooluse.robot.model import check_tool_length
 
+    out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
+    seed_arg(args.seed)
+    check_tool_length(args.tool_length, "--tool-length")
     return run_demo(
-        args.out or new_run_dir("demo"),
+        out,
         args.policy,
         args.scenario,
         args.tool_length,
         args.seed,
         progress=not args.no_progress,
+        trust_pickle=args.trust_pickle,
     )
 
 
@@ -127,6 +171,7 @@ def add_parsers(sub) -> None:
         help="tool for the reachability filter (m)",
     )
     p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")
+    add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_trajectory)
 
     p = sub.add_parser("export-csv", help="a tool-tip trajectory as a Baxter SDK playback CSV")
@@ -138,6 +183,21 @@ def add_parsers(sub) -> None:
         type=float,
         default=1.0,
         help="stretch time by this factor (slower is safer)",
+    )
+    p.add_argument(
+        "--left-arm-q",
+        type=float,
+        nargs=7,
+        metavar="RAD",
+        help="where the left arm stays, s0 … w2 (rad; default the safe pose Rethink's "
+        "tuck_arms.py tucks it to, folded against the body); checked against the right arm, "
+        "its tool and the table over the whole trajectory",
+    )
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        default=DEFAULT_SCENARIO,
+        help="scenario YAML whose table the arms are checked against (default: %(default)s)",
     )
     p.set_defaults(run=cmd_export_csv)
 
@@ -191,6 +251,7 @@ def add_parsers(sub) -> None:
         type=Path,
         help="directory for transfer.json and the box plot (default runs/transfer-<mode>-<time>)",
     )
+    add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_transfer, show=format_transfer)
 
     p = sub.add_parser(
@@ -212,4 +273,5 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)

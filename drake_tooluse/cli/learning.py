@@ -6,8 +6,18 @@ import shlex
 import sys
 from pathlib import Path
 
-from drake_tooluse.cli.common import UsageError, parse_json_arg
+from drake_tooluse.cli.common import (
+    UsageError,
+    add_trust_pickle_arg,
+    count_arg,
+    output_dir_arg,
+    parse_json_arg,
+    seed_arg,
+)
 from drake_tooluse.envs.registration import ENV_IDS
+
+MAX_TIMESTEPS = 10**10
+MAX_EPISODES = 100_000
 
 
 def cmd_train(args) -> dict:
@@ -20,10 +30,17 @@ def cmd_train(args) -> dict:
         out_dir = args.resume
         if args.out is not None and args.out != args.resume:
             raise UsageError("give --resume DIR alone (it is the run directory), not with --out")
+        output_dir_arg(out_dir, "--resume", must_be_new=False)
     elif args.out is None:
         raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
     else:
-        out_dir = args.out
+        out_dir = output_dir_arg(args.out, "--out", must_be_new=False)
+    count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
+    seed_arg(args.seed)
+    if args.n_envs is not None:
+        count_arg(args.n_envs, "--n-envs", 1, 64)
+    if args.init_from is not None and not args.init_from.is_dir():
+        raise UsageError(f"--init-from {str(args.init_from)!r} is not a policy directory")
     config = resolve_config(
         args.env,
         args.algo,
@@ -42,6 +59,7 @@ def cmd_train(args) -> dict:
         resume=args.resume is not None,
         progress_bar=not args.no_progress and sys.stderr.isatty(),
         command=command,
+        trust_pickle=args.trust_pickle,
     )
 
 
@@ -50,11 +68,25 @@ def cmd_evaluate(args) -> dict:
 
     from drake_tooluse.learning.evaluate import evaluate
 
+    episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
-    result = asdict(evaluate(args.policy, args.env, args.episodes, args.seed, env_kwargs))
+    result = asdict(
+        evaluate(args.policy, args.env, episodes, seed, env_kwargs, trust_pickle=args.trust_pickle)
+    )
     if not args.per_episode:
         result.pop("per_episode")
     return result
+
+
+def cmd_convert_policy(args) -> dict:
+    from drake_tooluse.learning.policy_dir import convert_policy, load_policy
+
+    if args.out.resolve() != args.policy.resolve():
+        output_dir_arg(args.out, "--out")
+    out = convert_policy(args.policy, args.out, trust_pickle=args.trust_pickle)
+    load_policy(out)  # the new directory loads without pickles
+    return {"converted": str(args.policy), "out": str(out)}
 
 
 def format_evaluate(out: dict) -> str:
@@ -67,12 +99,20 @@ def format_evaluate(out: dict) -> str:
         f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
         f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
         f"{out['gripper_touched_rate'] * 100:.0f} %"
+        + (f"; {out['sim_errors']} simulation failure(s)" if out.get("sim_errors") else "")
     )
 
 
 def cmd_sweep(args) -> dict:
     from drake_tooluse.learning.sweep import results_table, sweep
 
+    count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
+    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    for seed in args.seeds:
+        seed_arg(seed, "--seeds")
+    if args.num_cpus is not None:
+        count_arg(args.num_cpus, "--num-cpus", 1, 4096)
+    output_dir_arg(args.out, "--out", must_be_new=False)
     rows = sweep(
         args.algos,
         args.envs,
@@ -108,6 +148,7 @@ def add_parsers(sub) -> None:
         help="override YAML hyperparameters, e.g. '{\"learning_rate\": 1e-4}'",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_train)
 
     p = sub.add_parser("evaluate", help="evaluate a policy directory over seeded episodes")
@@ -117,7 +158,18 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
     p.add_argument("--per-episode", action="store_true", help="include each episode")
+    add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_evaluate, show=format_evaluate)
+
+    p = sub.add_parser(
+        "convert-policy",
+        help="rewrite a policy directory of the older pickle format (policy.zip, "
+        "vecnormalize.pkl) as one that loads without running code (needs --trust-pickle)",
+    )
+    p.add_argument("--policy", type=Path, required=True, help="the old policy directory")
+    p.add_argument("--out", type=Path, required=True, help="new directory (or --policy itself)")
+    add_trust_pickle_arg(p)
+    p.set_defaults(run=cmd_convert_policy)
 
     p = sub.add_parser(
         "sweep", help="a grid of runs (algos x envs x seeds) on Ray (pip install '.[cluster]')"

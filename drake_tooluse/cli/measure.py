@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drake_tooluse.cli.common import add_scenario_args, scenario_from_args
+from drake_tooluse.cli.common import add_scenario_args, output_dir_arg, scenario_from_args
 from drake_tooluse.perception.markers import LIGHTINGS, METHODS
 
 
@@ -12,6 +12,8 @@ def cmd_measure(args) -> dict:
     """The result as a dict (see MeasurementResult.as_dict)."""
     from drake_tooluse.diagrams.measurement import measure_tool
 
+    if args.save_images is not None:
+        output_dir_arg(args.save_images, "--save-images", must_be_new=False)
     scenario = scenario_from_args(args)
     result = measure_tool(
         scenario,

@@ -12,11 +12,15 @@ from drake_tooluse.cli.common import (
     add_scenario_args,
     add_tool_args,
     measured_belief,
+    output_file_arg,
     pose_dict,
     scenario_from_args,
     tool_length_from_args,
 )
 from drake_tooluse.paths import DEFAULT_SCENARIO
+
+# Tool-tip targets are looked for this far from Baxter's base at most (it reaches ~1.3 m).
+MAX_TARGET_DISTANCE = 10.0  # m, per coordinate
 
 
 def cmd_fk(args) -> dict:
@@ -50,6 +54,11 @@ def _target_pose(args):
     from drake_tooluse.validation import check_finite_vector, check_unit_quaternion
 
     p = check_finite_vector(args.position, 3, "--position")
+    if np.any(np.abs(p) > MAX_TARGET_DISTANCE):
+        raise UsageError(
+            f"--position={p.tolist()} m is outside the allowed range [-{MAX_TARGET_DISTANCE:g}, "
+            f"{MAX_TARGET_DISTANCE:g}] m per coordinate (Baxter reaches about 1.3 m)"
+        )
     if args.quaternion is not None:
         if args.rpy is not None:
             raise UsageError("give either --rpy or --quaternion, not both")
@@ -100,6 +109,11 @@ def _parse_waypoint(text: str):
         raise UsageError(
             f"waypoint {text!r} needs 3 (x,y,z m) or 6 (x,y,z m, roll,pitch,yaw rad) finite numbers"
         )
+    if any(abs(v) > MAX_TARGET_DISTANCE for v in values[:3]):
+        raise UsageError(
+            f"waypoint {text!r}: positions must be in [-{MAX_TARGET_DISTANCE:g}, "
+            f"{MAX_TARGET_DISTANCE:g}] m"
+        )
     rpy = values[3:] if len(values) == 6 else TOOL_DOWN_RPY
     return RigidTransform(RollPitchYaw(rpy), values[:3])
 
@@ -108,6 +122,8 @@ def cmd_simulate(args) -> dict:
     from drake_tooluse.diagrams.trajectory import simulate_waypoints
     from drake_tooluse.robot.model import RobotBelief
 
+    if args.record is not None:  # before the simulation, not after it
+        output_file_arg(args.record, "--record", suffix=".html")
     scenario = scenario_from_args(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
     start = time.perf_counter()
@@ -117,7 +133,9 @@ def cmd_simulate(args) -> dict:
             raise UsageError("give either --measure or --believed-tool-length, not both")
         belief, measured = measured_belief(scenario)
     elif args.believed_tool_length is not None:
-        belief = RobotBelief(args.believed_tool_length)
+        from drake_tooluse.robot.model import check_tool_length
+
+        belief = RobotBelief(check_tool_length(args.believed_tool_length, "--believed-tool-length"))
     run = simulate_waypoints(
         scenario,
         waypoints,

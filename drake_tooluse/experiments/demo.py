@@ -32,9 +32,12 @@ from drake_tooluse.files import (
     atomic_write_figure,
     atomic_write_image,
     atomic_write_json,
+    check_output_dir,
 )
-from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.systems.lifetime import release_diagram
+from drake_tooluse.validation import check_seed
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, SUCCESS_DISTANCE
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import load_scenario, with_tool_length
@@ -121,18 +124,23 @@ def run_demo(
     seed: int = 0,
     max_steps: int = 100,
     progress: bool = True,
+    trust_pickle: bool = False,
 ) -> dict:
     """Runs the demo (see the module docstring) and returns its metrics (also in
-    `out_dir/metrics.json`)."""
+    `out_dir/metrics.json`). `trust_pickle` lets `policy_dir` be of the older pickle format."""
     start = time.perf_counter()
     log = stderr_log if progress else quiet_log
+    check_seed(seed, "seed")
+    out = Path(out_dir)
+    check_output_dir(out, "the demo's directory")
     policy_dir = Path(policy_dir or TRANSFER_POLICY)
-    policy = load_policy(policy_dir)  # a bad policy fails before anything is written
+    # A bad policy fails before anything is written.
+    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    check_policy_env(policy)
     scenario_path = scenario_path or REALITY_SCENARIO
     base = with_tool_length(load_scenario(scenario_path), tool_length)
     if not isinstance(max_steps, int) or not 1 <= max_steps <= 1000:
         raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
-    out = Path(out_dir)
     draw = draw_randomization(base, np.random.default_rng(seed))
     scenario = apply_draw(base, draw)
     times = {}
@@ -168,6 +176,7 @@ def run_demo(
                 built, max_steps=max_steps, record=True, on_step=lambda step: bar.update(1)
             )
         save_recording(meshcat, built.visualizer, work / "recording.html")
+        release_diagram(built.diagram)  # its Python systems would keep it alive
         times["push_s"] = time.perf_counter() - t0
         log(
             f"      {'reached the goal' if run.success else 'did not reach the goal'} after "

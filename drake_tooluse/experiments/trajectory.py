@@ -22,7 +22,7 @@ from drake_tooluse.files import atomic_write_figure
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.validation import check_one_of
+from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.scenario import RobotConfig
 
 
@@ -153,17 +153,22 @@ def delay_to_event(episodes: list[np.ndarray], events: list) -> list[np.ndarray]
 
 
 def record_episodes(
-    policy_dir, episodes: int = 100, seed: int = 0, env_kwargs=None, align: str = "start"
+    policy_dir,
+    episodes: int = 100,
+    seed: int = 0,
+    env_kwargs=None,
+    align: str = "start",
+    trust_pickle: bool = False,
 ):
     """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
     each control step (the robot's belief: forward kinematics of its model), the number of
     successes and the control period (s) between the rows. `align="start"` (the paper's)
     stacks the episodes from their first step; `"contact"` delays each so that the tool first touches the box at the same step (an
     episode that never touches it stays as it is)."""
-    if episodes < 1:
-        raise ValueError(f"episodes={episodes} must be at least 1")
+    check_int(episodes, 1, 100_000, "episodes")
+    check_seed(seed, "seed", episodes)
     check_one_of(align, ALIGNMENTS, "align")
-    policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs)
+    policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs, trust_pickle=trust_pickle)
     recorded, contacts, successes = [], [], 0
     for ep in range(episodes):
         recorder = _PoseRecorder(env)
@@ -189,6 +194,7 @@ def extract(
     tool_length: float | None = 0.175,
     align: str = "start",
     env_kwargs: dict | None = None,
+    trust_pickle: bool = False,
 ) -> Extraction:
     """The paper's trajectory for transfer: N episodes (aligned by `align`, see
     `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
@@ -196,7 +202,7 @@ def extract(
     control period of the env the policy acts in (its scenario's `control.control_period`);
     `env_kwargs` override the policy's own."""
     tips, quats, grippers, successes, period = record_episodes(
-        policy_dir, episodes, seed, env_kwargs, align
+        policy_dir, episodes, seed, env_kwargs, align, trust_pickle
     )
     mean = average_episodes(tips, quats, period)
     smoothed = smooth(mean, window)

@@ -22,6 +22,10 @@ Both run in one of two modes:
 The result has per tool and world the box travel (mean, std, each run) and the final box–goal
 distance, the reality/nominal travel ratio and the two tools' travel difference (the goals:
 ratio ≥ 0.9, difference ≤ 1 cm), and a box plot like the paper's.
+
+A run that fails (the simulation fails, or the camera finds no tool) is recorded with its
+error and counted (`failed_runs`, `sim_errors`); the experiment goes on, and the travel
+figures are those of the runs that completed.
 """
 
 from __future__ import annotations
@@ -44,12 +48,18 @@ from drake_tooluse.experiments.trajectory import (
     filter_reachable,
     plot_extraction,
 )
-from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json
-from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.files import (
+    atomic_dir,
+    atomic_write_figure,
+    atomic_write_json,
+    check_output_dir,
+)
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief, check_tool_length
+from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.validation import check_one_of
+from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
@@ -69,17 +79,26 @@ class TransferRun:
     believed_length: float  # m, what the robot's IK holds (measured in reality)
     believed_grasp_along: float  # m, where it believes the hand holds the tool (measured or 0)
     seed: int
-    push: PushRun
+    push: PushRun | None  # None: the run failed before its push (see `error`)
     draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
+    error: str | None = None
+
+    @property
+    def failed(self) -> bool:
+        return self.push is None or self.push.sim_error
 
     def as_dict(self) -> dict:
+        push = self.push.as_dict() if self.push is not None else {"success": False}
+        error = self.error or (self.push.error if self.push is not None else None)
         return {
             "world": self.world,
             "seed": self.seed,
             "tool_length_m": self.tool_length,
             "believed_length_m": self.believed_length,
             "believed_grasp_along_m": self.believed_grasp_along,
-            **self.push.as_dict(),
+            **push,
+            "failed": self.failed,
+            **({"error": error} if error else {}),
             "perturbation": self.draw,
         }
 
@@ -101,32 +120,64 @@ def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBe
     period = scenario.control.control_period
     built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
     duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
-    return run_push(
-        built.diagram,
-        built.world,
-        built.control,
-        math.ceil(duration / period),
-        stop_at_success=False,
-    )
+    try:
+        return run_push(
+            built.diagram,
+            built.world,
+            built.control,
+            math.ceil(duration / period),
+            stop_at_success=False,
+        )
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 def run_closed_loop(scenario: Scenario, policy, belief: RobotBelief) -> PushRun:
     """The loaded policy inside the diagram, until the box is at the goal or MAX_STEPS."""
-    return run_policy(build_policy_diagram(scenario, policy, belief), max_steps=MAX_STEPS)
+    built = build_policy_diagram(scenario, policy, belief)
+    try:
+        return run_policy(built, max_steps=MAX_STEPS)
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 def _stats(runs: list[TransferRun]) -> dict:
-    travel = np.array([r.push.box_travel for r in runs])
-    final = np.array([r.push.final_box_to_goal for r in runs])
+    """Travel and distance over the runs that completed; success over all (a failed run is
+    not a success); the failures counted."""
+    done = [r for r in runs if not r.failed]
+    travel = np.array([r.push.box_travel for r in done])
+    final = np.array([r.push.final_box_to_goal for r in done])
+
+    def stat(values, f):
+        return float(f(values)) if len(values) else None
+
     return {
         "runs": len(runs),
-        "box_travel_mean_m": float(travel.mean()),
-        "box_travel_std_m": float(travel.std()),
-        "final_box_to_goal_mean_m": float(final.mean()),
-        "final_box_to_goal_std_m": float(final.std()),
-        "success_rate": float(np.mean([r.push.success for r in runs])),
+        "completed_runs": len(done),
+        "failed_runs": len(runs) - len(done),
+        "sim_errors": sum(r.push is not None and r.push.sim_error for r in runs),
+        "box_travel_mean_m": stat(travel, np.mean),
+        "box_travel_std_m": stat(travel, np.std),
+        "final_box_to_goal_mean_m": stat(final, np.mean),
+        "final_box_to_goal_std_m": stat(final, np.std),
+        "success_rate": float(np.mean([r.push is not None and r.push.success for r in runs])),
         "per_run": [r.as_dict() for r in runs],
     }
+
+
+def _attempt(run, *args, **kwargs) -> tuple[object, str | None]:
+    """`run(*args, **kwargs)`'s result, or (None, the error) when it fails: one run's failure
+    is recorded, and the experiment goes on."""
+    try:
+        return run(*args, **kwargs), None
+    except (RuntimeError, ValueError) as e:
+        return None, f"{type(e).__name__}: {str(e).splitlines()[0][:300]}"
+
+
+def _travel_text(run: TransferRun) -> str:
+    if run.push is None:
+        return "failed"
+    return f"{run.push.box_travel * 100:.1f} cm" + (" (sim error)" if run.push.sim_error else "")
 
 
 def check_same_task(nominal: Scenario, reality: Scenario) -> None:
@@ -156,10 +207,10 @@ def check_same_task(nominal: Scenario, reality: Scenario) -> None:
         )
 
 
-def check_transfer_args(tools, runs: int, mode: str) -> list[float]:
+def check_transfer_args(tools, runs: int, mode: str, seed: int = 0) -> list[float]:
     check_one_of(mode, MODES, "mode")
-    if not isinstance(runs, int) or runs < 1:
-        raise ValueError(f"runs={runs!r} must be an integer >= 1")
+    check_int(runs, 1, 10_000, "runs")
+    check_seed(seed, "seed", runs)
     tools = [check_tool_length(t, "tool length") for t in tools]
     if not tools:
         raise ValueError("give at least one tool length")
@@ -177,13 +228,16 @@ def run_transfer(
     trajectory: TipTrajectory | None = None,
     log=stderr_log,
     use_grasp_estimate: bool = True,
+    trust_pickle: bool = False,
 ) -> dict:
     """The experiment (see the module docstring). `trajectory` is the open-loop one (required
     in open-loop mode). With `use_grasp_estimate` the robot's model holds the camera's
     estimate of where the hand holds the tool along it as well as the length; without, the
-    length only (the paper's measurement). `log(text)` receives a line per run."""
-    tools = check_transfer_args(tools, runs, mode)
-    policy = load_policy(policy_dir)
+    length only (the paper's measurement). `log(text)` receives a line per run.
+    `trust_pickle` lets `policy_dir` be of the older pickle format."""
+    tools = check_transfer_args(tools, runs, mode, seed)
+    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    check_policy_env(policy)  # as every command checks a policy and its env
     if mode == "open-loop" and trajectory is None:
         raise ValueError(
             "open-loop transfer needs a trajectory (experiments.trajectory.extract "
@@ -201,22 +255,26 @@ def run_transfer(
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
-            believed, measurement = measure_belief(
-                reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
+            measurement, measure_error = _attempt(
+                measure_belief, reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
             )
-            measured.append(measurement.length)
-            along = believed.grasp_offset[1]
-            grasp_errors.append(along - reality.tool.grasp_offset_along)
+            believed = None
+            if measurement is not None:
+                believed, measurement = measurement
+                measured.append(measurement.length)
+                grasp_errors.append(believed.grasp_offset[1] - reality.tool.grasp_offset_along)
             # The nominal world's robot knows its true tool, grasp included.
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
             for world, scenario, belief in (
                 ("nominal", nominal, knows),
                 ("reality", reality, believed),
             ):
-                if mode == "closed-loop":
-                    push = run_closed_loop(scenario, policy, belief)
+                if belief is None:
+                    push, error = None, f"measurement failed: {measure_error}"
+                elif mode == "closed-loop":
+                    push, error = _attempt(run_closed_loop, scenario, policy, belief)
                 else:
-                    push = run_open_loop(scenario, trajectory, belief)
+                    push, error = _attempt(run_open_loop, scenario, trajectory, belief)
                 # The nominal world takes only the box's start from the draw.
                 perturbation = (
                     dc.asdict(draw)
@@ -227,37 +285,48 @@ def run_transfer(
                     TransferRun(
                         world,
                         tool,
-                        belief.tool_length,
-                        belief.grasp_offset[1],
+                        belief.tool_length if belief is not None else float("nan"),
+                        belief.grasp_offset[1] if belief is not None else float("nan"),
                         run_seed,
                         push,
                         perturbation,
+                        error,
                     )
                 )
-            n, r = results["nominal"][-1].push, results["reality"][-1].push
+            n, r = results["nominal"][-1], results["reality"][-1]
+            seen = (
+                f"measured {measurement.length:.4f} m, grasp {believed.grasp_offset[1] * 1000:+.1f}"
+                f" mm along (truth {reality.tool.grasp_offset_along * 1000:+.1f})"
+                if believed is not None
+                else f"measurement failed ({measure_error})"
+            )
             log(
-                f"tool {tool:.3f} m, run {i + 1}/{runs}: measured {measurement.length:.4f} m, "
-                f"grasp {along * 1000:+.1f} mm along (truth "
-                f"{reality.tool.grasp_offset_along * 1000:+.1f}); box travel nominal "
-                f"{n.box_travel * 100:.1f} cm, reality {r.box_travel * 100:.1f} cm "
-                f"({time.perf_counter() - t0:.1f} s)"
+                f"tool {tool:.3f} m, run {i + 1}/{runs}: {seen}; box travel nominal "
+                f"{_travel_text(n)}, reality {_travel_text(r)} ({time.perf_counter() - t0:.1f} s)"
             )
         entry = {
             "tool_length_m": tool,
-            "measured_length_mean_m": float(np.mean(measured)),
-            "measured_length_std_m": float(np.std(measured)),
+            "measured_length_mean_m": float(np.mean(measured)) if measured else None,
+            "measured_length_std_m": float(np.std(measured)) if measured else None,
             # what the robot believes of the grasp along the tool minus the truth
-            "grasp_along_error_max_m": float(np.max(np.abs(grasp_errors))),
+            "grasp_along_error_max_m": (
+                float(np.max(np.abs(grasp_errors))) if grasp_errors else None
+            ),
             **{w: _stats(results[w]) for w in WORLDS},
         }
         nominal_travel = entry["nominal"]["box_travel_mean_m"]
+        reality_travel = entry["reality"]["box_travel_mean_m"]
         entry["travel_ratio"] = (
-            entry["reality"]["box_travel_mean_m"] / nominal_travel if nominal_travel > 0 else None
+            reality_travel / nominal_travel
+            if nominal_travel is not None and reality_travel is not None and nominal_travel > 0
+            else None
         )
         per_tool.append(entry)
     ratios = [t["travel_ratio"] for t in per_tool]
     travels = [t["reality"]["box_travel_mean_m"] for t in per_tool]
-    difference = float(max(travels) - min(travels)) if len(travels) > 1 else None
+    difference = (
+        float(max(travels) - min(travels)) if len(travels) > 1 and None not in travels else None
+    )
     goals = {
         "travel_ratio_min": None if None in ratios else float(min(ratios)),
         "travel_ratio_goal": TRAVEL_RATIO_GOAL,
@@ -276,6 +345,8 @@ def run_transfer(
         "use_grasp_estimate": use_grasp_estimate,
         "tools": per_tool,
         "goals": goals,
+        "failed_runs": sum(t[w]["failed_runs"] for t in per_tool for w in WORLDS),
+        "sim_errors": sum(t[w]["sim_errors"] for t in per_tool for w in WORLDS),
         "wall_time_s": time.perf_counter() - start,
     }
 
@@ -288,7 +359,9 @@ def plot_transfer(result: dict, path) -> Path:
     data, positions, colors, ticks, labels = [], [], [], [], []
     for i, tool in enumerate(result["tools"]):
         for j, (world, color) in enumerate((("nominal", "tab:blue"), ("reality", "tab:orange"))):
-            data.append([r["box_travel_m"] * 100 for r in tool[world]["per_run"]])
+            data.append(
+                [r["box_travel_m"] * 100 for r in tool[world]["per_run"] if not r["failed"]]
+            )
             positions.append(3 * i + j)
             colors.append(color)
         ticks.append(3 * i + 0.5)
@@ -325,17 +398,19 @@ def transfer_experiment(
     align: str = "start",
     use_grasp_estimate: bool = True,
     log=stderr_log,
+    trust_pickle: bool = False,
 ) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
     loop, the trajectory (`trajectory_path`, or extracted from the policy's `episodes`
     episodes in the nominal simulation, aligned by `align`, and kept to the poses every tool
     reaches under the conservative limits). Everything is written into a staging directory
     that becomes `out` only when complete. Returns the result."""
-    tools = check_transfer_args(tools, runs, mode)
+    tools = check_transfer_args(tools, runs, mode, seed)
     check_one_of(align, ALIGNMENTS, "align")
+    out = check_output_dir(out, "the transfer's directory")
+    check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))  # before any work
     nominal = load_scenario(nominal_path)
     reality = load_scenario(reality_path)
-    out = Path(out)
     with atomic_dir(out) as work:
         trajectory, extraction = None, None
         if mode == "open-loop" and trajectory_path is not None:
@@ -344,7 +419,12 @@ def transfer_experiment(
         elif mode == "open-loop":
             log(f"extracting the trajectory from {episodes} episodes …")
             ex = extract(
-                policy_dir, episodes=episodes, seed=seed, tool_length=tools[0], align=align
+                policy_dir,
+                episodes=episodes,
+                seed=seed,
+                tool_length=tools[0],
+                align=align,
+                trust_pickle=trust_pickle,
             )
             trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
             for tool in tools[1:]:
@@ -372,6 +452,7 @@ def transfer_experiment(
             trajectory,
             log=log,
             use_grasp_estimate=use_grasp_estimate,
+            trust_pickle=trust_pickle,
         )
         result["nominal_scenario"] = str(nominal_path)
         result["reality_scenario"] = str(reality_path)
@@ -389,16 +470,27 @@ def format_transfer(out: dict) -> str:
         f"{out['mode']}, {out['runs']} runs per tool, the robot's model from the measured "
         f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"
     ]
+
+    def cm(x) -> str:
+        return "n/a" if x is None else f"{x * 100:.1f}"
+
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
         ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"
+        measured = (
+            "not measured"
+            if t["measured_length_mean_m"] is None
+            else f"measured {t['measured_length_mean_m']:.4f} ± "
+            f"{t['measured_length_std_m'] * 1000:.2f} mm"
+        )
+        failed = n["failed_runs"] + r["failed_runs"]
         lines.append(
-            f"  tool {t['tool_length_m']:.3f} m (measured {t['measured_length_mean_m']:.4f} ± "
-            f"{t['measured_length_std_m'] * 1000:.2f} mm): box travel nominal "
-            f"{n['box_travel_mean_m'] * 100:.1f} ± {n['box_travel_std_m'] * 100:.1f} cm, reality "
-            f"{r['box_travel_mean_m'] * 100:.1f} ± {r['box_travel_std_m'] * 100:.1f} cm ({ratio} "
-            f"of nominal); final box-goal {r['final_box_to_goal_mean_m'] * 100:.1f} cm; success "
+            f"  tool {t['tool_length_m']:.3f} m ({measured}): box travel nominal "
+            f"{cm(n['box_travel_mean_m'])} ± {cm(n['box_travel_std_m'])} cm, reality "
+            f"{cm(r['box_travel_mean_m'])} ± {cm(r['box_travel_std_m'])} cm ({ratio} "
+            f"of nominal); final box-goal {cm(r['final_box_to_goal_mean_m'])} cm; success "
             f"nominal {n['success_rate'] * 100:.0f} %, reality {r['success_rate'] * 100:.0f} %"
+            + (f"; {failed} run(s) failed (see per_run errors)" if failed else "")
         )
     g = out["goals"]
     if g["tool_travel_difference_m"] is not None:
