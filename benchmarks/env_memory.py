@@ -1,9 +1,9 @@
 """Memory over a long run: random-action steps with resets; the process must not grow.
 
-    python benchmarks/env_memory.py [--steps 200000] [--ik-mode differential] [--out FILE]
+    python benchmarks/env_memory.py [--steps 200000] [--out FILE]
 
 Prints the resident set size after a warm-up and at the end, and writes
-docs/results/env_memory_<ik-mode>.json (or --out). Goal: growth <= 50 MB over 200,000 steps.
+docs/results/env_memory.json (or --out). Goal: growth <= 50 MB over 200,000 steps.
 """
 
 import argparse
@@ -30,14 +30,11 @@ def rss_mb() -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps", type=int, default=200_000)
-    ap.add_argument("--ik-mode", default="differential", choices=["full", "differential"])
     ap.add_argument("--warmup", type=int, default=2000)
-    ap.add_argument(
-        "--out", type=Path, help="JSON file (default docs/results/env_memory_<ik-mode>.json)"
-    )
+    ap.add_argument("--out", type=Path, help="JSON file (default docs/results/env_memory.json)")
     args = ap.parse_args()
-    out = args.out or OUT / f"env_memory_{args.ik_mode}.json"
-    env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=args.ik_mode)
+    out = args.out or OUT / "env_memory.json"
+    env = gym.make("drake_tooluse/ToolPush-v0")
     env.reset(seed=0)
     env.action_space.seed(0)
     resets = 0
@@ -55,14 +52,14 @@ def main() -> None:
     end = rss_mb()
     wall = time.perf_counter() - start
     print(
-        f"ik_mode={args.ik_mode}: {args.steps} steps, {resets} resets, {wall:.0f} s; "
+        f"{args.steps} steps, {resets} resets, {wall:.0f} s; "
         f"RSS {base:.1f} MB after {args.warmup} warm-up steps -> {end:.1f} MB "
         f"(growth {end - base:+.1f} MB)"
     )
     atomic_write_json(
         out,
         {
-            "command": f"python benchmarks/env_memory.py --steps {args.steps} --ik-mode {args.ik_mode}",
+            "command": f"python benchmarks/env_memory.py --steps {args.steps}",
             "machine": platform.platform(),
             "steps": args.steps,
             "resets": resets,

@@ -62,18 +62,17 @@ class _Timer:
             self.total += time.perf_counter() - start
 
 
-def breakdown(ik_mode: str, steps: int) -> dict:
-    """Per-step time of each part, in ms: IK (Python-side solve), tip target, observation,
-    metrics (reward/info), and the rest (plant + Drake framework + DrakeGymEnv)."""
-    env = gym.make("drake_tooluse/ToolPush-v0", ik_mode=ik_mode)
+def breakdown(steps: int) -> dict:
+    """Per-step time of each part, in ms: the IK (its solve), tip target, observation, metrics
+    (reward/info), and the rest (plant, Drake framework, the env's step, random actions)."""
+    env = gym.make("drake_tooluse/ToolPush-v0")
     u = env.unwrapped
     timers = {
         "tip target": _Timer(u.target_system, "_target"),
         "observation": _Timer(u.observation_system, "observation"),
         "metrics (reward, info)": _Timer(u, "_read_metrics"),
+        "IK (solve)": _Timer(u.ik_system.ik, "solve"),
     }
-    if u.ik_system is not None:
-        timers["IK (InverseKinematics)"] = _Timer(u.ik_system.ik, "solve")
     total = run_random(env, steps)
     parts = {name: t.total / steps * 1e3 for name, t in timers.items()}
     parts["plant, framework, rest"] = total * 1e3 - sum(parts.values())
@@ -126,11 +125,10 @@ def main() -> None:
     fetch_env = fetch_push_env()
     if fetch_env is not None:
         envs["FetchPushDense-v4 (MuJoCo)"] = fetch_env
-    for ik_mode in ("full", "differential"):
-        for action_mode in ("paper", "position"):
-            envs[f"ToolPush-v0 ik_mode={ik_mode} action_mode={action_mode}"] = gym.make(
-                "drake_tooluse/ToolPush-v0", ik_mode=ik_mode, action_mode=action_mode
-            )
+    for action_mode in ("paper", "position"):
+        envs[f"ToolPush-v0 action_mode={action_mode}"] = gym.make(
+            "drake_tooluse/ToolPush-v0", action_mode=action_mode
+        )
     for env in envs.values():  # warm up: compiled kernels, caches
         run_random(env, 50)
     per_step = interleaved(envs, args.steps, args.rounds)
@@ -155,18 +153,15 @@ def main() -> None:
     if fetch is None:
         print("(FetchPushDense-v4 not installed: pip install -e '.[bench]' to compare)")
     plant = plant_only_ms()
-    parts = {mode: breakdown(mode, max(args.steps // 2, 200)) for mode in ("full", "differential")}
+    parts = breakdown(max(args.steps // 2, 200))
     print(
-        f"\nWhere a step's time goes (ms per step, action_mode=paper; the world alone: "
-        f"{plant:.3f} ms per 40 ms control period):\n"
+        f"\nWhere a step's time goes (ms per step, action_mode=paper, timers on; the world "
+        f"alone: {plant:.3f} ms per 40 ms control period):\n"
     )
-    names = sorted({k for p in parts.values() for k in p})
-    print("| part | ik_mode=full | ik_mode=differential |")
-    print("| --- | --- | --- |")
-    for k in names:
-        print(
-            f"| {k} | {parts['full'].get(k, 0.0):.3f} | {parts['differential'].get(k, 0.0):.3f} |"
-        )
+    print("| part | ms per step |")
+    print("| --- | --- |")
+    for k, v in parts.items():
+        print(f"| {k} | {v:.3f} |")
     atomic_write_json(
         args.out,
         {

@@ -1,47 +1,37 @@
 """Tool-tip control wired into a world: action → desired tool-tip pose → IK → joint targets.
 
 ```
-action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem (full)            ──q*──► [q*, 0] ──► (delay) ──► plant
-              ▲                     └► DifferentialIKIntegrator (differential)                             │
-              └───────────────────────── measured arm state ◄──────────────────────────────────────────────┘
+action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem ──[q*, 0]──► (delay) ──► plant
+              ▲                                                                   │
+              └──────────────── measured arm state ◄──────────────────────────────┘
 
-TrajectorySource (tool-tip poses) ──X_WT*──► ToolTipIKSystem ──q*──► [q*, 0] ──► (delay) ──► plant
+TrajectorySource (tool-tip poses) ──X_WT*──► ToolTipIKSystem ──[q*, 0]──► (delay) ──► plant
 ```
 
-Tip control is used by the Gymnasium envs and by the policy diagram, so both run the same
-controller; trajectory control serves the waypoint simulation and the paper's open-loop
+One IK runs in every loop: the exact tool-tip IK (`robot.ik`). (A first-order mode, Drake's
+`DifferentialInverseKinematicsIntegrator`, was retired once the exact IK measured faster; see
+docs/BENCHMARKS.md.) Tip control is used by the Gymnasium envs and by the policy diagram, so
+both run the same controller; trajectory control serves the waypoint simulation and the paper's open-loop
 transfer. Every path from a target to the plant goes through `add_joint_command`, so each
 honours the scenario's `control.actuation_delay`.
 """
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.multibody.inverse_kinematics import (
-    DifferentialInverseKinematicsIntegrator,
-    DifferentialInverseKinematicsParameters,
-)
-from pydrake.systems.primitives import (
-    ConstantValueSource,
-    ConstantVectorSource,
-    DiscreteTimeDelay,
-    Multiplexer,
-)
+from pydrake.systems.primitives import ConstantVectorSource, DiscreteTimeDelay, Multiplexer
 
-from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs, pose_to_vector
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_target import TipTargetSystem, Workspace
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
-from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scenario import tool_length_or_none
 from drake_tooluse.world.scene import World, add_world, home_tip_pose
 
-IK_MODES = ("full", "differential")
+# The env's `ik_mode` values: the exact IK only (kept as a keyword for saved policies' kwargs).
+IK_MODES = ("full",)
 # The IK in the loop, per control step: the warm start (the last answer) nearly always holds;
 # if not, a few fast-path starts from each seed library, then SNOPT solves (the target has
 # usually left the arm's reach: each costs milliseconds and finds nothing). The home pose,
@@ -56,25 +46,19 @@ class TipControl:
     target: TipTargetSystem | None  # None under trajectory control
     ik: ToolTipIK
     q0: np.ndarray
-    ik_system: ToolTipIKSystem | None = None  # ik_mode "full"
-    differential: object = None  # ik_mode "differential"
+    ik_system: ToolTipIKSystem | None = None
     delay: DiscreteTimeDelay | None = None  # the actuation delay, if any
 
     def reset(self, root_context) -> None:
         """Puts the IK's state back at the home configuration (episode start), and fills the
         actuation delay's buffer with the home target (not zeros: the arm would jump)."""
-        if self.differential is not None:
-            self.differential.SetPositions(
-                self.differential.GetMyMutableContextFromRoot(root_context), self.q0
-            )
         if self.delay is not None:
             delay_context = self.delay.GetMyMutableContextFromRoot(root_context)
             size = delay_context.get_discrete_state_vector().size()
             delay_context.SetDiscreteState(np.resize(np.concatenate([self.q0, np.zeros(7)]), size))
 
     def ik_ok(self, root_context) -> bool:
-        if self.ik_system is None:  # differential IK: its QP always returns a (scaled) step
-            return True
+        """Whether the IK's last solve succeeded (it holds its last answer where not)."""
         status = self.ik_system.GetOutputPort("status").Eval(
             self.ik_system.GetMyContextFromRoot(root_context)
         )
@@ -152,53 +136,10 @@ def add_joint_command(builder, world: World, command, control: TipControl) -> No
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
 
 
-class _DifferentialIKStatusFilter(logging.Filter):
-    """Drops the differential IK's status switches ('Differential IK started returning
-    status:"no solution" …': a target it cannot reach in one step, the arm holds), which it
-    logs at every change; too chatty for training. Everything else Drake logs passes."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        return not record.getMessage().startswith("Differential IK ")
-
-
-_DIFFERENTIAL_IK_FILTER = _DifferentialIKStatusFilter()
-
-
-def add_differential_ik(builder, ik: ToolTipIK, q0, period: float):
-    """A cheaper first-order alternative to `ToolTipIKSystem` for training: Drake's
-    `DifferentialInverseKinematicsIntegrator` on the tool-tip frame of the robot model (one QP
-    per control period, joint position limits respected; all C++, no Python in the loop).
-    Connect a RigidTransform X_WT* to its `X_AE_desired` input; its `joint_positions` output
-    (7) are the joint targets. Set its positions to q0 at each episode start
-    (`TipControl.reset`)."""
-    drake_logger = logging.getLogger("drake")
-    if _DIFFERENTIAL_IK_FILTER not in drake_logger.filters:
-        drake_logger.addFilter(_DIFFERENTIAL_IK_FILTER)
-    plant = ik.plant
-    for joint, q in zip([plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], q0):
-        joint.set_default_angle(q)
-    params = DifferentialInverseKinematicsParameters(7, 7)
-    params.set_joint_position_limits((ik.lower, ik.upper))
-    # No joint velocity limits, like the full IK: the step is the whole Newton step, and the
-    # PD controllers (effort-limited) decide how fast the arm gets there.
-    params.set_nominal_joint_position(np.asarray(q0, float))
-    params.set_joint_centering_gain(0.01 * np.eye(7))  # a light pull toward the home posture
-    return builder.AddNamedSystem(
-        "differential_ik",
-        DifferentialInverseKinematicsIntegrator(
-            plant, ik.tip_frame, period, params, log_only_when_result_state_changes=True
-        ),
-    )
-
-
-def add_tip_control(
-    builder, world: World, ik: ToolTipIK, q0, action_mode: str, ik_mode: str
-) -> TipControl:
-    """Adds the tip target, the IK (full or differential) and the joint command, connected
-    to the world's plant. The target's `action` input is left for the caller to connect."""
-    check_one_of(ik_mode, IK_MODES, "ik_mode")
+def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str) -> TipControl:
+    """Adds the tip target, the IK system and the joint command, connected to the world's
+    plant. The target's `action` input is left for the caller to connect."""
     s = world.scenario
-    period = s.control.control_period
     target = builder.AddNamedSystem(
         "tip_target",
         TipTargetSystem(
@@ -208,30 +149,17 @@ def add_tip_control(
             Workspace.above_table(s.table.top_z),
         ),
     )
-    arm_state = world.plant.get_state_output_port(world.baxter)
-    builder.Connect(arm_state, target.GetInputPort("arm_state"))
+    builder.Connect(
+        world.plant.get_state_output_port(world.baxter), target.GetInputPort("arm_state")
+    )
     control = TipControl(target, ik, np.asarray(q0, float))
-    if ik_mode == "full":
-        control.ik_system = builder.AddNamedSystem("tool_tip_ik", ToolTipIKSystem(ik, q0, period))
-        builder.Connect(
-            target.GetOutputPort("tip_pose_desired"),
-            control.ik_system.GetInputPort("tip_pose_desired"),
-        )
-        q_commanded = control.ik_system.GetOutputPort("desired_state")
-    else:
-        control.differential = add_differential_ik(builder, ik, q0, period)
-        builder.Connect(
-            target.GetOutputPort("X_WT_desired"), control.differential.GetInputPort("X_AE_desired")
-        )
-        # Linearize about the measured arm, as the full IK starts from it; integrating open
-        # loop instead would let the target (measured + action) run away.
-        builder.Connect(arm_state, control.differential.GetInputPort("robot_state"))
-        use_measured = builder.AddSystem(ConstantValueSource(AbstractValue.Make(True)))
-        builder.Connect(
-            use_measured.get_output_port(), control.differential.GetInputPort("use_robot_state")
-        )
-        q_commanded = control.differential.GetOutputPort("joint_positions")
-    add_joint_command(builder, world, q_commanded, control)
+    control.ik_system = builder.AddNamedSystem(
+        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period)
+    )
+    builder.Connect(
+        target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")
+    )
+    add_joint_command(builder, world, control.ik_system.GetOutputPort("desired_state"), control)
     return control
 
 

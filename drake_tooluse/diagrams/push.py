@@ -49,16 +49,15 @@ def add_push_task(
     scenario: Scenario,
     belief: RobotBelief | None,
     action_mode: str,
-    ik_mode: str,
     observation_mode: str,
     include_tool_length: bool,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
-    tool-tip control (`action_mode`, `ik_mode`) and the task's observation of the world, its
+    tool-tip control (`action_mode`) and the task's observation of the world, its
     goal the scenario's. The tip target's `action` input is left unconnected."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
-    control = add_tip_control(builder, world, ik, q0, action_mode, ik_mode)
+    control = add_tip_control(builder, world, ik, q0, action_mode)
     observation = builder.AddNamedSystem(
         "observation",
         ToolPushObservation(
@@ -103,7 +102,6 @@ def build_policy_diagram(
     scenario: Scenario,
     policy,
     belief: RobotBelief | None = None,
-    ik_mode: str = "full",
     meshcat=None,
     scene_camera: bool = False,
 ) -> PolicyDiagram:
@@ -114,7 +112,7 @@ def build_policy_diagram(
     mode, include_length = policy_observation(policy)
     action_mode = policy.meta.env_kwargs.get("action_mode", "paper")
     builder = DiagramBuilder()
-    task = add_push_task(builder, scenario, belief, action_mode, ik_mode, mode, include_length)
+    task = add_push_task(builder, scenario, belief, action_mode, mode, include_length)
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:
         raise ValueError(
@@ -126,7 +124,7 @@ def build_policy_diagram(
     builder.Connect(policy_system.get_output_port(), action_input)
     visualizer = None
     if meshcat is not None:
-        visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat)
+        visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat, scenario)
     if scene_camera:
         add_scene_camera(builder, task.world)
     diagram = builder.Build()

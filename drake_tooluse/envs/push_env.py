@@ -67,8 +67,8 @@ class EnvConfig:
     observation_mode: str = "paper"  # "paper" or "tip" (see systems.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
-    # "full": Drake InverseKinematics on the tool tip, warm-started, every control period;
-    # "differential": Drake's differential IK integrator (first order, cheaper; for training).
+    # "full": the exact tool-tip IK every control period, the only mode (a keyword kept for the
+    # env kwargs saved with policies; "differential" was retired).
     ik_mode: str = "full"
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
 
@@ -85,6 +85,11 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
+    if config.ik_mode == "differential":
+        raise ValueError(
+            "ik_mode='differential' (Drake's first-order differential IK) was retired: the exact "
+            "tool-tip IK is faster (docs/BENCHMARKS.md); use ik_mode='full' (the default)"
+        )
     check_one_of(config.ik_mode, IK_MODES, "ik_mode")
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
@@ -173,7 +178,6 @@ class ToolPushEnv(DrakeGymEnv):
             self.scenario,
             None,
             config.action_mode,
-            config.ik_mode,
             config.observation_mode,
             config.include_tool_length,
         )
@@ -187,7 +191,7 @@ class ToolPushEnv(DrakeGymEnv):
         self.visualizer = None
         if config.meshcat is not None:
             self.visualizer = add_meshcat_visualizer(
-                builder, self.world.scene_graph, config.meshcat
+                builder, self.world.scene_graph, config.meshcat, self.scenario
             )
         self.diagram = builder.Build()
         self.diagram.set_name("tool_push_env")

@@ -18,8 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
-from pydrake.common.value import AbstractValue
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.kinematics import ArmChain
@@ -91,7 +90,6 @@ class TipTargetSystem(LeafSystem):
         - arm_state
         output_ports:
         - tip_pose_desired
-        - X_WT_desired
 
     Input ports:
         action: the policy's action (size by mode, see the module docstring); clipped to
@@ -102,7 +100,6 @@ class TipTargetSystem(LeafSystem):
     Output ports:
         tip_pose_desired: [p_WT (3, m), quaternion wxyz (4)] — the current tip pose moved by
             the action (`position` mode holds the initial orientation instead).
-        X_WT_desired: the same as a RigidTransform (for Drake's differential IK).
     """
 
     def __init__(
@@ -116,9 +113,6 @@ class TipTargetSystem(LeafSystem):
         self._action = self.DeclareVectorInputPort("action", ACTION_MODES[mode])
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self.DeclareVectorOutputPort("tip_pose_desired", 7, self._calc_target)
-        self.DeclareAbstractOutputPort(
-            "X_WT_desired", lambda: AbstractValue.Make(RigidTransform()), self._calc_pose
-        )
 
     def _target(self, context) -> np.ndarray:
         R_WT, p_WT = self._chain.pose(self._arm_state.Eval(context)[:7])
@@ -135,7 +129,3 @@ class TipTargetSystem(LeafSystem):
 
     def _calc_target(self, context, output):
         output.SetFromVector(self._target(context))
-
-    def _calc_pose(self, context, output):
-        x = self._target(context)
-        output.set_value(RigidTransform(Quaternion(x[3:] / np.linalg.norm(x[3:])), x[:3]))

@@ -23,7 +23,7 @@ def policy_dir(tmp_path_factory):
         "eval_freq": 10_000_000,
         "eval_episodes": 1,
         "checkpoint_freq": 10_000_000,
-        "env_kwargs": {"action_mode": "position", "ik_mode": "differential"},
+        "env_kwargs": {"action_mode": "position"},
     }
     train(
         resolve_config("drake_tooluse/ToolPush-v0", "ppo", 512, 1, 0, overrides=overrides),
@@ -43,10 +43,10 @@ def test_policy_system_acts_as_the_policy(policy_dir):
 
 
 def test_policy_diagram_matches_the_env_rollout(policy_dir):
-    built = build_policy_diagram(Scenario(), load_policy(policy_dir), ik_mode="differential")
+    built = build_policy_diagram(Scenario(), load_policy(policy_dir))
     run = run_policy(built, max_steps=20)
     policy = load_policy(policy_dir)
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode="differential")
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
     obs, _ = env.reset(seed=0)
     tips = [obs[6:9]]
     for _ in range(run.steps):
@@ -81,7 +81,6 @@ def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
         "checkpoint_freq": 10_000_000,
         "env_kwargs": {
             "action_mode": "position",
-            "ik_mode": "differential",
             "observation_mode": "tip",
         },
     }
@@ -90,7 +89,7 @@ def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
         out,
         progress_bar=False,
     )
-    built = build_policy_diagram(Scenario(), load_policy(out / "final"), ik_mode="differential")
+    built = build_policy_diagram(Scenario(), load_policy(out / "final"))
     assert built.observation.get_output_port().size() == 12
     run = run_policy(built, max_steps=5)
     assert run.steps == 5 and np.all(np.isfinite(run.tip_path))

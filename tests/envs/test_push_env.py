@@ -11,12 +11,11 @@ import drake_tooluse  # noqa: F401  (registers the ids)
 from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.envs.scripted import ScriptedPush
 
-FAST = {"ik_mode": "differential"}
 
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
-    env = gym.make(env_id, **FAST)
+    env = gym.make(env_id)
     assert env.spec.max_episode_steps == 100
     check_env(env.unwrapped, skip_render_check=True)
     sb3_check_env(env.unwrapped)
@@ -30,7 +29,7 @@ def test_full_ik_env_passes_the_checker():
 
 @pytest.mark.parametrize("mode, size", [("paper", 7), ("pose", 6), ("position", 3)])
 def test_action_modes(mode, size):
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode=mode, include_tool_length=True, **FAST)
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode=mode, include_tool_length=True)
     assert env.action_space.shape == (size,)
     obs, _ = env.reset(seed=1)
     assert obs.shape == (31,) and obs[30] == pytest.approx(0.175)
@@ -47,10 +46,9 @@ def _rollout(env, seed, actions):
     return np.array(out)
 
 
-@pytest.mark.parametrize("ik_mode", ["full", "differential"])
-def test_same_seed_same_actions_give_bit_identical_observations(ik_mode):
+def test_same_seed_same_actions_give_bit_identical_observations():
     actions = np.random.default_rng(0).uniform(-1, 1, (15, 7))
-    kwargs = {"ik_mode": ik_mode, "randomize": True}
+    kwargs = {"randomize": True}
     a = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
     b = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
     np.testing.assert_array_equal(a, b)
@@ -61,7 +59,7 @@ def test_same_seed_same_actions_give_bit_identical_observations(ik_mode):
 def test_rewards_of_env1_env2_env3():
     action = np.zeros(7)
     for env_id in ENV_IDS:
-        env = gym.make(env_id, **FAST)
+        env = gym.make(env_id)
         obs, info = env.reset(seed=0)
         goal, box = obs[0:3], obs[3:6]
         _, reward, *_, info = env.step(action)
@@ -85,9 +83,8 @@ def _scripted_episode(env):
     return terminated, truncated, info
 
 
-@pytest.mark.parametrize("ik_mode", ["full", "differential"])
-def test_scripted_push_reaches_the_goal_and_terminates(ik_mode):
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", ik_mode=ik_mode)
+def test_scripted_push_reaches_the_goal_and_terminates():
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
     terminated, truncated, info = _scripted_episode(env)
     assert terminated and not truncated and info["is_success"]
     assert info["box_to_goal"] + info["tip_to_box"] <= 0.05
@@ -106,7 +103,7 @@ def test_scripted_push_works_with_short_and_long_tools(tool_length):
 
 
 def test_nan_action_is_an_error_naming_it():
-    env = gym.make("drake_tooluse/ToolPush-v0", **FAST)
+    env = gym.make("drake_tooluse/ToolPush-v0")
     env.reset(seed=0)
     with pytest.raises(ValueError, match="NaN or infinite"):
         env.step(np.array([0, np.nan, 0, 0, 0, 0, 0]))
@@ -115,8 +112,8 @@ def test_nan_action_is_an_error_naming_it():
 
 
 def test_out_of_bounds_actions_are_clipped():
-    a = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **FAST)
-    b = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **FAST)
+    a = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    b = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
     a.reset(seed=0)
     b.reset(seed=0)
     np.testing.assert_array_equal(
@@ -134,7 +131,11 @@ def test_out_of_bounds_actions_are_clipped():
         ),
         (
             {"ik_mode": "fast"},
-            r"ik_mode='fast' is not allowed; choose one of \['full', 'differential'\]",
+            r"ik_mode='fast' is not allowed; choose one of \['full'\]",
+        ),
+        (
+            {"ik_mode": "differential"},
+            r"ik_mode='differential' \(Drake's first-order differential IK\) was retired",
         ),
         ({"tool_length": 0.9}, r"tool_length=0.9 m is outside the allowed range \(0, 0.6\]"),
     ],
@@ -145,13 +146,13 @@ def test_bad_kwargs_list_what_is_allowed(kwargs, message):
 
 
 def test_reset_options_are_refused():
-    env = gym.make("drake_tooluse/ToolPush-v0", **FAST)
+    env = gym.make("drake_tooluse/ToolPush-v0")
     with pytest.raises(ValueError, match="not supported"):
         env.reset(options={"goal": 1})
 
 
 def test_rgb_array_render_from_the_camera():
-    env = gym.make("drake_tooluse/ToolPush-v0", render_mode="rgb_array", **FAST)
+    env = gym.make("drake_tooluse/ToolPush-v0", render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
     assert frame.shape == (360, 480, 3) and frame.dtype == np.uint8
@@ -161,7 +162,7 @@ def test_rgb_array_render_from_the_camera():
 def test_episode_recorded_to_meshcat_html(tmp_path):
     from drake_tooluse.diagrams.visualization import start_meshcat
 
-    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat(), **FAST)
+    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat())
     env.reset(seed=0)
     env.unwrapped.start_recording()
     for _ in range(5):
@@ -173,7 +174,7 @@ def test_episode_recorded_to_meshcat_html(tmp_path):
 def _make(rank):
     def thunk():
         # Workers start fresh (forkserver): "module:id" makes Gymnasium import the package.
-        return gym.make("drake_tooluse:drake_tooluse/ToolPush-v0", ik_mode="differential")
+        return gym.make("drake_tooluse:drake_tooluse/ToolPush-v0")
 
     return thunk
 
