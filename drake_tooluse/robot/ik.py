@@ -373,7 +373,7 @@ class ToolTipIK:
         nothing, at most `max_attempts` SNOPT solves (default: the solver's own)."""
         p, R = target_arrays(X_WT_desired)
         q_seed = self.q_nominal if q_seed is None else check_finite_vector(q_seed, 7, "q_seed")
-        q_seed = np.clip(q_seed, self.lower, self.upper)
+        q_seed = np.minimum(np.maximum(q_seed, self.lower), self.upper)
         limit = self.max_attempts if max_attempts is None else int(max_attempts)
         if limit < 1:
             raise ValueError(f"max_attempts={limit} must be at least 1")

@@ -54,14 +54,16 @@ def check_action(action, mode: str) -> np.ndarray:
             f"action {a.tolist()} holds NaN or infinite values; actions must be "
             "finite (they are clipped to [-1, 1])"
         )
-    return np.clip(a, -1.0, 1.0)
+    return np.minimum(np.maximum(a, -1.0), 1.0)  # np.clip, without its dispatch cost
 
 
 def apply_action(
     target: np.ndarray, action: np.ndarray, mode: str, workspace: Workspace
 ) -> np.ndarray:
     """The tool-tip target [p (3), quaternion wxyz (4)] moved by a (clipped) action."""
-    p = np.clip(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower, workspace.upper)
+    p = np.minimum(
+        np.maximum(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower), workspace.upper
+    )
     quat = target[3:]
     if mode == "paper":
         quat = quat + MAX_QUATERNION_STEP * action[3:7]
