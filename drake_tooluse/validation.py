@@ -85,7 +85,13 @@ def check_int(value, lo: int, hi: int, name: str) -> int:
 def check_seed(value, name: str = "seed", count: int = 1) -> int:
     """A seed: an integer in [0, 2**32 - 1]; with `count`, seeds value … value + count - 1
     must all be in range (an evaluation of `count` episodes)."""
-    return check_int(value, 0, SEED_MAX - (count - 1), name)
+    seed = check_int(value, 0, SEED_MAX, name)
+    if seed + count - 1 > SEED_MAX:
+        raise ValueError(
+            f"{name}={seed} with {count} runs uses seeds up to {seed + count - 1}, beyond the "
+            f"allowed range [0, {SEED_MAX}]"
+        )
+    return seed
 
 
 def check_bool(value, name: str) -> bool:

@@ -123,7 +123,7 @@ def cmd_simulate(args) -> dict:
     from drake_tooluse.robot.model import RobotBelief
 
     if args.record is not None:  # before the simulation, not after it
-        output_file_arg(args.record, "--record", suffix=".html")
+        output_file_arg(args.record, "--record")
     scenario = scenario_from_args(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
     start = time.perf_counter()

@@ -23,6 +23,7 @@ from drake_tooluse.diagrams.control import (
     add_world_at_home,
     nominal_belief,
 )
+from drake_tooluse.diagrams.failures import advance, finite_state
 from drake_tooluse.diagrams.visualization import add_meshcat_visualizer
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import RobotBelief
@@ -200,18 +201,16 @@ def run_push(
     for step in range(1, max_steps + 1):
         tips.append(tip)
         boxes.append(box)
-        try:
-            simulator.AdvanceTo(step * period)
-            now = reader.read(plant_context, goal, box_start)
-            tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
-            box = world.box.EvalPoseInWorld(plant_context).translation()
-        except RuntimeError as e:
-            error = f"simulation failed at step {step}: {str(e).splitlines()[0][:300]}"
+        failure = advance(simulator, step * period)
+        if failure is not None:
+            error = f"simulation failed at step {step}: {failure}"
             break
-        finite = [now.box_to_goal, now.tip_to_box, now.box_travel, *tip, *box]
-        if not np.all(np.isfinite(finite)):
+        if not finite_state(world.plant, plant_context):
             error = f"the state is no longer finite at step {step}"
             break
+        now = reader.read(plant_context, goal, box_start)
+        tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
+        box = world.box.EvalPoseInWorld(plant_context).translation()
         metrics = now
         tool_touched |= metrics.tool_touches_box
         gripper_touched |= metrics.gripper_touches_box

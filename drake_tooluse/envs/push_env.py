@@ -34,6 +34,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.diagrams.control import IK_MODES
+from drake_tooluse.diagrams.failures import advance, finite_state
 from drake_tooluse.diagrams.push import add_push_task
 from drake_tooluse.diagrams.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import check_tool_length
@@ -245,19 +246,15 @@ class ToolPushEnv(DrakeGymEnv):
         action = check_action(action, self.config.action_mode)
         context = self.simulator.get_mutable_context()
         self.action_port.FixValue(context, action)
-        sim_error = False
-        try:
-            self.simulator.AdvanceTo(context.get_time() + self.time_step)
-        except RuntimeError:  # a simulation failure truncates the episode, with a flag
-            sim_error = True
+        # A simulation failure truncates the episode, with a flag (`diagrams.failures`).
+        sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
+        plant_context = self.world.plant.GetMyContextFromRoot(context)
+        sim_error = sim_error or not finite_state(self.world.plant, plant_context)
         observation, m = self._last
         if not sim_error:
-            try:
-                observation = np.asarray(self.observation_port.Eval(context), np.float32)
-                m = self._read_metrics()
-            except RuntimeError:
-                sim_error = True
-            sim_error = sim_error or not (np.all(np.isfinite(observation)) and _finite(m))
+            observation = np.asarray(self.observation_port.Eval(context), np.float32)
+            m = self._read_metrics()
+            sim_error = not (np.all(np.isfinite(observation)) and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
         else:

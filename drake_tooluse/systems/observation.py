@@ -58,7 +58,8 @@ class ToolPushObservation(LeafSystem):
     Input ports:
         plant_state: the world plant's full state [q (14), v (13)].
     Output ports:
-        observation: by mode, 30 or 12 values (one more with the tool length).
+        observation: by mode, 30 or 12 values (one more with the tool length); all NaN when
+            the state is not finite.
     Parameters: the goal x* (3, m), set per episode.
     """
 
@@ -91,6 +92,7 @@ class ToolPushObservation(LeafSystem):
         )
         self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
         size = OBSERVATION_SIZES[mode] + len(self._tool_length)
+        self._size = size
         self.DeclareVectorOutputPort(
             "observation",
             size,
@@ -108,7 +110,10 @@ class ToolPushObservation(LeafSystem):
         output.SetFromVector(self.observation(self._state.Eval(context), self.goal(context)))
 
     def observation(self, x, goal) -> np.ndarray:
-        """The observation from the plant state x and the goal."""
+        """The observation from the plant state x and the goal; NaN where the state is not
+        finite (a failed simulation: the robot model refuses such joint angles)."""
+        if not np.all(np.isfinite(x)):
+            return np.full(self._size, np.nan)
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
         if self._mode == "tip":

@@ -9,6 +9,7 @@ from waypoints (move, then dwell), `tip_trajectory_source` turns one into the 7-
 from __future__ import annotations
 
 import io
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,7 +73,7 @@ class TipTrajectory:
         try:
             with np.load(path) as data:
                 return TipTrajectory(data["times"], data["positions"], data["quaternions"])
-        except (KeyError, ValueError, OSError) as e:
+        except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as e:
             raise ValueError(
                 f"malformed trajectory file {str(path)!r}: {e} (it needs times "
                 "(T,), positions (T, 3), quaternions (T, 4))"

@@ -1,0 +1,42 @@
+"""What a simulation failure looks like from Python, caught where a run advances.
+
+Drake reports a failed step (a solver that does not converge, a non-finite pose reaching
+SceneGraph) as a `RuntimeError`. A failed check in its inline C++ (`DRAKE_THROW_UNLESS`, e.g.
+`MultibodyPlant.SetPositions` given NaN inside a Python system's calc) reaches Python as a
+`SystemExit` whose message starts "Failure at": left alone it would end the process.
+`advance` turns both into a message; anything else propagates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DRAKE_FAILURE = "Failure at "
+
+
+def failure_message(error: BaseException) -> str | None:
+    """The one-line message of a Drake simulation failure, or None if `error` is not one."""
+    if isinstance(error, SystemExit) and not str(error).startswith(DRAKE_FAILURE):
+        return None
+    if not isinstance(error, (RuntimeError, SystemExit)):
+        return None
+    lines = str(error).strip().splitlines()
+    return (lines[0] if lines else type(error).__name__)[:300]
+
+
+def advance(simulator, time: float) -> str | None:
+    """`simulator.AdvanceTo(time)`; None, or the failure's message."""
+    try:
+        simulator.AdvanceTo(time)
+    except (RuntimeError, SystemExit) as e:
+        message = failure_message(e)
+        if message is None:
+            raise
+        return message
+    return None
+
+
+def finite_state(plant, plant_context) -> bool:
+    """Whether the plant's positions and velocities are all finite (read without running any
+    Python system)."""
+    return bool(np.all(np.isfinite(plant.GetPositionsAndVelocities(plant_context))))
