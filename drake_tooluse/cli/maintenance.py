@@ -1,6 +1,9 @@
-"""`generate-models` and `render-diagrams`: the files the project writes into its own tree."""
+"""`generate-models`, `render-diagrams` and `render-figures`: the files the project writes into
+its own tree."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from drake_tooluse.cli.common import UsageError
 from drake_tooluse.paths import BAXTER_URDF, MODELS_DIR, SCENARIOS_DIR
@@ -22,6 +25,12 @@ def cmd_render_diagrams(args) -> dict:
     return render_all(SCENARIOS_DIR, check=args.check)
 
 
+def cmd_render_figures(args) -> dict:
+    from drake_tooluse.experiments.screenshots import render_all
+
+    return render_all(args.figures_dir, check=args.check, names=args.only)
+
+
 def add_parsers(sub) -> None:
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")
@@ -32,3 +41,25 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--check", action="store_true", help="only check the .dot files are current")
     p.set_defaults(run=cmd_render_diagrams)
+
+    p = sub.add_parser(
+        "render-figures",
+        help="take the README's Meshcat screenshots (docs/figures/*.png) from fresh recordings "
+        "with headless Chromium, each with a .json of what it shows",
+    )
+    p.add_argument(
+        "--figures-dir",
+        type=Path,
+        default=Path("docs/figures"),
+        metavar="DIR",
+        help="the checkout's figure folder (default: %(default)s)",
+    )
+    p.add_argument(
+        "--only", nargs="+", metavar="NAME", help="only these screenshots (default: all)"
+    )
+    p.add_argument(
+        "--check",
+        action="store_true",
+        help="only check each screenshot's .json matches a fresh recording (no browser needed)",
+    )
+    p.set_defaults(run=cmd_render_figures)

@@ -57,14 +57,15 @@ def build_trajectory_diagram(
     """World (truth) + a TrajectorySource of `trajectory` (leading by `lead` s, see
     `tip_trajectory_source`) through the tool-tip IK on the robot model of `belief` (default:
     the scenario's true length, nominal grasp) and the joint command (with the scenario's
-    actuation delay) to the plant; Meshcat if given."""
+    actuation delay) to the plant; Meshcat if given, framed on the task
+    (`visualization.show_task`)."""
     builder = DiagramBuilder()
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     source = builder.AddNamedSystem("tip_trajectory", tip_trajectory_source(trajectory, lead))
     control = add_trajectory_control(builder, world, ik, q0, source)
     visualizer = None
     if meshcat is not None:
-        visualizer = add_meshcat_visualizer(builder, world.scene_graph, meshcat)
+        visualizer = add_meshcat_visualizer(builder, world.scene_graph, meshcat, scenario)
     diagram = builder.Build()
     diagram.set_name("trajectory_control")
     return TrajectoryDiagram(diagram, world, control, visualizer)
