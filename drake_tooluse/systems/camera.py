@@ -42,6 +42,7 @@ from drake_tooluse.perception.markers import (
     check_noise_sigma,
     measure_view,
 )
+from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.validation import check_in_range, check_one_of
 from drake_tooluse.world.scenario import CameraConfig
 
@@ -191,10 +192,11 @@ class ColorImageNoise(LeafSystem):
         self._input = self.DeclareAbstractInputPort(
             "color_image", AbstractValue.Make(ImageRgba8U(self._width, self._height))
         )
+        width, height = self._width, self._height  # the allocator must not hold self
         self.DeclareAbstractOutputPort(
             "color_image",
-            lambda: AbstractValue.Make(ImageRgba8U(self._width, self._height)),
-            self._calc,
+            lambda: AbstractValue.Make(ImageRgba8U(width, height)),
+            weak_method(self._calc),
         )
 
     def _calc(self, context, output):
@@ -270,15 +272,18 @@ class ToolLengthEstimator(LeafSystem):
         self._state = self.DeclareAbstractState(
             AbstractValue.Make(ToolLengthMeasurement(method=self._method))
         )
-        self.DeclarePeriodicUnrestrictedUpdateEvent(capture_period, first_capture, self._capture)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(
+            capture_period, first_capture, weak_method(self._capture)
+        )
         state = {self.abstract_state_ticket(self._state)}
         self.DeclareVectorOutputPort(
-            "tool_length", 1, self._calc_length, prerequisites_of_calc=state
+            "tool_length", 1, weak_method(self._calc_length), prerequisites_of_calc=state
         )
+        method = self._method  # the allocator must not hold self
         self.DeclareAbstractOutputPort(
             "measurement",
-            lambda: AbstractValue.Make(ToolLengthMeasurement(method=self._method)),
-            self._calc_measurement,
+            lambda: AbstractValue.Make(ToolLengthMeasurement(method=method)),
+            weak_method(self._calc_measurement),
             prerequisites_of_calc=state,
         )
 

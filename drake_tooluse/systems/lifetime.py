@@ -6,13 +6,30 @@ builder and the whole Diagram alive with it: plant, scene graph, contexts, cache
 garbage collector cannot see the C++ edge, so every built-and-dropped diagram with a Python
 system stays in memory (Drake issues #22515, #23161; measured here ≈ 2–3 MB per push env).
 `release_diagram` clears the Python systems' attributes (their ports, models and that
-bookkeeping): the Diagram is then freed with its last reference and only the empty Python
-shells remain (about 15 kB each).
+bookkeeping): the Diagram is then freed with its last reference. A system whose calc
+callbacks are its own bound methods stays behind as an empty shell (≈ 70 kB with its C++
+half: the callbacks, held in C++, keep it); one that declares them through `weak_method`
+is freed entirely.
 """
 
 from __future__ import annotations
 
+import weakref
+
 from pydrake.systems.framework import Diagram
+
+
+def weak_method(method):
+    """A callback for a port or event of a Python system that calls `method` (a bound method
+    of the system) without keeping the system alive: with its C++ half holding the callback,
+    a bound method would make the system immortal (see the module docstring)."""
+    ref = weakref.WeakMethod(method)
+
+    def call(*args):
+        return ref()(*args)
+
+    call.__name__ = getattr(method, "__name__", "call")
+    return call
 
 
 def release_diagram(diagram) -> None:

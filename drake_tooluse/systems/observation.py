@@ -38,6 +38,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
+from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scene import World
 
@@ -96,7 +97,7 @@ class ToolPushObservation(LeafSystem):
         self.DeclareVectorOutputPort(
             "observation",
             size,
-            self._calc,
+            weak_method(self._calc),
             prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
         )
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from drake_tooluse.systems.lifetime import weak_method
+
 
 class PolicySystem(LeafSystem):
     """Observation in, action out: a saved stable-baselines3 policy, deterministic, with its
@@ -39,7 +41,7 @@ class PolicySystem(LeafSystem):
         self.DeclareVectorOutputPort(
             "action",
             policy.meta.action_shape[0],
-            self._calc,
+            weak_method(self._calc),
             prerequisites_of_calc={self._obs.ticket()},
         )
 

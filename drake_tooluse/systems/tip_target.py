@@ -22,6 +22,7 @@ from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.kinematics import ArmChain
+from drake_tooluse.systems.lifetime import weak_method
 
 ACTION_MODES = {"paper": 7, "pose": 6, "position": 3}
 MAX_TRANSLATION_STEP = 0.02  # m per step
@@ -114,7 +115,7 @@ class TipTargetSystem(LeafSystem):
         self._held_quaternion = np.asarray(initial_target, float)[3:]
         self._action = self.DeclareVectorInputPort("action", ACTION_MODES[mode])
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
-        self.DeclareVectorOutputPort("tip_pose_desired", 7, self._calc_target)
+        self.DeclareVectorOutputPort("tip_pose_desired", 7, weak_method(self._calc_target))
 
     def _target(self, context) -> np.ndarray:
         R_WT, p_WT = self._chain.pose(self._arm_state.Eval(context)[:7])
