@@ -6,8 +6,14 @@
 3. Push the box with the shipped policy closed-loop, its IK holding the measured tool (its
    length, and where the hand holds it along it), recorded in Meshcat.
 4. Write `runs/demo-<time>/`: `recording.html` (open it in a browser), `metrics.json`,
-   `trajectory.png` (tool tip and box from above and from the side), `summary.png`,
-   `camera/measure_<view>.png` (the annotated camera views) and `final_scene.png`.
+   `trajectory.png` (tool tip and box from above and from the side), `summary.png` (the head
+   camera cropped to the tool with both length estimates and a legend of the annotation's
+   colours, the scene at the end with the goal marked, the paths from above),
+   `camera/measure_<view>.png` (the annotated camera views) and `final_scene.png` (the scene
+   camera at the end of the push, the goal drawn on it in green).
+
+Every path in `metrics.json` (`policy`, `scenario` and each of `files`) is absolute: the
+run directory's files where the directory is once written, the inputs where they were read.
 """
 
 from __future__ import annotations
@@ -20,7 +26,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.patches import Circle
+from matplotlib.patches import Circle, Patch
+from pydrake.math import RigidTransform
 from tqdm import tqdm
 
 from drake_tooluse.diagrams.measurement import measure_belief
@@ -36,6 +43,7 @@ from drake_tooluse.files import (
 )
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.perception.markers import ANNOTATION_COLORS
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.validation import check_seed
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, SUCCESS_DISTANCE
@@ -44,6 +52,99 @@ from drake_tooluse.world.scenario import load_scenario, with_tool_length
 from drake_tooluse.world.scene import goal_position, initial_box_pose
 
 FIGURE_DPI = 110
+GOAL_RADIUS = SUCCESS_DISTANCE / 2  # m, the goal as drawn (as in the Meshcat recording)
+GOAL_RGB = (40, 200, 60)
+SCENE_CAMERA = "render_camera"  # the system `systems.camera.add_scene_camera` adds
+
+
+@dc.dataclass(frozen=True)
+class SceneView:
+    """The scene camera's pose X_WC (C: +z out of the lens, +x right, +y down) and pinhole
+    intrinsics (px): enough to draw points of W on its image."""
+
+    X_WC: RigidTransform
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    def project(self, p_W) -> tuple[np.ndarray, np.ndarray]:
+        """Pixels (u, v) of the (N, 3) points `p_W`, and which lie in front of the camera."""
+        p_C = (self.X_WC.inverse().multiply(np.asarray(p_W, float).T)).T
+        z = p_C[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = np.column_stack(
+                [self.fx * p_C[:, 0] / z + self.cx, self.fy * p_C[:, 1] / z + self.cy]
+            )
+        return uv, z > 1e-6
+
+
+def scene_camera_view(diagram, plant) -> SceneView | None:
+    """The scene camera of `diagram` (added by `systems.camera.add_scene_camera`, fixed to
+    the world), or None if it has none."""
+    if not diagram.HasSubsystemNamed(SCENE_CAMERA):
+        return None
+    sensor = diagram.GetSubsystemByName(SCENE_CAMERA)
+    if sensor.default_parent_frame_id() != plant.GetBodyFrameIdOrThrow(plant.world_body().index()):
+        return None  # not fixed to the world: its pose would need the plant's state
+    core = sensor.default_color_render_camera().core()
+    info = core.intrinsics()
+    X_WC = sensor.default_X_PB().multiply(core.sensor_pose_in_camera_body())
+    return SceneView(X_WC, info.focal_x(), info.focal_y(), info.center_x(), info.center_y())
+
+
+def mark_goal(image: np.ndarray, view: SceneView, scenario) -> np.ndarray:
+    """`image` (RGB(A), the scene camera's) with the goal drawn where the camera sees it: a
+    translucent green disc of radius GOAL_RADIUS on the table around x* and a cross at x*."""
+    rgb = np.ascontiguousarray(np.asarray(image)[:, :, :3]).copy()
+    goal = goal_position(scenario)
+    angles = np.linspace(0.0, 2 * np.pi, 73)
+    z = scenario.table.top_z
+    ring = np.column_stack(
+        [goal[0] + GOAL_RADIUS * np.cos(angles), goal[1] + GOAL_RADIUS * np.sin(angles)]
+    )
+    uv, front = view.project(np.column_stack([ring, np.full(len(ring), z)]))
+    if not front.all():
+        return rgb
+    scale = max(rgb.shape[1] / 480, 0.5)
+    polygon = np.rint(uv).astype(np.int32)
+    disc = rgb.copy()
+    cv2.fillPoly(disc, [polygon], GOAL_RGB, cv2.LINE_AA)
+    rgb = cv2.addWeighted(disc, 0.45, rgb, 0.55, 0.0)
+    cv2.polylines(rgb, [polygon], True, GOAL_RGB, max(1, round(2 * scale)), cv2.LINE_AA)
+    (center,), _ = view.project([[goal[0], goal[1], z]])
+    c = tuple(int(round(x)) for x in center)
+    size = max(4, round(6 * scale))
+    cv2.drawMarker(rgb, c, GOAL_RGB, cv2.MARKER_CROSS, size, max(1, round(2 * scale)))
+    cv2.putText(  # to the right of the disc, off the box and the tool above it
+        rgb,
+        "goal",
+        (int(polygon[:, 0].max()) + round(4 * scale), c[1] + round(5 * scale)),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        0.5 * scale,
+        GOAL_RGB,
+        max(1, round(1.5 * scale)),
+        cv2.LINE_AA,
+    )
+    return rgb
+
+
+def tool_crop(shape, view, aspect: float = 4 / 3) -> tuple[slice, slice]:
+    """Rows and columns of an image of `shape` that frame the tool seen in `view` (a
+    ViewMeasurement: its marker boxes span it), with a margin, `aspect` wide over high."""
+    h, w = shape[:2]
+    corners = np.array([c for box in view.boxes for c in box] + list(view.ends_px), float)
+    if corners.size == 0:
+        return slice(0, h), slice(0, w)
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    span = max(float(np.linalg.norm(hi - lo)), 40.0)
+    center = (lo + hi) / 2
+    half_w = max((hi[0] - lo[0]) / 2 + 0.2 * span, aspect * ((hi[1] - lo[1]) / 2 + 0.2 * span))
+    half_w = min(half_w, w / 2, aspect * h / 2)
+    half_h = half_w / aspect
+    u0 = int(np.clip(center[0] - half_w, 0, w - 2 * half_w))
+    v0 = int(np.clip(center[1] - half_h, 0, h - 2 * half_h))
+    return slice(v0, v0 + int(2 * half_h)), slice(u0, u0 + int(2 * half_w))
 
 
 def _plot_top(ax, run, scenario) -> None:
@@ -88,8 +189,49 @@ def _plot_time(ax, run, scenario) -> None:
     ax.legend(fontsize=7)
 
 
-def write_figures(out: Path, run, scenario, camera_files, final_image) -> dict:
-    """trajectory.png, final_scene.png and summary.png (camera view, scene, paths)."""
+def _camera_panel(ax_image, ax_text, measurement) -> None:
+    """The first accepted head-camera view, annotated and cropped to the tool, and under it
+    both estimates of every view in words with a legend of the annotation's colours."""
+    ax_image.axis("off")
+    ax_text.axis("off")
+    pairs = [(v, f) for v, f in zip(measurement.views, measurement.image_files) if v.accepted]
+    if not pairs:
+        return
+    view, path = pairs[0]
+    image = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
+    rows, cols = tool_crop(image.shape, view)
+    ax_image.imshow(image[rows, cols], interpolation="lanczos")
+    ax_image.set_title(f"head camera, view {view.view} (cropped to the tool)", fontsize=9)
+    ax_image.legend(
+        handles=[
+            Patch(color=np.array(bgr[::-1]) / 255, label=label.split(": ", 1)[1])
+            for bgr, label in ANNOTATION_COLORS.values()
+        ],
+        loc="lower left",
+        fontsize=6.5,
+        framealpha=0.85,
+    )
+    accepted = [v for v in measurement.views if v.accepted]
+    names = " / ".join(v.view.removeprefix("grip_") for v in accepted)
+
+    def mm(values):
+        return " / ".join(f"{x * 1000:.1f}" for x in values)
+
+    depth = [v.length_depth for v in accepted]
+    lines = [
+        f"views (grip {names}), mm:",
+        f"depth variant, what the robot uses: {mm(depth)}; mean {np.mean(depth) * 1000:.1f}",
+        f"pixel variant, the paper's fixed m/px: {mm(v.length_pixel for v in accepted)}",
+        "   (exact only for a tool square to the camera at the grip's depth:",
+        "   a view that tilts the tool in depth foreshortens it)",
+        f"true length: {measurement.scenario_tool_length * 1000:.1f} (unknown to the robot)",
+    ]
+    ax_text.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", fontsize=8.5, family="sans-serif")
+
+
+def write_figures(out: Path, run, scenario, measurement, final_image, scene_view=None) -> dict:
+    """trajectory.png, final_scene.png (the goal marked where `scene_view` sees it) and
+    summary.png (camera view, scene, paths)."""
     files = {}
     fig = Figure(figsize=(9, 4))
     ax_top, ax_time = fig.subplots(1, 2)
@@ -97,23 +239,22 @@ def write_figures(out: Path, run, scenario, camera_files, final_image) -> dict:
     _plot_time(ax_time, run, scenario)
     fig.tight_layout()
     files["trajectory"] = atomic_write_figure(out / "trajectory.png", fig, dpi=FIGURE_DPI)
+    if final_image is not None and scene_view is not None:
+        final_image = mark_goal(final_image, scene_view, scenario)
     if final_image is not None:
         files["final_scene"] = atomic_write_image(out / "final_scene.png", final_image)
-    fig = Figure(figsize=(14, 4.2))
-    axes = fig.subplots(1, 3)
-    if camera_files:
-        view = cv2.imread(str(camera_files[0]))
-        axes[0].imshow(cv2.cvtColor(view, cv2.COLOR_BGR2RGB))
-        axes[0].set_title(f"head camera: {Path(camera_files[0]).stem}", fontsize=9)
-    axes[0].axis("off")
+    fig = Figure(figsize=(15, 5))
+    grid = fig.add_gridspec(2, 3, height_ratios=[3.0, 1.25], width_ratios=[1.1, 1.0, 0.95])
+    _camera_panel(fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[1, 0]), measurement)
+    ax_scene = fig.add_subplot(grid[:, 1])
     if final_image is not None:
-        axes[1].imshow(final_image[:, :, :3])
-        axes[1].set_title("the push, at the end", fontsize=9)
-    axes[1].axis("off")
-    _plot_top(axes[2], run, scenario)
+        ax_scene.imshow(final_image[:, :, :3])
+        ax_scene.set_title("the push, at the end (green: the goal)", fontsize=9)
+    ax_scene.axis("off")
+    _plot_top(fig.add_subplot(grid[:, 2]), run, scenario)
     fig.tight_layout()
     files["summary"] = atomic_write_figure(out / "summary.png", fig, dpi=FIGURE_DPI)
-    return {k: str(v) for k, v in files.items()}
+    return files
 
 
 def run_demo(
@@ -176,6 +317,7 @@ def run_demo(
                 built, max_steps=max_steps, record=True, on_step=lambda step: bar.update(1)
             )
         save_recording(meshcat, built.visualizer, work / "recording.html")
+        scene_view = scene_camera_view(built.diagram, built.world.plant)
         release_diagram(built.diagram)  # its Python systems would keep it alive
         times["push_s"] = time.perf_counter() - t0
         log(
@@ -185,15 +327,16 @@ def run_demo(
         )
 
         log("[3/3] writing figures and metrics …")
-        figures = write_figures(work, run, scenario, measurement.image_files, run.final_image)
+        figures = write_figures(work, run, scenario, measurement, run.final_image, scene_view)
         times["total_s"] = time.perf_counter() - start
+        where = out.resolve()
 
         def final(path) -> str:  # where a file will be once the directory is in place
-            return str(out / Path(path).relative_to(work))
+            return str(where / Path(path).relative_to(work))
 
         metrics = {
-            "policy": str(policy_dir),
-            "scenario": str(scenario_path),
+            "policy": str(policy_dir.resolve()),
+            "scenario": str(Path(scenario_path).resolve()),
             "seed": seed,
             "tool": {
                 "true_length_m": tool_length,
@@ -208,8 +351,8 @@ def run_demo(
             "push": run.as_dict(),
             "times": times,
             "files": {
-                "recording": str(out / "recording.html"),
-                "metrics": str(out / "metrics.json"),
+                "recording": final(work / "recording.html"),
+                "metrics": final(work / "metrics.json"),
                 "camera_views": [final(f) for f in measurement.image_files],
                 **{k: final(v) for k, v in figures.items()},
             },

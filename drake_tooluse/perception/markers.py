@@ -392,30 +392,82 @@ def measure_view(
     return out
 
 
+# annotate_view's colours (BGR) and what each shows, for its legend and a figure's.
+ANNOTATION_COLORS = {
+    "mask": ((0, 255, 0), "green: the pixels the orange mask found (the marker bands)"),
+    "box": ((255, 0, 0), "blue: each marker's bounding box"),
+    "pixel": ((0, 0, 255), "red: the boxes' outer ends in the image (pixel variant)"),
+    "depth": ((0, 220, 255), "yellow: the outer ends found in 3-D (depth variant)"),
+}
+
+
+def measurement_text(measurement: ViewMeasurement) -> list[str]:
+    """The result of one view in words: the depth variant, which the robot uses, and the
+    paper's pixel variant with why it differs; or why the view was dropped."""
+    if not measurement.accepted:
+        return [f"{measurement.view}: dropped - {measurement.reason}"]
+    return [
+        f"{measurement.view}: depth variant {measurement.length_depth * 1000:.1f} mm "
+        "(what the robot uses)",
+        f"pixel variant {measurement.length_pixel * 1000:.1f} mm (the paper's fixed m/px, exact",
+        "  only square to the camera: a tool tilted in depth looks shorter)",
+    ]
+
+
+def _text_block(bgr, lines, origin, scale, thickness, swatches=None) -> int:
+    """`lines` of text on a whitened panel at `origin` (top left, px), each after a colour
+    swatch when `swatches` gives one (BGR or None). Returns the panel's bottom row."""
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    sizes = [cv2.getTextSize(line, font, scale, thickness)[0] for line in lines]
+    step = int(max(h for _, h in sizes) * 1.8)
+    pad = max(2, step // 4)
+    indent = step if swatches else 0
+    x0, y0 = origin
+    width = max(w for w, _ in sizes) + indent + 2 * pad
+    x1, y1 = min(x0 + width, bgr.shape[1] - 1), min(y0 + step * len(lines) + pad, bgr.shape[0] - 1)
+    panel = bgr[y0:y1, x0:x1]
+    panel[:] = (0.25 * panel + 0.75 * 255).astype(np.uint8)
+    for i, line in enumerate(lines):
+        base = y0 + pad + step * (i + 1) - step // 3
+        if swatches and swatches[i] is not None:
+            side = step // 2
+            cv2.rectangle(bgr, (x0 + pad, base - side), (x0 + pad + side, base), swatches[i], -1)
+        cv2.putText(
+            bgr, line, (x0 + pad + indent, base), font, scale, (0, 0, 0), thickness, cv2.LINE_AA
+        )
+    return y1
+
+
 def annotate_view(
     color_image: np.ndarray, measurement: ViewMeasurement, info: CameraIntrinsics | None = None
 ) -> np.ndarray:
     """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box (blue),
     the segment between the boxes' outer ends (red: the pixel variant), the 3-D outer ends
-    projected back (yellow: the depth variant; needs `info`), 6x insets of the two markers in
-    the top right corner, and the result (or why the view was dropped)."""
+    projected back (yellow: the depth variant; needs `info`), insets of the two markers in
+    the top right corner, the result in words (`measurement_text`) and a legend of the
+    colours (ANNOTATION_COLORS) in the top left. Lines, text and insets scale with the image
+    (as drawn at 1280 px wide)."""
     bgr = cv2.cvtColor(np.ascontiguousarray(color_image[:, :, :3]), cv2.COLOR_RGB2BGR)
+    s = max(bgr.shape[1], 1) / 1280  # the drawing's scale
+    line = max(1, round(2 * s))
+    colors = {k: c for k, (c, _) in ANNOTATION_COLORS.items()}
     mask = orange_mask(color_image) > 0
-    bgr[mask] = (0.5 * bgr[mask] + 0.5 * np.array([0, 255, 0])).astype(np.uint8)
+    bgr[mask] = (0.5 * bgr[mask] + 0.5 * np.array(colors["mask"])).astype(np.uint8)
     base = bgr.copy()
     for box in measurement.boxes:
-        cv2.polylines(bgr, [np.rint(np.array(box)).astype(np.int32)], True, (255, 0, 0), 1)
+        cv2.polylines(bgr, [np.rint(np.array(box)).astype(np.int32)], True, colors["box"], line)
     if len(measurement.ends_px) == 2:
         a, b = (tuple(int(round(x)) for x in e) for e in measurement.ends_px)
-        cv2.line(bgr, a, b, (0, 0, 255), 1)
+        cv2.line(bgr, a, b, colors["pixel"], line)
     ends_3d = []
     if info is not None:
         ends_3d = [
             (info.center_x() + info.focal_x() * x / d, info.center_y() + info.focal_y() * y / d)
             for x, y, d in measurement.ends_C
         ]
-    zoom, half = 6, 16  # each inset: a 33 x 33 px window at 6x, drawn at that scale
+    zoom, half = max(2, round(6 * s)), 16  # each inset: a 33 x 33 px window, magnified
     side = (2 * half + 1) * zoom
+    top, gap = round(40 * s), round(10 * s)
     for i, end in enumerate(measurement.ends_px):
         u0 = min(max(int(round(end[0])), half), bgr.shape[1] - half - 1) - half
         v0 = min(max(int(round(end[1])), half), bgr.shape[0] - half - 1) - half
@@ -429,43 +481,31 @@ def annotate_view(
             return (int(round((p[0] - u0 + 0.5) * zoom)), int(round((p[1] - v0 + 0.5) * zoom)))
 
         for box in measurement.boxes:
-            cv2.polylines(inset, [np.array([z(c) for c in box], np.int32)], True, (255, 0, 0), 2)
-        cv2.line(inset, z(measurement.ends_px[0]), z(measurement.ends_px[1]), (0, 0, 255), 2)
+            cv2.polylines(inset, [np.array([z(c) for c in box], np.int32)], True, colors["box"], 2)
+        cv2.line(inset, z(measurement.ends_px[0]), z(measurement.ends_px[1]), colors["pixel"], 2)
         for p in ends_3d:
-            cv2.circle(inset, z(p), 5, (0, 220, 255), -1)
-        x0 = bgr.shape[1] - (len(measurement.ends_px) - i) * (side + 10)
-        if x0 >= 0 and side + 40 <= bgr.shape[0]:
-            bgr[40 : 40 + side, x0 : x0 + side] = inset
-            cv2.rectangle(bgr, (x0, 40), (x0 + side - 1, 40 + side - 1), (0, 0, 0), 1)
-            cv2.rectangle(
-                bgr, (x0 + 1, 40 + side - 22), (x0 + 110, 40 + side - 2), (255, 255, 255), -1
-            )
-            cv2.putText(
+            cv2.circle(inset, z(p), max(2, round(5 * s)), colors["depth"], -1)
+        x0 = bgr.shape[1] - (len(measurement.ends_px) - i) * (side + gap)
+        if x0 >= 0 and top + side <= bgr.shape[0]:
+            bgr[top : top + side, x0 : x0 + side] = inset
+            cv2.rectangle(bgr, (x0, top), (x0 + side - 1, top + side - 1), (0, 0, 0), 1)
+            _text_block(
                 bgr,
-                ("grip", "tip")[i] + f" marker x{zoom}",
-                (x0 + 4, 40 + side - 7),
-                cv2.FONT_HERSHEY_SIMPLEX,
-                0.45,
-                (0, 0, 0),
-                1,
-                cv2.LINE_AA,
+                [("grip", "tip")[i] + f" marker x{zoom}"],
+                (x0 + 1, top + side - round(24 * s)),
+                0.45 * s,
+                max(1, round(s)),
             )
-    if measurement.accepted:
-        text = (
-            f"{measurement.view}: depth {measurement.length_depth * 1000:.1f} mm, "
-            f"pixel {measurement.length_pixel * 1000:.1f} mm"
-        )
-    else:
-        text = f"{measurement.view}: dropped - {measurement.reason}"
-    scale = max(bgr.shape[1] / 1600, 0.4)
-    cv2.putText(
+    margin = round(10 * s)
+    bottom = _text_block(
+        bgr, measurement_text(measurement), (margin, margin), 0.7 * s, max(1, round(2 * s))
+    )
+    _text_block(
         bgr,
-        text,
-        (10, int(30 * scale + 5)),
-        cv2.FONT_HERSHEY_SIMPLEX,
-        scale,
-        (0, 0, 0),
-        2,
-        cv2.LINE_AA,
+        [label for _, label in ANNOTATION_COLORS.values()],
+        (margin, bottom + margin),
+        0.5 * s,
+        max(1, round(s)),
+        [color for color, _ in ANNOTATION_COLORS.values()],
     )
     return bgr

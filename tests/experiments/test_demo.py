@@ -1,6 +1,7 @@
 """`drake-tooluse demo` end to end: measure, push in the perturbed reality, write the run."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -8,9 +9,10 @@ from drake_tooluse.cli import main
 from drake_tooluse.experiments.demo import run_demo
 
 
-def test_demo_end_to_end(tmp_path, capsys):
+def test_demo_end_to_end(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--seed", "1"]) == 0
+    assert main(["demo", "--out", "demo", "--seed", "1"]) == 0  # a relative --out
     printed = capsys.readouterr()
     assert "[1/3] measuring" in printed.err and "[3/3]" in printed.err  # progress
     assert "recording.html" in printed.out
@@ -34,6 +36,12 @@ def test_demo_end_to_end(tmp_path, capsys):
     ):
         assert (out / name).stat().st_size > 5_000, name
     assert metrics["times"]["total_s"] < 180
+    # One rule for paths: every one is absolute, and names a file that is there.
+    files = metrics["files"]
+    paths = [metrics["policy"], metrics["scenario"], *files["camera_views"]]
+    paths += [v for k, v in files.items() if k != "camera_views"]
+    assert all(Path(p).is_absolute() and Path(p).exists() for p in paths), paths
+    assert files["summary"] == str(out / "summary.png")
 
 
 def test_demo_refuses_a_used_directory_and_bad_input(tmp_path):
