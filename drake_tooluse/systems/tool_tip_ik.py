@@ -6,6 +6,7 @@ import numpy as np
 from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.systems.lifetime import weak_method
 
 
 class ToolTipIKSystem(LeafSystem):
@@ -39,14 +40,19 @@ class ToolTipIKSystem(LeafSystem):
         q0 = ik.check_q(q0, "q0")
         self._pose_port = self.DeclareVectorInputPort("tip_pose_desired", 7)
         self._state = self.DeclareDiscreteState(np.concatenate([q0, [1.0, 0.0, 0.0, 0.0]]))
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
+        # Callbacks through weak_method: a released diagram frees this system (lifetime.py).
+        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_method(self._update))
         # Outputs depend on the discrete state only: cached between plant steps.
         xd = {self.xd_ticket()}
-        self.DeclareVectorOutputPort("q_desired", 7, self._calc_q, prerequisites_of_calc=xd)
         self.DeclareVectorOutputPort(
-            "desired_state", 14, self._calc_desired_state, prerequisites_of_calc=xd
+            "q_desired", 7, weak_method(self._calc_q), prerequisites_of_calc=xd
         )
-        self.DeclareVectorOutputPort("status", 4, self._calc_status, prerequisites_of_calc=xd)
+        self.DeclareVectorOutputPort(
+            "desired_state", 14, weak_method(self._calc_desired_state), prerequisites_of_calc=xd
+        )
+        self.DeclareVectorOutputPort(
+            "status", 4, weak_method(self._calc_status), prerequisites_of_calc=xd
+        )
 
     @property
     def ik(self) -> ToolTipIK:
