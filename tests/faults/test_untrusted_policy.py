@@ -138,3 +138,14 @@ def test_convert_policy_writes_a_directory_without_pickles(tmp_path):
     rng = np.random.default_rng(0)
     for obs in rng.normal(0, 0.5, (50, 12)).astype(np.float32):
         np.testing.assert_array_equal(new.act(obs), old.act(obs))
+
+
+def test_a_trusted_old_directory_without_its_zip_is_named(tmp_path):
+    legacy = tmp_path / "legacy"
+    legacy.mkdir()
+    shutil.copy(TRANSFER_POLICY / "policy.json", legacy / "policy.json")
+    (legacy / "vecnormalize.pkl").write_bytes(pickle.dumps({}))
+    with pytest.raises(
+        FileNotFoundError, match=r"has no policy.safetensors \(nor the older policy.zip\)$"
+    ):
+        load_policy(legacy, trust_pickle=True)
