@@ -542,8 +542,8 @@ def train(
     if resume and not (out / "config.json").is_file():
         raise FileNotFoundError(f"nothing to resume in {str(out)!r}: it has no config.json")
     with run_lock(out), contextlib.ExitStack() as stack:
-        remove_orphans(out)
-        remove_orphans(out / CHECKPOINTS)
+        for folder in (out, out / CHECKPOINTS, out / "logs", out / "eval"):
+            remove_orphans(folder)  # what a killed session was writing
         for name in ("best", "final"):
             recover_dir(out / name)
         checkpoint, first_command = None, command

@@ -75,6 +75,9 @@ def test_a_kill_while_checkpointing_leaves_a_complete_checkpoint(tmp_path, momen
 
     def killed_run():
         _die_on_second_checkpoint(moment)
+        # A write of the logs in flight, as a kill would leave it.
+        (out / "logs").mkdir(parents=True)
+        open(out / "logs" / f".progress.csv.tmp-{os.getpid()}@{files._HOST}.abcdefgh", "w")
         train(config, out, progress_bar=False)
 
     assert run_killed(killed_run) == KILLED
@@ -83,7 +86,7 @@ def test_a_kill_while_checkpointing_leaves_a_complete_checkpoint(tmp_path, momen
     assert summary["timesteps"] == 384
     assert summary["resumes"][0]["from_timesteps"] in (128, 256)
     # The killed process's temporary files and directories are gone.
-    assert orphans(out, out / "checkpoints") == []
+    assert orphans(out, out / "checkpoints", out / "logs", out / "eval") == []
     assert [p.name for p in checkpoint_dirs(out)] == ["ckpt-000000000384"]
     assert read_json(out / "checkpoints" / "latest.json")["checkpoint"] == "ckpt-000000000384"
     load_policy(out / "final")
