@@ -23,6 +23,12 @@ def _metrics(name):
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
+    assert sorted(p.name for p in (POLICIES / name).iterdir()) == [
+        "metrics.json",
+        "normalization.json",
+        "policy.json",
+        "policy.safetensors",
+    ]  # no pickle
     policy = load_policy(POLICIES / name)
     assert policy.meta.env_id == "drake_tooluse/ToolPush-v0"
     assert policy.meta.env_kwargs["ik_mode"] == "full"  # InverseKinematics in the loop
@@ -54,3 +60,7 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
         metrics["final_box_to_goal_mean_m"], abs=1e-6
     )
     assert result.success_rate == metrics["success_rate"]
+    # The policy files (converted from the pickle format) act exactly as the ones evaluated.
+    assert [e["final_box_to_goal_m"] for e in result.per_episode] == [
+        e["final_box_to_goal_m"] for e in metrics["per_episode"]
+    ]
