@@ -94,12 +94,13 @@ def cmd_export_csv(args) -> dict:
 def cmd_transfer(args) -> dict:
     """Runs the experiment into a new directory (transfer.json, the box plot)."""
     from drake_tooluse.experiments.runs import new_run_dir
-    from drake_tooluse.experiments.transfer import transfer_experiment
 
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
     runs = count_arg(args.runs, "--runs", 1, 10_000)
     seed_arg(args.seed, "--seed", runs)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    from drake_tooluse.experiments.transfer import transfer_experiment
+
     return transfer_experiment(
         out,
         args.policy,
@@ -124,12 +125,13 @@ def format_transfer(out: dict) -> str:
 
 
 def cmd_demo(args) -> dict:
-    from drake_tooluse.experiments.demo import run_demo
     from drake_tooluse.experiments.runs import new_run_dir
-    from drake_tooluse.robot.model import check_tool_length
 
     out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
     seed_arg(args.seed)
+    from drake_tooluse.experiments.demo import run_demo
+    from drake_tooluse.robot.model import check_tool_length
+
     check_tool_length(args.tool_length, "--tool-length")
     return run_demo(
         out,

@@ -21,11 +21,7 @@ MAX_EPISODES = 100_000
 
 
 def cmd_train(args) -> dict:
-    import torch
-
-    from drake_tooluse.learning.config import resolve_config
-    from drake_tooluse.learning.train import train
-
+    # The cheap checks first: an argument error comes before the library loads.
     if args.resume is not None:
         out_dir = args.resume
         if args.out is not None and args.out != args.resume:
@@ -41,6 +37,12 @@ def cmd_train(args) -> dict:
         count_arg(args.n_envs, "--n-envs", 1, 64)
     if args.init_from is not None and not args.init_from.is_dir():
         raise UsageError(f"--init-from {str(args.init_from)!r} is not a policy directory")
+    overrides = parse_json_arg(args.hyperparams, "--hyperparams")
+    import torch
+
+    from drake_tooluse.learning.config import resolve_config
+    from drake_tooluse.learning.train import train
+
     config = resolve_config(
         args.env,
         args.algo,
@@ -48,7 +50,7 @@ def cmd_train(args) -> dict:
         args.n_envs,
         args.seed,
         init_from=str(args.init_from) if args.init_from else None,
-        overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
+        overrides=overrides,
     )
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
@@ -66,11 +68,11 @@ def cmd_train(args) -> dict:
 def cmd_evaluate(args) -> dict:
     from dataclasses import asdict
 
-    from drake_tooluse.learning.evaluate import evaluate
-
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
+    from drake_tooluse.learning.evaluate import evaluate
+
     result = asdict(
         evaluate(args.policy, args.env, episodes, seed, env_kwargs, trust_pickle=args.trust_pickle)
     )
@@ -104,8 +106,6 @@ def format_evaluate(out: dict) -> str:
 
 
 def cmd_sweep(args) -> dict:
-    from drake_tooluse.learning.sweep import results_table, sweep
-
     count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     for seed in args.seeds:
@@ -113,6 +113,9 @@ def cmd_sweep(args) -> dict:
     if args.num_cpus is not None:
         count_arg(args.num_cpus, "--num-cpus", 1, 4096)
     output_dir_arg(args.out, "--out", must_be_new=False)
+    overrides = parse_json_arg(args.hyperparams, "--hyperparams")
+    from drake_tooluse.learning.sweep import results_table, sweep
+
     rows = sweep(
         args.algos,
         args.envs,
@@ -121,7 +124,7 @@ def cmd_sweep(args) -> dict:
         args.out,
         address=args.address,
         num_cpus=args.num_cpus,
-        overrides=parse_json_arg(args.hyperparams, "--hyperparams"),
+        overrides=overrides,
         episodes=args.episodes,
     )
     return {"runs": rows, "table": results_table(rows)}
