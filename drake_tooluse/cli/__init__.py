@@ -10,10 +10,12 @@ never a traceback:
 | 0 | success |
 | 1 | an internal error (a bug: `DRAKE_TOOLUSE_TRACEBACK=1` shows its traceback) |
 | 2 | a usage error: a bad option, value, file or path, named in the message |
+| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest) |
 | 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
 
-Output printed with `--json` is strict JSON (a non-finite number is `null`). Nothing in the
-library imports this package.
+Every command prints human-readable text by default and JSON with `--json` (strict JSON: a
+non-finite number is `null`); every `--help` shows the options' defaults and these exit codes.
+Nothing in the library imports this package.
 """
 
 from __future__ import annotations
@@ -25,26 +27,50 @@ import os
 import sys
 
 from drake_tooluse.cli import experiments, learning, maintenance, measure, robot
+from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition, exported here)
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_NOT_REACHED,
+    EXIT_OK,
+    EXIT_USAGE,
+)
 
 GROUPS = (robot, learning, experiments, measure, maintenance)
 DESCRIPTION = (
     "A Baxter robot that uses a straight tool of any length, in Drake: tool-tip IK, "
     "simulation, camera measurement, training, transfer."
 )
-EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 EPILOG = (
     "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
-    "or path), 130 interrupted"
+    "or path), 3 target not reached (ik: no joint angles put the tip at the pose), "
+    "130 interrupted"
 )
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """argparse's defaults formatter, leaving out the defaults that say nothing (None, a flag's
+    False) and those the help already states."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if "%(default)" in text or "default" in text or action.default in (None, False):
+            return text
+        return super()._get_help_string(action)
+
+
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="drake-tooluse", description=DESCRIPTION, epilog=EPILOG)
+    parser = argparse.ArgumentParser(
+        prog="drake-tooluse", description=DESCRIPTION, epilog=EPILOG, formatter_class=HelpFormatter
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_parsers(sub)
     for p in sub.choices.values():
-        p.add_argument("--json", action="store_true", help="print JSON")
+        p.formatter_class = HelpFormatter
+        p.epilog = EPILOG
+        p.add_argument(
+            "--json", action="store_true", help="print JSON (default: human-readable text)"
+        )
     return parser
 
 
@@ -99,7 +125,8 @@ def main(argv=None) -> int:
         print(json.dumps(_strict(out), indent=2, allow_nan=False))
     else:
         print(show(out))
-    return EXIT_OK
+    status = getattr(args, "status", None)  # a command whose result can miss its target
+    return status(out) if status is not None else EXIT_OK
 
 
 if __name__ == "__main__":

@@ -7,6 +7,9 @@ from pathlib import Path
 
 from drake_tooluse.paths import DEFAULT_SCENARIO
 
+# The exit codes (their table is in `drake_tooluse.cli`'s docstring and every --help).
+EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_NOT_REACHED, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
 
 class UsageError(ValueError):
     """Bad input at the command line."""
@@ -16,6 +19,19 @@ def add_tool_args(p: argparse.ArgumentParser) -> None:
     """--tool-length L or --no-tool: the tool the robot model holds."""
     p.add_argument("--tool-length", type=float, metavar="L", help="tool length in m, in (0, 0.60]")
     p.add_argument("--no-tool", action="store_true", help="the tip frame is the gripper frame")
+
+
+# robot.model.TOOL_LENGTH_RANGE (a test holds them equal), here so that a tool length is checked
+# before pydrake is imported.
+TOOL_LENGTH_RANGE = (0.0, 0.60)
+
+
+def tool_length_arg(value, option: str = "--tool-length") -> float:
+    """A tool-length option: a number in (0, 0.60] m."""
+    from drake_tooluse.validation import check_in_range
+
+    lo, hi = TOOL_LENGTH_RANGE
+    return check_in_range(value, lo, hi, option, unit="m", lower_inclusive=False)
 
 
 def tool_length_from_args(args) -> float | None:

@@ -11,6 +11,7 @@ from drake_tooluse.cli.common import (
     output_dir_arg,
     output_file_arg,
     seed_arg,
+    tool_length_arg,
 )
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
@@ -19,14 +20,13 @@ MAX_EPISODES = 100_000
 
 
 def cmd_trajectory(args) -> dict:
-    from drake_tooluse.experiments.trajectory import extract, plot_extraction
-    from drake_tooluse.robot.model import check_tool_length
-
-    length = check_tool_length(args.tool_length, "--tool-length")
+    length = tool_length_arg(args.tool_length)
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
     output_dir_arg(args.out, "--out", must_be_new=False)
+    from drake_tooluse.experiments.trajectory import extract, plot_extraction
+
     start = time.perf_counter()
     ex = extract(
         args.policy,
@@ -53,21 +53,31 @@ def cmd_trajectory(args) -> dict:
     }
 
 
+def format_trajectory(out: dict) -> str:
+    dropped = len(out["dropped_steps"])
+    return (
+        f"{out['episodes']} episodes ({out['successes']} reached the goal) averaged into "
+        f"{out['steps']} tip poses, {out['reachable_after_filter']} kept"
+        + (f" ({dropped} unreachable dropped)" if dropped else "")
+        + f": {out['trajectory']}, {out['figure']} ({out['wall_time_s']:.0f} s)"
+    )
+
+
 def cmd_export_csv(args) -> dict:
+    from drake_tooluse.validation import check_in_range
+
+    length = tool_length_arg(args.tool_length)
+    scale = check_in_range(args.time_scale, 0.1, 100.0, "--time-scale")
+    output_file_arg(args.out, "--out")
     from drake_tooluse.experiments.baxter_csv import (
         check_clearance,
         check_left_arm,
         export_baxter_csv,
     )
     from drake_tooluse.experiments.trajectory import filter_reachable
-    from drake_tooluse.robot.model import check_tool_length
     from drake_tooluse.systems.tip_trajectory import TipTrajectory
-    from drake_tooluse.validation import check_in_range
     from drake_tooluse.world.scenario import load_scenario
 
-    length = check_tool_length(args.tool_length, "--tool-length")
-    scale = check_in_range(args.time_scale, 0.1, 100.0, "--time-scale")
-    output_file_arg(args.out, "--out")
     left_q = check_left_arm(args.left_arm_q, "--left-arm-q")
     traj = TipTrajectory.load(args.trajectory)
     report = filter_reachable(traj, length)
@@ -89,6 +99,15 @@ def cmd_export_csv(args) -> dict:
         "left_arm_q": list(left_q),
         "clearance": clearance,
     }
+
+
+def format_export_csv(out: dict) -> str:
+    c = out["clearance"]
+    return (
+        f"{out['csv']}: {out['rows']} rows, {out['duration_s']:.2f} s; smallest clearances: "
+        f"arms {c['arms_m'] * 100:.1f} cm, table {c['table_m'] * 100:.1f} cm, tool tip above "
+        f"the table {c['tool_tip_above_table_m'] * 100:.1f} cm"
+    )
 
 
 def cmd_transfer(args) -> dict:
@@ -129,10 +148,9 @@ def cmd_demo(args) -> dict:
 
     out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
     seed_arg(args.seed)
+    tool_length_arg(args.tool_length)
     from drake_tooluse.experiments.demo import run_demo
-    from drake_tooluse.robot.model import check_tool_length
 
-    check_tool_length(args.tool_length, "--tool-length")
     return run_demo(
         out,
         args.policy,
@@ -157,8 +175,8 @@ def add_parsers(sub) -> None:
         "tool-tip trajectory (the paper's transfer input)",
     )
     p.add_argument("--policy", type=Path, required=True, help="policy directory")
-    p.add_argument("--episodes", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--episodes", type=int, default=100, help="episodes averaged")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then +1 each)")
     p.add_argument("--window", type=int, default=5, help="smoothing window (odd, steps)")
     p.add_argument(
         "--align",
@@ -174,7 +192,7 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")
     add_trust_pickle_arg(p)
-    p.set_defaults(run=cmd_trajectory)
+    p.set_defaults(run=cmd_trajectory, show=format_trajectory)
 
     p = sub.add_parser("export-csv", help="a tool-tip trajectory as a Baxter SDK playback CSV")
     p.add_argument("--trajectory", type=Path, required=True, help="trajectory .npz")
@@ -201,7 +219,7 @@ def add_parsers(sub) -> None:
         default=DEFAULT_SCENARIO,
         help="scenario YAML whose table the arms are checked against (default: %(default)s)",
     )
-    p.set_defaults(run=cmd_export_csv)
+    p.set_defaults(run=cmd_export_csv, show=format_export_csv)
 
     p = sub.add_parser(
         "transfer",
@@ -219,7 +237,7 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--runs", type=int, default=10, help="runs per tool (seeds seed … seed+runs-1)")
     p.add_argument("--mode", default="closed-loop", help="closed-loop or open-loop")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the first run (then +1 each)")
     p.add_argument(
         "--trajectory",
         type=Path,
@@ -231,7 +249,7 @@ def add_parsers(sub) -> None:
         "--episodes",
         type=int,
         default=100,
-        help="open loop: episodes averaged into the trajectory (default 100)",
+        help="open loop: episodes averaged into the trajectory",
     )
     p.add_argument(
         "--align",

@@ -55,13 +55,27 @@ def cmd_train(args) -> dict:
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
     command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
-    return train(
-        config,
-        out_dir,
-        resume=args.resume is not None,
-        progress_bar=not args.no_progress and sys.stderr.isatty(),
-        command=command,
-        trust_pickle=args.trust_pickle,
+    try:
+        return train(
+            config,
+            out_dir,
+            resume=args.resume is not None,
+            progress_bar=not args.no_progress and sys.stderr.isatty(),
+            command=command,
+            trust_pickle=args.trust_pickle,
+        )
+    except FileExistsError as e:  # the library's words, and the command line's way out
+        raise FileExistsError(
+            f"{e} (on the command line: --resume {str(out_dir)!r}, or a new --out)"
+        ) from None
+
+
+def format_train(out: dict) -> str:
+    rate = "" if out.get("steps_per_s") is None else f" ({out['steps_per_s']:.0f} steps/s)"
+    resumed = f", {out['sessions']} sessions" if out.get("sessions", 1) > 1 else ""
+    return (
+        f"trained {out['timesteps']} steps in {out['wall_time_s'] / 60:.1f} min{rate}{resumed}: "
+        f"{out['out']} (final/, best/, logs/, eval/, summary.json)"
     )
 
 
@@ -89,6 +103,10 @@ def cmd_convert_policy(args) -> dict:
     out = convert_policy(args.policy, args.out, trust_pickle=args.trust_pickle)
     load_policy(out)  # the new directory loads without pickles
     return {"converted": str(args.policy), "out": str(out)}
+
+
+def format_convert_policy(out: dict) -> str:
+    return f"converted {out['converted']} -> {out['out']} (loads without pickles)"
 
 
 def format_evaluate(out: dict) -> str:
@@ -134,10 +152,14 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
     p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {list(ENV_IDS)}")
     p.add_argument("--algo", default="ppo", help="ppo, a2c, ddpg or trpo")
-    p.add_argument("--timesteps", type=int, default=1_250_000)
+    p.add_argument("--timesteps", type=int, default=1_250_000, help="environment steps in all")
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", type=Path, help="new run directory")
+    p.add_argument("--seed", type=int, default=0, help="seed of the envs and the policy")
+    p.add_argument(
+        "--out",
+        type=Path,
+        help="new run directory (refused if it holds a run that started: --resume continues it)",
+    )
     p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
     p.add_argument(
         "--init-from",
@@ -152,13 +174,13 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_trust_pickle_arg(p)
-    p.set_defaults(run=cmd_train)
+    p.set_defaults(run=cmd_train, show=format_train)
 
     p = sub.add_parser("evaluate", help="evaluate a policy directory over seeded episodes")
     p.add_argument("--policy", type=Path, required=True, help="policy directory")
     p.add_argument("--env", help="env id (default: the one it was trained on)")
-    p.add_argument("--episodes", type=int, default=100)
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--episodes", type=int, default=100, help="episodes to run")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then +1 each)")
     p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
     p.add_argument("--per-episode", action="store_true", help="include each episode")
     add_trust_pickle_arg(p)
@@ -172,15 +194,15 @@ def add_parsers(sub) -> None:
     p.add_argument("--policy", type=Path, required=True, help="the old policy directory")
     p.add_argument("--out", type=Path, required=True, help="new directory (or --policy itself)")
     add_trust_pickle_arg(p)
-    p.set_defaults(run=cmd_convert_policy)
+    p.set_defaults(run=cmd_convert_policy, show=format_convert_policy)
 
     p = sub.add_parser(
         "sweep", help="a grid of runs (algos x envs x seeds) on Ray (pip install '.[cluster]')"
     )
     p.add_argument("--algos", nargs="+", default=["ppo"], help="ppo a2c ddpg trpo")
-    p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"])
-    p.add_argument("--seeds", type=int, nargs="+", default=[0])
-    p.add_argument("--timesteps", type=int, default=300_000)
+    p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"], help="env ids")
+    p.add_argument("--seeds", type=int, nargs="+", default=[0], help="one run per seed")
+    p.add_argument("--timesteps", type=int, default=300_000, help="environment steps per run")
     p.add_argument("--out", type=Path, required=True, help="directory for the runs and table")
     p.add_argument("--address", help="join this Ray cluster (default: a local one)")
     p.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")

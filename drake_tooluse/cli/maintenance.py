@@ -19,6 +19,21 @@ def cmd_generate_models(args) -> dict:
     return {"written": str(write_models(MODELS_DIR))}
 
 
+def format_generate_models(out: dict) -> str:
+    return f"{out['path']} is current" if out.get("current") else f"wrote {out['written']}"
+
+
+def format_rendered(out: dict) -> str:
+    """One line per diagram or screenshot: current, or the files written."""
+    return "\n".join(
+        f"{name}: current"
+        if files.get("current")
+        else f"{name}: "
+        + ", ".join(str(v) for k, v in files.items() if k in ("dot", "svg", "png", "json"))
+        for name, files in out.items()
+    )
+
+
 def cmd_render_diagrams(args) -> dict:
     from drake_tooluse.experiments.block_diagrams import render_all
 
@@ -34,13 +49,13 @@ def cmd_render_figures(args) -> dict:
 def add_parsers(sub) -> None:
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")
-    p.set_defaults(run=cmd_generate_models)
+    p.set_defaults(run=cmd_generate_models, show=format_generate_models)
 
     p = sub.add_parser(
         "render-diagrams", help="render each diagram's block diagram to diagrams/*.dot and .svg"
     )
     p.add_argument("--check", action="store_true", help="only check the .dot files are current")
-    p.set_defaults(run=cmd_render_diagrams)
+    p.set_defaults(run=cmd_render_diagrams, show=format_rendered)
 
     p = sub.add_parser(
         "render-figures",
@@ -62,4 +77,4 @@ def add_parsers(sub) -> None:
         action="store_true",
         help="only check each screenshot's .json matches a fresh recording (no browser needed)",
     )
-    p.set_defaults(run=cmd_render_figures)
+    p.set_defaults(run=cmd_render_figures, show=format_rendered)

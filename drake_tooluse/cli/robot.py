@@ -8,6 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from drake_tooluse.cli.common import (
+    EXIT_NOT_REACHED,
+    EXIT_OK,
     UsageError,
     add_scenario_args,
     add_tool_args,
@@ -86,12 +88,23 @@ def cmd_ik(args) -> dict:
 
 
 def format_ik(out: dict) -> str:
+    head = (
+        "reached"
+        if out["success"]
+        else f"NOT REACHED (exit code {EXIT_NOT_REACHED}): found no joint angles that put the "
+        "tip at the pose within tolerance; the closest found"
+    )
     return (
-        f"success {out['success']}  q {np.round(out['q'], 5).tolist()} rad\n"
+        f"{head}: q {np.round(out['q'], 5).tolist()} rad\n"
         f"tip error {out['position_error_m'] * 1e3:.4g} mm, "
         f"{out['orientation_error_rad']:.3g} rad; solve {out['solve_time_s'] * 1e3:.2f} ms"
         f" ({out['attempts']} attempt(s))"
     )
+
+
+def ik_status(out: dict) -> int:
+    """The exit code of `ik`: EXIT_NOT_REACHED when it found no solution."""
+    return EXIT_OK if out["success"] else EXIT_NOT_REACHED
 
 
 def _parse_waypoint(text: str):
@@ -189,7 +202,11 @@ def add_parsers(sub) -> None:
     )
     p.set_defaults(run=cmd_fk, show=format_fk)
 
-    p = sub.add_parser("ik", help="joint angles that put the tool tip at a pose")
+    p = sub.add_parser(
+        "ik",
+        help="joint angles that put the tool tip at a pose (exit code "
+        f"{EXIT_NOT_REACHED} if none does)",
+    )
     add_tool_args(p)
     p.add_argument(
         "--position",
@@ -227,9 +244,9 @@ def add_parsers(sub) -> None:
         "--scenario",
         type=Path,
         default=DEFAULT_SCENARIO,
-        help="scenario YAML (with --measure; default: %(default)s)",
+        help="scenario YAML (with --measure)",
     )
-    p.set_defaults(run=cmd_ik, show=format_ik)
+    p.set_defaults(run=cmd_ik, show=format_ik, status=ik_status)
 
     p = sub.add_parser(
         "simulate",
@@ -250,8 +267,8 @@ def add_parsers(sub) -> None:
         metavar="X,Y,Z[,R,P,Y]",
         help="tip waypoints in m (and rad); the tool points down if no rpy",
     )
-    p.add_argument("--move-time", type=float, default=1.0, help="s per move (default 1.0)")
-    p.add_argument("--dwell", type=float, default=1.5, help="s held at each waypoint (1.5)")
+    p.add_argument("--move-time", type=float, default=1.0, help="s per move")
+    p.add_argument("--dwell", type=float, default=1.5, help="s held at each waypoint")
     p.add_argument(
         "--record", type=Path, metavar="HTML", help="write a Meshcat recording (standalone HTML)"
     )

@@ -5,11 +5,14 @@ import json
 import pytest
 
 from drake_tooluse.cli import main
+from tests.cli.test_parser import strict_json
 
 
 def run(capsys, *argv):
     code = main(list(argv))
     captured = capsys.readouterr()
+    if "--json" in argv:
+        strict_json(captured.out)  # strict JSON: no NaN or Infinity
     return code, captured.out, captured.err
 
 

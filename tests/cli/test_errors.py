@@ -12,6 +12,7 @@ import drake_tooluse.cli.robot as robot_cli
 from drake_tooluse.cli import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_USAGE, main
 from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.paths import TRANSFER_POLICY
+from tests.cli.test_parser import strict_json
 
 SIMULATE = ["simulate", "--tip-waypoints", "0.66,-0.2,-0.12", "--move-time", "0.1", "--dwell", "0"]
 
@@ -19,6 +20,8 @@ SIMULATE = ["simulate", "--tip-waypoints", "0.66,-0.2,-0.12", "--move-time", "0.
 def run(capsys, argv):
     code = main([str(a) for a in argv])
     captured = capsys.readouterr()
+    if "--json" in map(str, argv):
+        strict_json(captured.out)  # strict JSON, errors included
     return code, captured.out, captured.err
 
 
