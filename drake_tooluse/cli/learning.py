@@ -88,7 +88,15 @@ def cmd_evaluate(args) -> dict:
     from drake_tooluse.learning.evaluate import evaluate
 
     result = asdict(
-        evaluate(args.policy, args.env, episodes, seed, env_kwargs, trust_pickle=args.trust_pickle)
+        evaluate(
+            args.policy,
+            args.env,
+            episodes,
+            seed,
+            env_kwargs,
+            trust_pickle=args.trust_pickle,
+            progress=not args.no_progress,
+        )
     )
     if not args.per_episode:
         result.pop("per_episode")
@@ -183,6 +191,11 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then +1 each)")
     p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
     p.add_argument("--per-episode", action="store_true", help="include each episode")
+    p.add_argument(
+        "--no-progress",
+        action="store_true",
+        help="no progress bar (there is none either when stderr is not a terminal)",
+    )
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_evaluate, show=format_evaluate)
 

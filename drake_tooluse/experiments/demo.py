@@ -310,7 +310,7 @@ def run_demo(
             desc="      control steps",
             unit="step",
             file=sys.stderr,
-            disable=not progress,
+            disable=not progress or not sys.stderr.isatty(),  # no \r fragments in a log
             leave=False,
         ) as bar:
             run = run_policy(

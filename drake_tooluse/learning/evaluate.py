@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
+from tqdm import tqdm
 
 from drake_tooluse.learning.policy_dir import check_policy_env, check_policy_matches, load_policy
 from drake_tooluse.validation import check_int, check_seed
@@ -68,13 +70,23 @@ def evaluate(
     seed: int = 0,
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
+    progress: bool = False,
 ) -> EvalResult:
     """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …; an
-    episode the simulation failed in counts as a failure and in `sim_errors`."""
+    episode the simulation failed in counts as a failure and in `sim_errors`. With `progress`, a
+    bar of the episodes (and the success so far) on stderr, when stderr is a terminal."""
     check_int(episodes, 1, 1_000_000, "episodes")
     check_seed(seed, "seed", episodes)
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
     rows = []
+    bar = tqdm(
+        total=episodes,
+        desc="episodes",
+        unit="ep",
+        file=sys.stderr,
+        disable=not progress or not sys.stderr.isatty(),  # no \r fragments in a log file
+        leave=False,
+    )
     try:
         for ep in range(episodes):
             info, steps = run_episode(env, policy, seed + ep)
@@ -90,7 +102,10 @@ def evaluate(
                     "sim_error": bool(info["sim_error"]),
                 }
             )
+            bar.update(1)
+            bar.set_postfix(success=f"{np.mean([r['success'] for r in rows]) * 100:.0f}%")
     finally:
+        bar.close()
         env.close()
     d = np.array([r["final_box_to_goal_m"] for r in rows])
     return EvalResult(
