@@ -12,7 +12,6 @@ from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.envs.scripted import ScriptedPush
 
 
-
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
 def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
     env = gym.make(env_id)
