@@ -20,8 +20,9 @@ Both run in one of two modes:
   and the IK with the measured length (`diagrams.trajectory`), in full, then 1 s to settle.
 
 The result has per tool and world the box travel (mean, std, each run) and the final box–goal
-distance, the reality/nominal travel ratio and the two tools' travel difference (the goals:
-ratio ≥ 0.9, difference ≤ 1 cm), and a box plot like the paper's.
+distance, the reality/nominal travel ratio and the two tools' travel difference (the
+experiment's criteria, `goals`: ratio ≥ 0.9, difference ≤ 1 cm; not the env's success, the box
+at the goal), and a box plot like the paper's.
 
 A run that fails (the simulation fails, or the camera finds no tool) is recorded with its
 error and counted (`failed_runs`, `sim_errors`); the experiment goes on, and the travel
@@ -37,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy, run_push
@@ -351,37 +353,80 @@ def run_transfer(
     }
 
 
-def plot_transfer(result: dict, path) -> Path:
-    """Box plot of the box travel per tool, nominal simulation beside reality (the paper's
-    figure 7)."""
+WORLD_COLORS = {"nominal": "tab:blue", "reality": "tab:orange"}
+WORLD_LABELS = {"nominal": "nominal simulation", "reality": "reality"}
+TOOL_MARKERS = ("o", "s", "^", "D", "v", "P")
+MARKER_SYMBOLS = {"o": "●", "s": "■", "^": "▲", "D": "◆", "v": "▼", "P": "✚"}  # for the labels
+TOOL_HATCHES = ("", "//", "..", "xx", "\\\\", "++")
+MIN_RUNS_FOR_BOXES = 5  # fewer runs are drawn as points: a box of 1-4 values pretends a spread
+
+
+def _runs(n: int) -> str:
+    return f"{n} run" if n == 1 else f"{n} runs"
+
+
+def transfer_figure(result: dict) -> Figure:
+    """The box travel per tool, nominal simulation beside reality (the paper's figure 7): each
+    run a point (the tool's marker), over a box (the tool's hatching) when there are at least
+    MIN_RUNS_FOR_BOXES runs; colour is the world."""
     fig = Figure(figsize=(1.6 + 1.9 * len(result["tools"]), 3.8))
     ax = fig.subplots()
-    data, positions, colors, ticks, labels = [], [], [], [], []
+    rng = np.random.default_rng(0)  # the points' horizontal jitter, the same every time
+    ticks, labels = [], []
     for i, tool in enumerate(result["tools"]):
-        for j, (world, color) in enumerate((("nominal", "tab:blue"), ("reality", "tab:orange"))):
-            data.append(
-                [r["box_travel_m"] * 100 for r in tool[world]["per_run"] if not r["failed"]]
-            )
-            positions.append(3 * i + j)
-            colors.append(color)
+        marker, hatch = TOOL_MARKERS[i % len(TOOL_MARKERS)], TOOL_HATCHES[i % len(TOOL_HATCHES)]
+        for j, (world, color) in enumerate(WORLD_COLORS.items()):
+            values = [r["box_travel_m"] * 100 for r in tool[world]["per_run"] if not r["failed"]]
+            x = 3 * i + j
+            if len(values) >= MIN_RUNS_FOR_BOXES:
+                parts = ax.boxplot(
+                    [values],
+                    positions=[x],
+                    widths=0.7,
+                    patch_artist=True,
+                    showfliers=False,
+                    medianprops={"color": "0.15"},
+                )
+                for box in parts["boxes"]:
+                    box.set(facecolor=color, alpha=0.35, hatch=hatch, edgecolor="0.3")
+            if values:
+                jitter = rng.uniform(-0.12, 0.12, len(values)) if len(values) > 1 else [0.0]
+                ax.scatter(
+                    x + np.asarray(jitter),
+                    values,
+                    color=color,
+                    marker=marker,
+                    edgecolor="0.2",
+                    linewidth=0.5,
+                    s=28,
+                    zorder=3,
+                )
         ticks.append(3 * i + 0.5)
-        labels.append(f"tool {tool['tool_length_m'] * 100:.1f} cm")
-    parts = ax.boxplot(data, positions=positions, widths=0.7, patch_artist=True)
-    for patch, color in zip(parts["boxes"], colors):
-        patch.set_facecolor(color)
-        patch.set_alpha(0.6)
+        labels.append(f"tool {tool['tool_length_m'] * 100:.1f} cm {MARKER_SYMBOLS[marker]}")
     ax.set_xticks(ticks, labels)
+    ax.set_xlim(-0.8, 3 * len(result["tools"]) - 1.2)
     ax.set_ylabel("box travel (cm)")
-    ax.set_title(f"{result['mode']}, {result['runs']} runs per tool", fontsize=10)
+    shape = (
+        "each run a point over its box"
+        if result["runs"] >= MIN_RUNS_FOR_BOXES
+        else "each run a point (too few for a box)"
+    )
+    ax.set_title(f"{result['mode']}, {_runs(result['runs'])} per tool; {shape}", fontsize=9)
     ax.legend(
-        [parts["boxes"][0], parts["boxes"][1]],
-        ["nominal simulation", "reality"],
+        handles=[
+            Patch(facecolor=c, alpha=0.6, label=WORLD_LABELS[w]) for w, c in WORLD_COLORS.items()
+        ],
         fontsize=8,
         loc="best",
     )
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
-    return atomic_write_figure(path, fig)
+    return fig
+
+
+def plot_transfer(result: dict, path) -> Path:
+    """`transfer_figure(result)` written to `path` (PNG)."""
+    return atomic_write_figure(path, transfer_figure(result))
 
 
 def transfer_experiment(
@@ -466,42 +511,63 @@ def transfer_experiment(
 
 
 def format_transfer(out: dict) -> str:
+    """The result as lines of text. Two kinds of target are kept apart in the words: the env's
+    success ("box at the goal", per run) and the experiment's criteria (travel kept, tools
+    alike)."""
+    runs = out["runs"]
     lines = [
-        f"{out['mode']}, {out['runs']} runs per tool, the robot's model from the measured "
+        f"{out['mode']}, {_runs(runs)} per tool, the robot's model from the camera's measured "
         f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"
     ]
 
     def cm(x) -> str:
-        return "n/a" if x is None else f"{x * 100:.1f}"
+        return "n/a" if x is None else f"{x * 100:.1f} cm"
+
+    def spread(mean, std, done: int) -> str:  # a spread only where there is one to speak of
+        if mean is None or done < 2 or std is None:
+            return cm(mean)
+        return f"{mean * 100:.1f} ± {std * 100:.1f} cm"
 
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
+        done = {w: sum(not x["failed"] for x in t[w]["per_run"]) for w in ("nominal", "reality")}
+        if t["measured_length_mean_m"] is None:
+            measured = "not measured"
+        else:
+            measured = f"measured {t['measured_length_mean_m'] * 1000:.1f} mm"
+            if done["reality"] > 1 and t["measured_length_std_m"] is not None:
+                measured += f" ± {t['measured_length_std_m'] * 1000:.2f} mm"
         ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"
-        measured = (
-            "not measured"
-            if t["measured_length_mean_m"] is None
-            else f"measured {t['measured_length_mean_m']:.4f} ± "
-            f"{t['measured_length_std_m'] * 1000:.2f} mm"
-        )
         failed = n["failed_runs"] + r["failed_runs"]
         lines.append(
-            f"  tool {t['tool_length_m']:.3f} m ({measured}): box travel nominal "
-            f"{cm(n['box_travel_mean_m'])} ± {cm(n['box_travel_std_m'])} cm, reality "
-            f"{cm(r['box_travel_mean_m'])} ± {cm(r['box_travel_std_m'])} cm ({ratio} "
-            f"of nominal); final box-goal {cm(r['final_box_to_goal_mean_m'])} cm; success "
-            f"nominal {n['success_rate'] * 100:.0f} %, reality {r['success_rate'] * 100:.0f} %"
+            f"  tool {t['tool_length_m'] * 1000:.0f} mm (camera {measured}): box travel nominal "
+            f"{spread(n['box_travel_mean_m'], n['box_travel_std_m'], done['nominal'])}, reality "
+            f"{spread(r['box_travel_mean_m'], r['box_travel_std_m'], done['reality'])} "
+            f"({ratio} of nominal)"
             + (f"; {failed} run(s) failed (see per_run errors)" if failed else "")
         )
-    g = out["goals"]
-    if g["tool_travel_difference_m"] is not None:
         lines.append(
-            f"  tools' mean travel differ by {g['tool_travel_difference_m'] * 100:.2f} cm "
-            f"(goal <= 1 cm: {'met' if g['tool_difference_met'] else 'not met'})"
+            f"    box at the goal (the env's success) in {n['success_rate'] * 100:.0f} % of "
+            f"nominal and {r['success_rate'] * 100:.0f} % of reality runs; final box-goal "
+            f"distance in reality {cm(r['final_box_to_goal_mean_m'])}"
         )
+    g = out["goals"]
+    lines.append("  the experiment's criteria (the skill transfers; not the box at the goal):")
     if g["travel_ratio_min"] is not None:
         lines.append(
-            f"  lowest reality/nominal travel {g['travel_ratio_min'] * 100:.0f} % (goal >= "
-            f"90 %: {'met' if g['travel_ratio_met'] else 'not met'})"
+            f"    reality keeps >= {g['travel_ratio_goal'] * 100:.0f} % of the nominal box "
+            f"travel for every tool: {'met' if g['travel_ratio_met'] else 'not met'} (lowest "
+            f"{g['travel_ratio_min'] * 100:.0f} %)"
         )
+    else:
+        lines.append("    reality/nominal box travel: n/a (no completed runs)")
+    if g["tool_travel_difference_m"] is not None:
+        lines.append(
+            f"    the tools' mean reality travel within {g['tool_travel_difference_goal_m'] * 100:g}"
+            f" cm of each other: {'met' if g['tool_difference_met'] else 'not met'} (they "
+            f"differ by {g['tool_travel_difference_m'] * 100:.2f} cm)"
+        )
+    else:
+        lines.append("    the tools' travel alike: n/a (needs two tools)")
     lines.append(f"  {out['json']}, {out['figure']} ({out['wall_time_s']:.0f} s)")
     return "\n".join(lines)

@@ -237,3 +237,91 @@ def test_transfer_length_only_is_the_papers_measurement(tmp_path):
     )
     (run,) = result["tools"][0]["reality"]["per_run"]
     assert not result["use_grasp_estimate"] and run["believed_grasp_along_m"] == 0.0
+
+
+def _fake_result(runs: int, tools=(0.15, 0.3)) -> dict:
+    rng = np.random.default_rng(1)
+
+    def world(travel):
+        per_run = [
+            {"box_travel_m": travel + 0.002 * rng.standard_normal(), "failed": False}
+            for _ in range(runs)
+        ]
+        values = [r["box_travel_m"] for r in per_run]
+        return {
+            "per_run": per_run,
+            "box_travel_mean_m": float(np.mean(values)),
+            "box_travel_std_m": float(np.std(values)),
+            "final_box_to_goal_mean_m": 0.05,
+            "success_rate": 0.0,
+            "failed_runs": 0,
+        }
+
+    return {
+        "mode": "closed-loop",
+        "runs": runs,
+        "use_grasp_estimate": True,
+        "tools": [
+            {
+                "tool_length_m": t,
+                "measured_length_mean_m": t + 0.0002,
+                "measured_length_std_m": 0.0 if runs == 1 else 0.0004,
+                "nominal": world(0.18),
+                "reality": world(0.181),
+                "travel_ratio": 1.005,
+            }
+            for t in tools
+        ],
+        "goals": {
+            "travel_ratio_min": 1.005,
+            "travel_ratio_goal": 0.9,
+            "travel_ratio_met": True,
+            "tool_travel_difference_m": 0.003 if len(tools) > 1 else None,
+            "tool_travel_difference_goal_m": 0.01,
+            "tool_difference_met": len(tools) > 1,
+        },
+        "json": "t/transfer.json",
+        "figure": "t/transfer_boxplot.png",
+        "wall_time_s": 12.0,
+    }
+
+
+def test_transfer_text_speaks_mm_runs_and_keeps_the_two_goals_apart():
+    from drake_tooluse.experiments.transfer import format_transfer
+
+    one = format_transfer(_fake_result(1))
+    assert "1 run per tool" in one and "1 runs" not in one
+    assert "tool 150 mm (camera measured 150.2 mm)" in one  # no spread of one run
+    assert "±" not in one and "0.1502" not in one
+    assert "box at the goal (the env's success) in 0 % of nominal and 0 % of reality runs" in one
+    assert "the experiment's criteria (the skill transfers; not the box at the goal)" in one
+    assert "keeps >= 90 % of the nominal box travel for every tool: met (lowest 100 %)" in one
+    assert "goal >=" not in one and "goal <=" not in one  # the old, ambiguous words
+    many = format_transfer(_fake_result(10))
+    assert "10 runs per tool" in many and "measured 150.2 mm ± 0.40 mm" in many
+    assert "the tools' mean reality travel within 1 cm of each other: met" in many
+
+
+@pytest.mark.parametrize("runs", [1, 4, 10])
+def test_transfer_plot_draws_points_for_few_runs_and_tells_the_tools_apart(runs):
+    from matplotlib.collections import PathCollection
+    from matplotlib.patches import PathPatch
+
+    from drake_tooluse.experiments.transfer import MIN_RUNS_FOR_BOXES, transfer_figure
+
+    (ax,) = transfer_figure(_fake_result(runs)).axes
+    boxes = [p for p in ax.patches if isinstance(p, PathPatch)]
+    points = [c for c in ax.collections if isinstance(c, PathCollection)]
+    assert len(points) == 4 and all(len(c.get_offsets()) == runs for c in points)
+    assert len(boxes) == (4 if runs >= MIN_RUNS_FOR_BOXES else 0)  # no box pretends a spread
+    # Colour is the world, the same for both tools; the marker (and hatching) is the tool.
+    colors = [tuple(c.get_facecolor()[0]) for c in points]
+    assert colors[0] == colors[2] and colors[1] == colors[3] and colors[0] != colors[1]
+    paths = [c.get_paths()[0].vertices.tobytes() for c in points]
+    assert paths[0] == paths[1] and paths[0] != paths[2]
+    if boxes:
+        assert boxes[0].get_hatch() != boxes[2].get_hatch()
+    labels = [t.get_text() for t in ax.get_xticklabels()]
+    assert labels == ["tool 15.0 cm ●", "tool 30.0 cm ■"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["nominal simulation", "reality"]
+    assert ("1 run per tool" if runs == 1 else f"{runs} runs per tool") in ax.get_title()
