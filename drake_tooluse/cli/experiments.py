@@ -24,8 +24,8 @@ def cmd_trajectory(args) -> dict:
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
-    output_dir_arg(args.out, "--out", must_be_new=False)
-    from drake_tooluse.experiments.trajectory import extract, plot_extraction
+    output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
+    from drake_tooluse.experiments.trajectory import extract, save_extraction
 
     start = time.perf_counter()
     ex = extract(
@@ -37,8 +37,7 @@ def cmd_trajectory(args) -> dict:
         align=args.align,
         trust_pickle=args.trust_pickle,
     )
-    path = ex.reachability.kept.save(args.out / "trajectory.npz")
-    figure = plot_extraction(ex, args.out / "trajectory.png")
+    path, figure = save_extraction(ex, args.out)
     r = ex.reachability
     return {
         "episodes": args.episodes,
@@ -190,7 +189,12 @@ def add_parsers(sub) -> None:
         default=PAPER_TOOL_LENGTHS[1],
         help="tool for the reachability filter (m)",
     )
-    p.add_argument("--out", type=Path, required=True, help="directory for trajectory.npz/.png")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="new directory (absent or empty) for trajectory.npz and trajectory.png",
+    )
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_trajectory, show=format_trajectory)
 

@@ -64,9 +64,13 @@ def cmd_train(args) -> dict:
             command=command,
             trust_pickle=args.trust_pickle,
         )
-    except FileExistsError as e:  # the library's words, and the command line's way out
+    except FileExistsError as e:
+        if args.resume is not None or "already holds a run" not in str(e):
+            raise
+        # The library's words name its arguments; these name the command line's.
         raise FileExistsError(
-            f"{e} (on the command line: --resume {str(out_dir)!r}, or a new --out)"
+            f"--out {str(out_dir)!r} already holds a run; continue it with --resume "
+            f"{str(out_dir)!r}, or give a new --out"
         ) from None
 
 

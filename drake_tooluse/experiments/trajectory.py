@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform
 
-from drake_tooluse.files import atomic_write_figure
+from drake_tooluse.files import atomic_dir, atomic_write_figure
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -208,6 +208,17 @@ def extract(
     smoothed = smooth(mean, window)
     report = filter_reachable(smoothed, tool_length)
     return Extraction(tips, quats, grippers, mean, smoothed, report, successes)
+
+
+def save_extraction(extraction: Extraction, out) -> tuple[Path, Path]:
+    """The kept trajectory (`trajectory.npz`) and its figure (`trajectory.png`) written to the
+    new directory `out` (absent or empty: a result directory is never overwritten), which
+    appears complete or not at all. Returns the two paths."""
+    out = Path(out)
+    with atomic_dir(out) as work:
+        extraction.reachability.kept.save(work / "trajectory.npz")
+        plot_extraction(extraction, work / "trajectory.png")
+    return out / "trajectory.npz", out / "trajectory.png"
 
 
 def plot_extraction(extraction: Extraction, path) -> Path:

@@ -169,7 +169,7 @@ def check_sweep(
         run_dir = out / _run_name(a, e, s)
         if (run_dir / "config.json").exists():
             raise FileExistsError(
-                f"{str(run_dir)!r} already holds a run; give a new --out for the sweep"
+                f"{str(run_dir)!r} already holds a run; give the sweep a new directory"
             )
     if address is None:
         local = num_cpus if num_cpus is not None else (os.cpu_count() or 1)

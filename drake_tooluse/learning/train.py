@@ -563,7 +563,9 @@ def train(
                     "policies with `drake-tooluse convert-policy`)"
                 )
         elif (out / "config.json").exists() and _started(out):
-            raise FileExistsError(f"{str(out)!r} already holds a run; use --resume or a new --out")
+            raise FileExistsError(
+                f"{str(out)!r} already holds a run; resume it (resume=True) or give a new directory"
+            )
         init = None
         if config.init_from and checkpoint is None:
             init = load_policy(config.init_from, trust_pickle=trust_pickle)
