@@ -53,7 +53,9 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if "%(default)" in text or "default" in text or action.default in (None, False):
+        default = action.default  # (`is`: 0 is a default to show, False is a flag's)
+        says_nothing = default is None or default is False or default == []
+        if "%(default)" in text or "default" in text or says_nothing:
             return text
         return super()._get_help_string(action)
 

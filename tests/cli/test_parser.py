@@ -36,11 +36,13 @@ def test_every_command_takes_json_and_has_a_human_formatter(name):
 def test_every_option_has_help_and_its_default_shows(name):
     p = COMMANDS[name]
     text = " ".join(p.format_help().split())  # argparse wraps lines
+    formatter = p._get_formatter()
     for a in options(p):
         assert a.help and a.help.strip(), f"{name} {a.option_strings[0]} has no help"
-        if a.default not in (None, False):
-            shown = a.default if not isinstance(a.default, list) else a.default[0]
-            assert "default" in text and str(shown) in text, (name, a.option_strings[0])
+        if a.default is not None and a.default is not False:
+            shown = formatter._expand_help(a)  # this option's help, as --help prints it
+            value = a.default if not isinstance(a.default, list) else a.default[0]
+            assert "default" in shown and str(value) in shown, (name, a.option_strings[0], shown)
     assert "exit codes: 0 success" in text and f"{EXIT_NOT_REACHED} target not reached" in text
 
 
