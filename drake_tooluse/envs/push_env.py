@@ -36,7 +36,11 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_tooluse.diagrams.control import IK_MODES
 from drake_tooluse.diagrams.failures import advance, finite_state
 from drake_tooluse.diagrams.push import add_push_task
-from drake_tooluse.diagrams.visualization import add_meshcat_visualizer, save_recording
+from drake_tooluse.diagrams.visualization import (
+    add_meshcat_visualizer,
+    save_recording,
+    show_task,
+)
 from drake_tooluse.robot.model import check_tool_length
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
@@ -217,6 +221,8 @@ class ToolPushEnv(DrakeGymEnv):
             "tool_touched": False,
             "gripper_touched": False,
         }
+        if self.visualizer is not None:  # the goal marker where this episode's goal is
+            show_task(self.config.meshcat, s)
 
     def _check_open(self) -> None:
         if self._closed:

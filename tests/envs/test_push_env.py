@@ -219,3 +219,21 @@ def test_tip_observation_is_the_same_for_any_tool():
 def test_unknown_observation_mode_is_refused():
     with pytest.raises(ValueError, match="observation_mode='joint'.*paper.*tip"):
         gym.make("drake_tooluse/ToolPush-v0", observation_mode="joint")
+
+
+def test_the_recorded_goal_marker_is_this_episodes_goal():
+    """With randomized starts the goal moves with the box: the Meshcat marker follows it."""
+    from drake_tooluse.diagrams.visualization import GOAL_PATH, start_meshcat
+    from drake_tooluse.experiments.screenshots import scene_commands
+
+    meshcat = start_meshcat()
+    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=meshcat, randomize=True)
+    for seed in (3, 4):
+        env.reset(seed=seed)
+        moves = [
+            c
+            for c in scene_commands(meshcat.StaticHtml())
+            if c.get("type") == "set_transform" and c.get("path") == GOAL_PATH
+        ]
+        goal = env.unwrapped._episode["goal"]
+        np.testing.assert_allclose(moves[-1]["matrix"][12:14], goal[:2], atol=1e-12)
