@@ -39,4 +39,4 @@ def advance(simulator, time: float) -> str | None:
 def finite_state(plant, plant_context) -> bool:
     """Whether the plant's positions and velocities are all finite (read without running any
     Python system)."""
-    return bool(np.all(np.isfinite(plant.GetPositionsAndVelocities(plant_context))))
+    return bool(np.isfinite(plant.GetPositionsAndVelocities(plant_context)).all())

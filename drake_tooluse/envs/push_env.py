@@ -245,11 +245,12 @@ class ToolPushEnv(DrakeGymEnv):
         self._check_open()
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        kind = np.asarray(action).dtype.kind
+        values = np.asarray(action)
+        kind = values.dtype.kind
         if kind not in "biuf":
-            what = "complex" if kind == "c" else f"{np.asarray(action).dtype} (not numbers)"
+            what = "complex" if kind == "c" else f"{values.dtype} (not numbers)"
             raise ValueError(f"action {action!r} is {what}; actions are real numbers in [-1, 1]")
-        action = check_action(action, self.config.action_mode)
+        action = check_action(values, self.config.action_mode)
         context = self.simulator.get_mutable_context()
         self.action_port.FixValue(context, action)
         # A simulation failure truncates the episode, with a flag (`diagrams.failures`).
@@ -260,7 +261,7 @@ class ToolPushEnv(DrakeGymEnv):
         if not sim_error:
             observation = np.asarray(self.observation_port.Eval(context), np.float32)
             m = self._read_metrics()
-            sim_error = not (np.all(np.isfinite(observation)) and _finite(m))
+            sim_error = not (np.isfinite(observation).all() and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
         else:

@@ -113,7 +113,7 @@ class ToolPushObservation(LeafSystem):
     def observation(self, x, goal) -> np.ndarray:
         """The observation from the plant state x and the goal; NaN where the state is not
         finite (a failed simulation: the robot model refuses such joint angles)."""
-        if not np.all(np.isfinite(x)):
+        if not np.isfinite(x).all():
             return np.full(self._size, np.nan)
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
