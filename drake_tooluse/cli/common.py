@@ -21,29 +21,22 @@ def add_tool_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-tool", action="store_true", help="the tip frame is the gripper frame")
 
 
-# robot.model.TOOL_LENGTH_RANGE (a test holds them equal), here so that a tool length is checked
-# before pydrake is imported.
-TOOL_LENGTH_RANGE = (0.0, 0.60)
-
-
 def tool_length_arg(value, option: str = "--tool-length") -> float:
-    """A tool-length option: a number in (0, 0.60] m."""
-    from drake_tooluse.validation import check_in_range
+    """A tool-length option: a number in (0, 0.60] m (`robot.tool`: checked before Drake is
+    imported)."""
+    from drake_tooluse.robot.tool import check_tool_length
 
-    lo, hi = TOOL_LENGTH_RANGE
-    return check_in_range(value, lo, hi, option, unit="m", lower_inclusive=False)
+    return check_tool_length(value, option)
 
 
 def tool_length_from_args(args) -> float | None:
-    from drake_tooluse.robot.model import check_tool_length
-
     if args.no_tool:
         if args.tool_length is not None:
             raise UsageError("give either --tool-length or --no-tool, not both")
         return None
     if args.tool_length is None:
         raise UsageError("give --tool-length L (m, in (0, 0.60]) or --no-tool")
-    return check_tool_length(args.tool_length, "--tool-length")
+    return tool_length_arg(args.tool_length)
 
 
 def add_scenario_args(p: argparse.ArgumentParser) -> None:

@@ -17,6 +17,7 @@ from drake_tooluse.cli.common import (
     output_file_arg,
     pose_dict,
     scenario_from_args,
+    tool_length_arg,
     tool_length_from_args,
 )
 from drake_tooluse.paths import DEFAULT_SCENARIO
@@ -146,9 +147,7 @@ def cmd_simulate(args) -> dict:
             raise UsageError("give either --measure or --believed-tool-length, not both")
         belief, measured = measured_belief(scenario)
     elif args.believed_tool_length is not None:
-        from drake_tooluse.robot.model import check_tool_length
-
-        belief = RobotBelief(check_tool_length(args.believed_tool_length, "--believed-tool-length"))
+        belief = RobotBelief(tool_length_arg(args.believed_tool_length, "--believed-tool-length"))
     run = simulate_waypoints(
         scenario,
         waypoints,

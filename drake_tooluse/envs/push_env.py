@@ -41,7 +41,7 @@ from drake_tooluse.diagrams.visualization import (
     save_recording,
     show_task,
 )
-from drake_tooluse.robot.model import check_tool_length
+from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.observation import OBSERVATION_SIZES

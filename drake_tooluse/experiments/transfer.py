@@ -58,7 +58,8 @@ from drake_tooluse.files import (
 )
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
-from drake_tooluse.robot.model import RobotBelief, check_tool_length
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.validation import check_int, check_one_of, check_seed

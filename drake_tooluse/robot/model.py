@@ -26,6 +26,7 @@ from pydrake.multibody.tree import FixedOffsetFrame, SpatialInertia
 
 from drake_tooluse.paths import BAXTER_URL, MODELS_DIR
 from drake_tooluse.robot.baxter_model import LEFT_ARM_JOINTS, LEFT_ARM_TUCKED, RIGHT_ARM_JOINTS
+from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.validation import check_in_range
 
 GRIPPER_FRAME = "right_gripper"
@@ -35,7 +36,6 @@ GRASP_FRAME = "tool_grasp"
 TOOL_DOWN_RPY = (np.pi, 0.0, np.pi / 2)
 # The rod reaches this far into the closed fingers behind the grasp point (m).
 TOOL_HANDLE_DEPTH = 0.03
-TOOL_LENGTH_RANGE = (0.0, 0.60)  # exclusive lower bound, inclusive upper bound (m)
 # Defaults of a tool the robot believes in (the geometry does not matter to it).
 DEFAULT_TOOL_RADIUS = 0.006  # m
 DEFAULT_TOOL_MASS = 0.05  # kg
@@ -66,12 +66,6 @@ class RobotBelief:
                 check_in_range(along, -0.03, 0.03, "believed grasp offset along", unit="m"),
             ),
         )
-
-
-def check_tool_length(length, name="tool length") -> float:
-    """A tool length in (0, 0.60] m; returns it as a float."""
-    lo, hi = TOOL_LENGTH_RANGE
-    return check_in_range(length, lo, hi, name, unit="m", lower_inclusive=False)
 
 
 def make_parser(plant: MultibodyPlant) -> Parser:

@@ -23,7 +23,7 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
-from drake_tooluse.robot.model import check_tool_length
+from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.validation import (
     check_finite_vector,
     check_in_range,

@@ -84,10 +84,14 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
 
 
 def test_the_cli_checks_tool_lengths_in_the_robot_models_range():
-    from drake_tooluse.cli.common import TOOL_LENGTH_RANGE
-    from drake_tooluse.robot import model
+    from drake_tooluse.cli.common import tool_length_arg
+    from drake_tooluse.robot.tool import TOOL_LENGTH_RANGE
 
-    assert TOOL_LENGTH_RANGE == model.TOOL_LENGTH_RANGE
+    lo, hi = TOOL_LENGTH_RANGE
+    assert tool_length_arg(hi) == hi
+    for bad in (lo, hi + 1e-9):
+        with pytest.raises(ValueError, match="--tool-length"):
+            tool_length_arg(bad)
 
 
 def test_the_new_human_formatters_say_what_was_done():
