@@ -10,7 +10,7 @@ never a traceback:
 | 0 | success |
 | 1 | an internal error (a bug: `DRAKE_TOOLUSE_TRACEBACK=1` shows its traceback) |
 | 2 | a usage error: a bad option, value, file or path, named in the message |
-| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest) |
+| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest); a `sweep` cell failed (its error is in the table) |
 | 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
 
 Every command prints human-readable text by default and JSON with `--json` (strict JSON: a
@@ -42,7 +42,8 @@ DESCRIPTION = (
 )
 EPILOG = (
     "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
-    "or path), 3 target not reached (ik: no joint angles put the tip at the pose), "
+    "or path), 3 target not reached (ik: no joint angles put the tip at the pose; sweep: a "
+    "cell failed), "
     "130 interrupted"
 )
 

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 
 from drake_tooluse.cli.common import (
+    EXIT_NOT_REACHED,
+    EXIT_OK,
     UsageError,
     add_trust_pickle_arg,
     count_arg,
@@ -136,26 +138,54 @@ def format_evaluate(out: dict) -> str:
 
 
 def cmd_sweep(args) -> dict:
-    count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
-    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
-    for seed in args.seeds:
-        seed_arg(seed, "--seeds")
+    count_arg(args.max_failures, "--max-failures", 0, 100)
     if args.num_cpus is not None:
         count_arg(args.num_cpus, "--num-cpus", 1, 4096)
+    if args.resume is not None:
+        given = [
+            f
+            for f in ("algos", "envs", "seeds", "timesteps", "out", "hyperparams", "episodes")
+            if getattr(args, f) is not None
+        ]
+        if given:
+            raise UsageError(
+                f"--resume reads the grid from {str(args.resume)!r}; leave out "
+                + ", ".join("--" + f.replace("_", "-") for f in given)
+            )
+        from drake_tooluse.learning.sweep import results_table, sweep
+
+        rows = sweep(
+            out=args.resume,
+            resume=True,
+            address=args.address,
+            num_cpus=args.num_cpus,
+            max_failures=args.max_failures,
+        )
+        return {"runs": rows, "table": results_table(rows)}
+    if args.out is None:
+        raise UsageError("give --out (a new directory) or --resume OUT")
+    timesteps = 300_000 if args.timesteps is None else args.timesteps
+    episodes = 20 if args.episodes is None else args.episodes
+    count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
+    count_arg(episodes, "--episodes", 1, MAX_EPISODES)
+    seeds = [0] if args.seeds is None else args.seeds
+    for seed in seeds:
+        seed_arg(seed, "--seeds")
     output_dir_arg(args.out, "--out", must_be_new=False)
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
     from drake_tooluse.learning.sweep import results_table, sweep
 
     rows = sweep(
-        args.algos,
-        args.envs,
-        args.seeds,
-        args.timesteps,
+        args.algos or ["ppo"],
+        args.envs or ["drake_tooluse/ToolPush-v0"],
+        seeds,
+        timesteps,
         args.out,
         address=args.address,
         num_cpus=args.num_cpus,
         overrides=overrides,
-        episodes=args.episodes,
+        episodes=episodes,
+        max_failures=args.max_failures,
     )
     return {"runs": rows, "table": results_table(rows)}
 
@@ -214,15 +244,39 @@ def add_parsers(sub) -> None:
     p.set_defaults(run=cmd_convert_policy, show=format_convert_policy)
 
     p = sub.add_parser(
-        "sweep", help="a grid of runs (algos x envs x seeds) on Ray (pip install '.[cluster]')"
+        "sweep",
+        help="a grid of runs (algos x envs x seeds) on Ray Tune, local or on a cluster "
+        "(pip install '.[cluster]')",
     )
-    p.add_argument("--algos", nargs="+", default=["ppo"], help="ppo a2c ddpg trpo")
-    p.add_argument("--envs", nargs="+", default=["drake_tooluse/ToolPush-v0"], help="env ids")
-    p.add_argument("--seeds", type=int, nargs="+", default=[0], help="one run per seed")
-    p.add_argument("--timesteps", type=int, default=300_000, help="environment steps per run")
-    p.add_argument("--out", type=Path, required=True, help="directory for the runs and table")
-    p.add_argument("--address", help="join this Ray cluster (default: a local one)")
+    p.add_argument("--algos", nargs="+", help="ppo a2c ddpg trpo (default: ppo)")
+    p.add_argument("--envs", nargs="+", help="env ids (default: drake_tooluse/ToolPush-v0)")
+    p.add_argument("--seeds", type=int, nargs="+", help="one run per seed (default: 0)")
+    p.add_argument("--timesteps", type=int, help="environment steps per run (default: 300000)")
+    p.add_argument("--out", type=Path, help="new directory for the runs and the table")
+    p.add_argument(
+        "--resume",
+        type=Path,
+        metavar="OUT",
+        help="continue the sweep in OUT: finished cells are kept, the others continue from "
+        "their last checkpoint",
+    )
+    p.add_argument(
+        "--address",
+        help="join this Ray cluster, e.g. auto or HEAD_IP:6379 (default: a local one)",
+    )
     p.add_argument("--num-cpus", type=int, help="CPUs of the local Ray (default: all)")
+    p.add_argument(
+        "--max-failures",
+        type=int,
+        default=2,
+        help="times a failed cell (a lost node, a crash) is retried from its checkpoint",
+    )
     p.add_argument("--hyperparams", metavar="JSON", help="override YAML hyperparameters")
-    p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per run")
-    p.set_defaults(run=cmd_sweep, show=lambda out: out["table"].rstrip("\n"))
+    p.add_argument("--episodes", type=int, help="evaluation episodes per run (default: 20)")
+    p.set_defaults(
+        run=cmd_sweep,
+        show=lambda out: out["table"].rstrip("\n"),
+        status=lambda out: (
+            EXIT_NOT_REACHED if any(r["status"] != "finished" for r in out["runs"]) else EXIT_OK
+        ),
+    )

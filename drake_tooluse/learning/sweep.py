@@ -1,25 +1,53 @@
-"""A grid of training runs (algorithms × envs × seeds) on Ray: all local cores by default, or
-an existing Ray cluster by `address`. Optional: the `cluster` extra (`pip install ".[cluster]"`).
+"""A grid of training runs (algorithms × envs × seeds) on Ray Tune: all local cores by default,
+or an existing Ray cluster by `address`. Optional: the `cluster` extra (`pip install ".[cluster]"`).
 
-Each run is a `train` + `evaluate` in its own Ray task, written to `OUT/<algo>_<env>_s<seed>/`;
-the results table is written atomically to `OUT/sweep.json` and `OUT/sweep.md` at the end.
+Each cell is a Tune trial (`train` + `evaluate`, reserving one CPU per env process) that can run
+on any node. Everything lands on the driver's disk, under `OUT`:
 
-Every argument is checked before Ray starts (`check_sweep`): the algorithms, envs, seeds and
-budgets, each cell's hyperparameters, that no cell's run directory already holds a run, and
-that the CPUs Ray has can hold the largest cell (a task reserves one CPU per env process; Ray
-would otherwise wait forever for a lease that never comes).
+```
+OUT/sweep_config.json        the grid and its settings (what `resume` reads back)
+OUT/runs/<algo>_<env>_s<seed>/   each cell's run directory (`learning.train`'s layout) and
+                             cell.json (its row of the table) once it has finished
+OUT/sweep.json, sweep.md     the table: every cell finished, failed (with its error) or pending,
+                             rewritten as each cell finishes or fails
+OUT/tune-<time>/             Tune's own logs of each session
+```
+
+**Any node.** A cell trains in a scratch directory on its node and sends the run directory to a
+store actor on the driver's node after every checkpoint and when it ends; the store swaps it in
+atomically (`files.atomic_dir`). No shared file system is needed.
+
+**Failures.** Tune retries a cell whose trial failed (a lost node, a crash) up to `max_failures`
+times, on any node, from its last checkpoint on the driver's disk; a cell that still fails is a
+`failed` row with its error, and the other cells go on.
+
+**Resume.** `sweep(resume=True)` (`drake-tooluse sweep --resume OUT`) reads
+`sweep_config.json`, keeps every finished cell and runs the others again, each continuing from its
+last checkpoint (`train(resume=True)`). It reads only JSON and the pickle-free checkpoints, never
+Tune's pickled experiment state.
+
+Every argument is checked before Ray starts (`check_sweep`), and the CPUs before Tune does: a
+cell's env processes must fit on one node (else Ray would wait for the lease forever).
 """
 
 from __future__ import annotations
 
+import io
 import itertools
+import json
+import logging
 import os
+import shutil
+import socket
+import tarfile
+import tempfile
+import time
 from dataclasses import asdict
 from pathlib import Path
 
 import torch
 
-from drake_tooluse.files import atomic_write_json, atomic_write_text, check_output_dir
+from drake_tooluse.files import atomic_dir, atomic_write_json, atomic_write_text, check_output_dir
 from drake_tooluse.learning.config import check_algo, check_env_id, resolve_config
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.train import train
@@ -27,95 +55,285 @@ from drake_tooluse.validation import check_int, check_mapping, check_seed
 
 EVALUATION_SEED = 1000
 MAX_EPISODES = 100_000
+MAX_FAILURES = 100
+CONFIG_FILE = "sweep_config.json"
+CELL_FILE = "cell.json"  # in a cell's run directory once it has finished
 
 
 def _run_name(algo: str, env_id: str, seed: int) -> str:
     return f"{algo}_{env_id.split('/')[-1]}_s{seed}"
 
 
-def _train_and_evaluate(
-    algo: str,
-    env_id: str,
-    seed: int,
-    timesteps: int,
-    out: str,
-    overrides: dict | None,
-    episodes: int,
-) -> dict:
-    """One grid cell; runs inside a Ray worker process (single-threaded torch: the cell's env
-    processes are its parallelism, as in `drake-tooluse train`)."""
-    torch.set_num_threads(1)
-    config = resolve_config(env_id, algo, timesteps, None, seed, overrides=overrides)
-    run_dir = Path(out) / _run_name(algo, env_id, seed)
-    summary = train(config, run_dir, progress_bar=False)
-    result = asdict(evaluate(run_dir / "best", env_id, episodes, seed=EVALUATION_SEED))
-    result.pop("per_episode")
-    return {
-        "algo": algo,
-        "env": env_id,
-        "seed": seed,
-        "run": str(run_dir),
-        **summary,
-        "evaluation": result,
-    }
+def _pack(directory: Path) -> bytes:
+    """A run directory as an uncompressed tar (its lock file left out)."""
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w") as tar:
+        for path in sorted(directory.rglob("*")):
+            if path.name != ".lock":
+                tar.add(path, arcname=str(path.relative_to(directory)), recursive=False)
+    return buffer.getvalue()
+
+
+def _unpack(data: bytes, directory: Path) -> None:
+    with tarfile.open(fileobj=io.BytesIO(data), mode="r") as tar:
+        tar.extractall(directory, filter="data")  # no links out, no absolute paths
+
+
+class RunStore:
+    """The cells' run directories on the driver's disk (a Ray actor placed on the driver's
+    node): a cell on any node gets its run back to resume it and puts it after each
+    checkpoint; each put replaces the whole directory atomically."""
+
+    def __init__(self, runs_dir: str):
+        self.runs_dir = Path(runs_dir)
+
+    def get(self, name: str) -> bytes | None:
+        run = self.runs_dir / name
+        return _pack(run) if (run / "config.json").is_file() else None
+
+    def put(self, name: str, data: bytes) -> None:
+        with atomic_dir(self.runs_dir / name, replace=True) as tmp:
+            _unpack(data, tmp)
+
+
+def _cell(config: dict, store) -> None:
+    """One grid cell: a Tune trial on any node. Trains in a scratch directory, continuing the
+    driver's copy of the run if there is one, sends the run to the store after each checkpoint
+    and at the end (with its row, `cell.json`), and reports the evaluation to Tune."""
+    import ray
+    from ray import tune
+
+    spec = config["cell"]
+    torch.set_num_threads(1)  # the cell's env processes are its parallelism
+    algo, env_id, seed = spec["algo"], spec["env"], spec["seed"]
+    name = _run_name(algo, env_id, seed)
+    node_id = ray.get_runtime_context().get_node_id()
+    # What continues the cell, and (a comment in the run's history) where this session ran.
+    command = f"{spec['command']}  # cell {name} on node {node_id}"
+    config = resolve_config(
+        env_id, algo, spec["timesteps"], None, seed, overrides=spec["overrides"]
+    )
+    scratch = Path(tempfile.mkdtemp(prefix="drake_tooluse_cell_"))
+    try:
+        run_dir = scratch / name
+        saved = ray.get(store.get.remote(name))
+        if saved is not None:
+            run_dir.mkdir()
+            _unpack(saved, run_dir)
+
+        def send(directory: Path) -> None:
+            ray.get(store.put.remote(name, _pack(directory)))
+
+        summary = train(
+            config,
+            run_dir,
+            resume=saved is not None,
+            progress_bar=False,
+            command=command,
+            on_checkpoint=send,
+        )
+        result = asdict(evaluate(run_dir / "best", env_id, spec["episodes"], seed=EVALUATION_SEED))
+        result.pop("per_episode")
+        summary.pop("out")
+        row = {
+            "algo": algo,
+            "env": env_id,
+            "seed": seed,
+            "status": "finished",
+            "run": f"runs/{name}",
+            "node": socket.gethostname(),
+            "node_id": node_id,
+            **summary,
+            "evaluation": result,
+        }
+        atomic_write_json(run_dir / CELL_FILE, row)
+        send(run_dir)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+    tune.report(
+        {
+            "final_box_to_goal_mean_m": result["final_box_to_goal_mean_m"],
+            "success_rate": result["success_rate"],
+        }
+    )
+
+
+def _table_writer(out: Path, grid: list, errors: dict):
+    """A Tune callback on the driver: the table rewritten from the disk whenever a cell
+    finishes or fails."""
+    from ray import tune
+
+    class TableWriter(tune.Callback):
+        def on_trial_complete(self, iteration, trials, trial, **info):
+            write_table(out, grid, errors)
+
+        def on_trial_error(self, iteration, trials, trial, **info):
+            error = trial.get_error()  # (or not yet written: `sweep` reads it after the fit)
+            errors[_cell_name(trial.config)] = _one_line(error) if error else "failed"
+            write_table(out, grid, errors)
+
+    return TableWriter()
+
+
+def _cell_name(config: dict) -> str:
+    spec = config["cell"]
+    return _run_name(spec["algo"], spec["env"], spec["seed"])
+
+
+def _one_line(error) -> str:
+    """The last line of a trial's error (Ray's carry the remote traceback above it)."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip()]
+    return lines[-1] if lines else type(error).__name__
 
 
 def sweep(
-    algos,
-    envs,
-    seeds,
-    timesteps: int,
-    out,
+    algos=None,
+    envs=None,
+    seeds=None,
+    timesteps: int | None = None,
+    out=None,
     *,
     address: str | None = None,
     num_cpus: int | None = None,
     overrides: dict | None = None,
     episodes: int = 20,
+    max_failures: int = 2,
+    resume: bool = False,
 ) -> list[dict]:
-    """Trains and evaluates every (algo, env, seed) on Ray; returns one row per run."""
+    """Trains and evaluates every (algo, env, seed) as a Ray Tune trial; returns the table's
+    rows (one per cell: finished or failed). With `resume`, the grid and its settings are read
+    from `out` (only `address`, `num_cpus` and `max_failures` may be given again)."""
     try:
         import ray
+        from ray import tune
+        from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
     except ImportError:
         raise RuntimeError(
-            "the sweep needs Ray: install the cluster extra (pip install '.[cluster]')"
+            "the sweep needs Ray Tune: install the cluster extra (pip install '.[cluster]')"
         ) from None
-    grid, cpus = check_sweep(
-        algos,
-        envs,
-        seeds,
-        timesteps,
-        out,
-        address=address,
-        num_cpus=num_cpus,
-        overrides=overrides,
-        episodes=episodes,
-    )
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    if resume:
+        settings = read_sweep_config(out)
+    else:
+        settings = {
+            "algos": algos if algos is not None else ["ppo"],
+            "envs": envs if envs is not None else ["drake_tooluse/ToolPush-v0"],
+            "seeds": seeds if seeds is not None else [0],
+            "timesteps": timesteps if timesteps is not None else 300_000,
+            "overrides": overrides,
+            "episodes": episodes,
+        }
+    check_int(max_failures, 0, MAX_FAILURES, "max_failures")
+    grid, cpus = check_sweep(**settings, out=out, address=address, num_cpus=num_cpus, resume=resume)
+    out = Path(out).absolute()
+    runs_dir = out / "runs"
+    runs_dir.mkdir(parents=True, exist_ok=True)
+    if not resume:
+        atomic_write_json(out / CONFIG_FILE, settings)
+    todo = [c for c in grid if not (runs_dir / _run_name(*c) / CELL_FILE).is_file()]
+    errors: dict = {}
+    write_table(out, grid, errors)
+    if not todo:
+        return _rows(out, grid, errors)
+    os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's console tables: the table is ours
+    logging.getLogger("ray.tune").setLevel(logging.CRITICAL)  # its tracebacks: one line each here
     ray.init(
         address=address,
         num_cpus=num_cpus if address is None else None,
         include_dashboard=False,
         ignore_reinit_error=True,
         log_to_driver=False,
+        logging_level=logging.WARNING,
     )
     try:
         if address is not None:  # a cluster's CPUs are known once connected
-            available = int(ray.cluster_resources().get("CPU", 0))
-            _check_cpus(cpus, available, f"the Ray cluster at {address!r} has")
-        task = ray.remote(_train_and_evaluate)
-        futures = [
-            task.options(num_cpus=cpus[(a, e)]).remote(
-                a, e, s, timesteps, str(out), overrides, episodes
+            per_node = [n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]]
+            _check_cpus(cpus, int(max(per_node, default=0)), f"the largest node at {address!r} has")
+        here = ray.get_runtime_context().get_node_id()
+        store = (
+            ray.remote(RunStore)
+            .options(
+                num_cpus=0,
+                scheduling_strategy=NodeAffinitySchedulingStrategy(node_id=here, soft=False),
             )
-            for a, e, s in grid
+            .remote(str(runs_dir))
+        )
+        command = "drake-tooluse sweep --resume " + str(out)
+        cells = [
+            {
+                "algo": a,
+                "env": e,
+                "seed": s,
+                "timesteps": settings["timesteps"],
+                "overrides": settings["overrides"],
+                "episodes": settings["episodes"],
+                "command": command,
+            }
+            for a, e, s in todo
         ]
-        rows = ray.get(futures)
+        trainable = tune.with_resources(
+            tune.with_parameters(_cell, store=store),
+            lambda config: {"cpu": cpus[(config["cell"]["algo"], config["cell"]["env"])]},
+        )
+        tuner = tune.Tuner(
+            trainable,
+            param_space={"cell": tune.grid_search(cells)},
+            run_config=tune.RunConfig(
+                name=time.strftime("tune-%Y%m%d-%H%M%S"),
+                storage_path=str(out),
+                verbose=0,
+                failure_config=tune.FailureConfig(max_failures=max_failures),
+                callbacks=[_table_writer(out, grid, errors)],
+            ),
+        )
+        for result in tuner.fit():
+            if result.error is not None:
+                errors[_cell_name(result.config)] = _one_line(result.error)
     finally:
         ray.shutdown()
+    write_table(out, grid, errors)
+    return _rows(out, grid, errors)
+
+
+def read_sweep_config(out) -> dict:
+    path = Path(out) / CONFIG_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"nothing to resume in {str(out)!r}: it has no {CONFIG_FILE}")
+    settings = _read_json(path)
+    keys = {"algos", "envs", "seeds", "timesteps", "overrides", "episodes"}
+    if not isinstance(settings, dict) or set(settings) != keys:
+        raise ValueError(
+            f"{str(path)!r} is not a sweep configuration: it needs keys {sorted(keys)}"
+        )
+    return settings
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise ValueError(f"cannot read {str(path)!r}: {e}") from None
+
+
+def _rows(out: Path, grid: list, errors: dict) -> list[dict]:
+    rows = []
+    for algo, env_id, seed in grid:
+        name = _run_name(algo, env_id, seed)
+        cell = out / "runs" / name / CELL_FILE
+        if cell.is_file():
+            rows.append(_read_json(cell))
+        else:
+            status = "failed" if name in errors else "pending"
+            rows.append(
+                {"algo": algo, "env": env_id, "seed": seed, "status": status, "run": f"runs/{name}"}
+                | ({"error": errors[name]} if name in errors else {})
+            )
+    return rows
+
+
+def write_table(out: Path, grid: list, errors: dict) -> None:
+    rows = _rows(out, grid, errors)
     atomic_write_json(out / "sweep.json", rows)
     atomic_write_text(out / "sweep.md", results_table(rows))
-    return rows
 
 
 def _list(values, name: str) -> list:
@@ -151,6 +369,7 @@ def check_sweep(
     num_cpus: int | None = None,
     overrides: dict | None = None,
     episodes: int = 20,
+    resume: bool = False,
 ) -> tuple[list, dict]:
     """Checks every argument of `sweep` (see the module docstring) before anything runs;
     returns the grid and the CPUs each (algo, env) cell reserves."""
@@ -161,13 +380,17 @@ def check_sweep(
     check_int(episodes, 1, MAX_EPISODES, "episodes")
     check_mapping(overrides, "hyperparameter overrides")
     out = check_output_dir(out, "out", must_be_new=False)
+    if not resume and (out / CONFIG_FILE).exists():
+        raise FileExistsError(
+            f"{str(out)!r} already holds a sweep; resume it (--resume) or give a new directory"
+        )
     grid = list(itertools.product(algos, envs, seeds))
     cpus = {}
     for a, e, s in grid:
         config = resolve_config(e, a, timesteps, None, s, overrides=overrides)
-        cpus[(a, e)] = config.n_envs  # a task reserves a CPU per env process
-        run_dir = out / _run_name(a, e, s)
-        if (run_dir / "config.json").exists():
+        cpus[(a, e)] = config.n_envs  # a trial reserves a CPU per env process
+        run_dir = out / "runs" / _run_name(a, e, s)
+        if not resume and (run_dir / "config.json").exists():
             raise FileExistsError(
                 f"{str(run_dir)!r} already holds a run; give the sweep a new directory"
             )
@@ -180,14 +403,18 @@ def check_sweep(
 
 def results_table(rows: list[dict]) -> str:
     lines = [
-        "| algo | env | seed | steps | wall (min) | final box–goal mean (cm) | success |",
-        "| --- | --- | --- | --- | --- | --- | --- |",
+        "| algo | env | seed | status | steps | wall (min) | final box–goal mean (cm) | success |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:
+        status = r["status"] + (f": {r['error']}" if "error" in r else "")
+        head = f"| {r['algo']} | {r['env']} | {r['seed']} | {status} |"
+        if r["status"] != "finished":
+            lines.append(head + " | | | |")
+            continue
         e = r["evaluation"]
         lines.append(
-            f"| {r['algo']} | {r['env']} | {r['seed']} | {r['timesteps']} | "
-            f"{r['wall_time_s'] / 60:.1f} | {e['final_box_to_goal_mean_m'] * 100:.2f} | "
-            f"{e['success_rate'] * 100:.0f} % |"
+            head + f" {r['timesteps']} | {r['wall_time_s'] / 60:.1f} | "
+            f"{e['final_box_to_goal_mean_m'] * 100:.2f} | {e['success_rate'] * 100:.0f} % |"
         )
     return "\n".join(lines) + "\n"

@@ -335,9 +335,11 @@ class _Run(BaseCallback):
     The evaluation callback (`eval_callback`) and the best policy's directory are part of what
     a checkpoint keeps."""
 
-    def __init__(self, out: Path, every: int, vec_normalize, eval_callback, state: dict):
+    def __init__(
+        self, out: Path, every: int, vec_normalize, eval_callback, state: dict, on_checkpoint
+    ):
         super().__init__()
-        self.out, self.every = out, every
+        self.out, self.every, self.on_checkpoint = out, every, on_checkpoint
         self.vec_normalize, self.eval_callback = vec_normalize, eval_callback
         self.iterations = int(state.get("iterations", 0))
         self.wall_before = float(state.get("wall_time_s", 0.0))
@@ -409,6 +411,8 @@ class _Run(BaseCallback):
         for old in checkpoint_dirs(self.out)[:-1]:
             discard_dir(old)
         self.last_saved = steps
+        if self.on_checkpoint is not None:
+            self.on_checkpoint(self.out)
 
 
 def _numpy_state() -> list:
@@ -527,12 +531,15 @@ def train(
     progress_bar: bool = True,
     command: str = "",
     trust_pickle: bool = False,
+    on_checkpoint=None,
 ) -> dict:
     """Trains (or resumes) a run in `out`; returns the summary. Everything is checked before
     anything is written: a run that fails to start leaves no `config.json` (the directory can
     be given again). A run with `config.json` but no checkpoint yet (it failed or was killed
     early) resumes from the start, or is started over by a new `train` into it.
-    `trust_pickle` lets `init_from` name a policy directory of the older pickle format."""
+    `trust_pickle` lets `init_from` name a policy directory of the older pickle format.
+    `on_checkpoint(out)` is called after each checkpoint is complete (a sweep cell sends the
+    run directory to the driver's disk then)."""
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"the run directory {str(out)!r} is a file; give a directory")
@@ -677,7 +684,7 @@ def train(
                 }
             )
         every = int(hp.get("checkpoint_freq", 50_000))
-        run = _Run(out, every, vec_normalize, evaluation, state)
+        run = _Run(out, every, vec_normalize, evaluation, state, on_checkpoint)
         remaining = config.timesteps - steps
         if remaining > 0:
             model.learn(
