@@ -1,23 +1,28 @@
-"""The paper's experiments, with this project's tools: each run is a `drake-tooluse train`
-command, evaluated with `drake-tooluse evaluate` over 100 seeded episodes.
+"""The paper's study at its scale, several seeds per cell, as a job that survives the machine:
+each run is a `drake-tooluse train` command (continued with `train --resume` when a run was
+stopped), evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seeds 1000-1099).
 
-    python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only NAME ...] [--out FILE]
+    python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only CELL ...]
+                                           [--seeds N ...] [--commit] [--status]
 
-Runs (budgets are this machine's, smaller than the paper's 1.25 M steps; see docs/TRAINING.md).
-The results in docs/results/paper_experiments.json were measured before the first-order IK mode
-was retired: the runs marked * trained with it (`ik_mode="differential"`); today every run
-trains with the exact tool-tip IK, the env's only mode.
-  ppo_env1 *          PPO on Env1, position action
-  ppo_env1_fullik     the same at 300k steps (it trained with the exact IK when both existed)
-  ppo_env1_tip        ppo_env1_fullik observing the task in tool-tip space only (the transfer policy)
-  ppo_env1_paper *    PPO on Env1, the paper's 7-d action (tip position + quaternion change)
-  trpo_env1, a2c_env1, ddpg_env1 *   the other three algorithms on Env1, position action
-  ppo_env2 *          PPO on Env2 (reward -d(box, goal) only): tool or gripper?
-  ppo_env3_scratch *  PPO on Env3 (goal 0.10 m further) from scratch
-  ppo_env3_finetune * PPO on Env3 fine-tuned from ppo_env1's best policy
+Re-running it picks up every run where it stopped: a finished run is not trained again, a
+stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
+goes on. Results are written atomically to docs/results/paper_study.json after every run; with
+`--commit` each is also committed (that file only). `--status` prints what is done, what is
+missing and the measured time per run. `python benchmarks/paper_report.py` makes
+docs/TRAINING.md's tables and figures from them.
 
-A run whose directory already has summary.json is not trained again (delete it to redo).
-Writes docs/results/paper_experiments.json (or --out) and the figures in docs/figures/.
+Cells, cheapest evidence first (the order they run in):
+  ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
+                     observation, exploration noise std e^-1 (log_std_init -1); tuned on seed 0
+                     at 300k steps, run on seeds 1-3
+  ppo_env1           PPO, Env1, position action, 1.25 M steps
+  trpo_env1, a2c_env1   TRPO and A2C, the same
+  ppo_env2           PPO, Env2 (reward -d(box, goal) only): does it learn to use the tool?
+  ppo_env3_finetune  PPO, Env3 (goal 0.10 m further), 225k steps from ppo_env1's best policy
+  ppo_env3_scratch   PPO, Env3 from scratch, 1.475 M steps (the fine-tuning's total)
+  ddpg_env1          DDPG, Env1, position action: one gradient step per env step makes it ~5x
+                     slower per step on this machine, so 300k steps
 """
 
 import argparse
@@ -31,56 +36,52 @@ from pathlib import Path
 from drake_tooluse.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "docs" / "results" / "paper_study.json"
 ENV1, ENV2, ENV3 = (
     "drake_tooluse/ToolPush-v0",
     "drake_tooluse/ToolPushBoxReward-v0",
     "drake_tooluse/ToolPushFar-v0",
 )
-PAPER_ACTION = '{"env_kwargs": {"action_mode": "paper", "ik_mode": "full", "randomize": true}}'
-FULL_IK = '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", "randomize": true}}'
-TIP_OBSERVATION = (
-    '{"env_kwargs": {"action_mode": "position", "ik_mode": "full", '
-    '"randomize": true, "observation_mode": "tip"}}'
-)
-RUNS = {
-    "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=500_000),
-    "ppo_env1_fullik": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=FULL_IK),
-    "ppo_env1_tip": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=TIP_OBSERVATION),
-    "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=200_000),
-    "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=200_000),
-    "ppo_env3_finetune": dict(env=ENV3, algo="ppo", timesteps=100_000, init_from="ppo_env1"),
-    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=200_000),
-    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=200_000),
-    "ppo_env1_paper": dict(env=ENV1, algo="ppo", timesteps=300_000, hyperparams=PAPER_ACTION),
-    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=50_000),
+PAPER_ACTION = {
+    "env_kwargs": {"action_mode": "paper", "ik_mode": "full", "randomize": True},
+    "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0},
 }
+PAPER_STEPS = 1_250_000
+CELLS = {
+    "ppo_env1_paper": dict(
+        env=ENV1, algo="ppo", timesteps=500_000, seeds=(1, 2, 3), hyperparams=PAPER_ACTION
+    ),
+    "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=PAPER_STEPS, seeds=(0, 1, 2, 3, 4)),
+    "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=PAPER_STEPS, seeds=(0, 1, 2)),
+    "a2c_env1": dict(env=ENV1, algo="a2c", timesteps=PAPER_STEPS, seeds=(0, 1, 2)),
+    "ppo_env2": dict(env=ENV2, algo="ppo", timesteps=PAPER_STEPS, seeds=(0, 1, 2)),
+    "ppo_env3_finetune": dict(
+        env=ENV3, algo="ppo", timesteps=225_000, seeds=(0, 1, 2), init_from="ppo_env1"
+    ),
+    "ppo_env3_scratch": dict(env=ENV3, algo="ppo", timesteps=1_475_000, seeds=(0, 1, 2)),
+    "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=300_000, seeds=(0, 1, 2)),
+}
+EPISODES, EVALUATION_SEED = 100, 1000
 
 
-def train_command(name: str, runs_dir: Path, seed: int) -> list[str]:
-    r = RUNS[name]
-    cmd = [
-        "drake-tooluse",
-        "train",
-        "--env",
-        r["env"],
-        "--algo",
-        r["algo"],
-        "--timesteps",
-        str(r["timesteps"]),
-        "--seed",
-        str(seed),
-        "--out",
-        str(runs_dir / name),
-        "--no-progress",
-    ]
-    if "hyperparams" in r:
-        cmd += ["--hyperparams", r["hyperparams"]]
-    if "init_from" in r:
-        cmd += ["--init-from", str(runs_dir / r["init_from"] / "best")]
+def run_dir(runs_dir: Path, cell: str, seed: int) -> Path:
+    return runs_dir / cell / f"s{seed}"
+
+
+def train_command(cell: str, seed: int, runs_dir: Path, resume: bool) -> list[str]:
+    c = CELLS[cell]
+    out = run_dir(runs_dir, cell, seed)
+    cmd = ["drake-tooluse", "train", "--env", c["env"], "--algo", c["algo"]]
+    cmd += ["--timesteps", str(c["timesteps"]), "--seed", str(seed), "--no-progress"]
+    cmd += ["--resume" if resume else "--out", str(out)]
+    if "hyperparams" in c:
+        cmd += ["--hyperparams", json.dumps(c["hyperparams"])]
+    if "init_from" in c:
+        cmd += ["--init-from", str(run_dir(runs_dir, c["init_from"], seed) / "best")]
     return cmd
 
 
-def evaluate_command(policy: Path, env_id: str, episodes: int, extra=()) -> list[str]:
+def evaluate_command(policy: Path, env_id: str) -> list[str]:
     return [
         "drake-tooluse",
         "evaluate",
@@ -89,62 +90,126 @@ def evaluate_command(policy: Path, env_id: str, episodes: int, extra=()) -> list
         "--env",
         env_id,
         "--episodes",
-        str(episodes),
+        str(EPISODES),
         "--seed",
-        "1000",
+        str(EVALUATION_SEED),
+        "--no-progress",
         "--json",
-        *extra,
     ]
 
 
-def run_json(cmd: list[str]) -> dict:
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-    return json.loads(out)
+def _summary(out: Path) -> dict | None:
+    path = out / "summary.json"
+    return json.loads(path.read_text()) if path.is_file() else None
 
 
-def main() -> None:
+def trained(out: Path, timesteps: int) -> bool:
+    summary = _summary(out)
+    return summary is not None and summary["timesteps"] >= timesteps
+
+
+def _stamp() -> str:
+    return time.strftime("%H:%M:%S")
+
+
+def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
+    """Trains (or resumes) one run and evaluates its best policy; a failure is recorded."""
+    c = CELLS[cell]
+    out = run_dir(runs_dir, cell, seed)
+    entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+    if not trained(out, c["timesteps"]):
+        cmd = train_command(cell, seed, runs_dir, resume=(out / "config.json").is_file())
+        print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
+            print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
+            return {"train_command": shlex.join(cmd), "error": error}
+    summary = _summary(out)
+    if entry.get("train") == summary and "evaluate_best" in entry:
+        return entry  # evaluated already
+    cmd = evaluate_command(out / "best", c["env"])
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
+        return {"train": summary, "evaluate_command": shlex.join(cmd), "error": error}
+    e = json.loads(done.stdout)
+    e.pop("per_episode", None)
+    print(
+        f"[{_stamp()}] {cell} seed {seed}: final box-goal mean "
+        f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f} %, "
+        f"{summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min",
+        flush=True,
+    )
+    return {
+        "train_command": shlex.join(train_command(cell, seed, runs_dir, resume=False)),
+        "train": summary,
+        "evaluate_command": shlex.join(cmd),
+        "evaluate_best": e,
+    }
+
+
+def commit(path: Path, message: str) -> None:
+    """Commits `path` alone (whatever else is staged stays staged); retried on a busy index."""
+    for _ in range(10):
+        git = ["git", "-C", str(ROOT)]
+        subprocess.run([*git, "add", "--", str(path)], capture_output=True)
+        done = subprocess.run(
+            [*git, "commit", "-q", "-m", message, "--", str(path)], capture_output=True, text=True
+        )
+        if done.returncode == 0 or "nothing" in done.stdout + done.stderr:
+            return
+        time.sleep(3)
+    print(f"[{_stamp()}] could not commit {path}: {done.stderr.strip()}", flush=True)
+
+
+def status(runs_dir: Path, results: dict) -> None:
+    for cell, c in CELLS.items():
+        for seed in c["seeds"]:
+            out = run_dir(runs_dir, cell, seed)
+            entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+            if "evaluate_best" in entry and trained(out, c["timesteps"]):
+                s = entry["train"]
+                state = f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
+            elif "error" in entry:
+                state = f"failed: {entry['error']}"
+            elif (out / "config.json").is_file():
+                ckpt = out / "checkpoints" / "latest.json"
+                steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
+                state = f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+            else:
+                state = "missing"
+            print(f"{cell:18s} seed {seed}: {state}")
+
+
+def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     ap.add_argument("--runs-dir", type=Path, default=ROOT / "runs" / "paper")
-    ap.add_argument("--only", nargs="+", choices=list(RUNS))
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--episodes", type=int, default=100)
-    ap.add_argument(
-        "--out",
-        type=Path,
-        default=ROOT / "docs" / "results" / "paper_experiments.json",
-        help="results JSON, updated run by run",
-    )
+    ap.add_argument("--only", nargs="+", choices=list(CELLS), help="these cells (default: all)")
+    ap.add_argument("--seeds", type=int, nargs="+", help="only these seeds of each cell")
+    ap.add_argument("--out", type=Path, default=RESULTS, help="results JSON, updated run by run")
+    ap.add_argument("--commit", action="store_true", help="git-commit the results after each run")
+    ap.add_argument("--status", action="store_true", help="print what is done and missing")
     args = ap.parse_args()
-    names = args.only or list(RUNS)
-    results_path = args.out
-    results = json.loads(results_path.read_text()) if results_path.is_file() else {}
-    for name in names:
-        out = args.runs_dir / name
-        cmd = train_command(name, args.runs_dir, args.seed)
-        if not (out / "summary.json").is_file():
-            print(f"[{time.strftime('%H:%M:%S')}] training {name}: {' '.join(cmd)}", flush=True)
-            subprocess.run(cmd, check=True)
-        summary = json.loads((out / "summary.json").read_text())
-        env_id = RUNS[name]["env"]
-        evaluation = run_json(evaluate_command(out / "best", env_id, args.episodes))
-        entry = {
-            "command": shlex.join(cmd),
-            "train": summary,
-            "evaluate_best": evaluation,
-            "evaluate_command": shlex.join(evaluate_command(out / "best", env_id, args.episodes)),
-        }
-        results[name] = entry
-        atomic_write_json(results_path, results)
-        e = evaluation
-        print(
-            f"[{time.strftime('%H:%M:%S')}] {name}: final box-goal mean "
-            f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
-            f"{e['success_rate'] * 100:.0f} %, {summary['timesteps']} steps in "
-            f"{summary['wall_time_s'] / 60:.1f} min",
-            flush=True,
-        )
+    results = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    if args.status:
+        status(args.runs_dir, results)
+        return 0
+    for cell in args.only or list(CELLS):
+        c = CELLS[cell]
+        for seed in c["seeds"]:
+            if args.seeds is not None and seed not in args.seeds:
+                continue
+            entry = run_one(cell, seed, args.runs_dir, results)
+            spec = {k: v for k, v in c.items() if k != "seeds"}
+            results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
+            results[cell]["seeds"][str(seed)] = entry
+            atomic_write_json(args.out, results)
+            if args.commit:
+                commit(args.out, f"Paper study: {cell} seed {seed}")
+    return 0
 
 
 if __name__ == "__main__":
