@@ -94,6 +94,7 @@ def evaluate_command(policy: Path, env_id: str) -> list[str]:
         "--seed",
         str(EVALUATION_SEED),
         "--no-progress",
+        "--per-episode",
         "--json",
     ]
 
@@ -126,7 +127,7 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
     summary = _summary(out)
-    if entry.get("train") == summary and "evaluate_best" in entry:
+    if entry.get("train") == summary and "per_episode" in entry.get("evaluate_best", {}):
         return entry  # evaluated already
     cmd = evaluate_command(out / "best", c["env"])
     done = subprocess.run(cmd, capture_output=True, text=True)
@@ -134,7 +135,8 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
         error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
         return {"train": summary, "evaluate_command": shlex.join(cmd), "error": error}
     e = json.loads(done.stdout)
-    e.pop("per_episode", None)
+    episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
+    e["per_episode"] = {k: [r[k] for r in episodes] for k in ("final_box_to_goal_m", "success")}
     print(
         f"[{_stamp()}] {cell} seed {seed}: final box-goal mean "
         f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f} %, "
