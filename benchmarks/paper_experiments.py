@@ -16,6 +16,7 @@ Cells, cheapest evidence first (the order they run in):
   ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
                      observation, exploration noise std e^-1 (log_std_init -1); tuned on seed 0
                      at 300k steps, run on seeds 1-3
+  ppo_env1_paper_std1  the same with SB3's default noise (std 1), seed 1: the control
   ppo_env1           PPO, Env1, position action, 1.25 M steps
   trpo_env1, a2c_env1   TRPO and A2C, the same
   ppo_env2           PPO, Env2 (reward -d(box, goal) only): does it learn to use the tool?
@@ -50,6 +51,14 @@ PAPER_STEPS = 1_250_000
 CELLS = {
     "ppo_env1_paper": dict(
         env=ENV1, algo="ppo", timesteps=500_000, seeds=(1, 2, 3), hyperparams=PAPER_ACTION
+    ),
+    # The same with SB3's default exploration noise (std 1): the control for the cell above.
+    "ppo_env1_paper_std1": dict(
+        env=ENV1,
+        algo="ppo",
+        timesteps=500_000,
+        seeds=(1,),
+        hyperparams={**PAPER_ACTION, "policy_kwargs": {"net_arch": [128, 128]}},
     ),
     "ppo_env1": dict(env=ENV1, algo="ppo", timesteps=PAPER_STEPS, seeds=(0, 1, 2, 3, 4)),
     "trpo_env1": dict(env=ENV1, algo="trpo", timesteps=PAPER_STEPS, seeds=(0, 1, 2)),

@@ -36,6 +36,7 @@ def cmd_trajectory(args) -> dict:
         length,
         align=args.align,
         trust_pickle=args.trust_pickle,
+        record=args.record,
     )
     path, figure = save_extraction(ex, args.out)
     r = ex.reachability
@@ -133,6 +134,7 @@ def cmd_transfer(args) -> dict:
         args.align,
         use_grasp_estimate=not args.length_only,
         trust_pickle=args.trust_pickle,
+        record=args.record,
     )
 
 
@@ -182,6 +184,12 @@ def add_parsers(sub) -> None:
         default="start",
         help="'start' (the paper's: step by step from the start) or 'contact' "
         "(from the tool's first touch of the box)",
+    )
+    p.add_argument(
+        "--record",
+        default="achieved",
+        help="'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
+        "each step commanded, which the arm lags by up to ~2 cm)",
     )
     p.add_argument(
         "--tool-length",
@@ -261,6 +269,12 @@ def add_parsers(sub) -> None:
         help="open loop: average the episodes step by step from their start "
         "('start', the paper's) or from the tool's first touch of the box "
         "('contact')",
+    )
+    p.add_argument(
+        "--record",
+        default="achieved",
+        help="open loop: 'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
+        "each step commanded, which the arm lags by up to ~2 cm)",
     )
     p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")

@@ -328,6 +328,12 @@ class ToolPushEnv(DrakeGymEnv):
         q = [joint.get_angle(plant_context) for joint in self.world.arm_joints()]
         return self.control.ik.fk(q), self.control.ik.fk_gripper(q)
 
+    def commanded_tip_pose(self):
+        """X_WT: where the IK's joint targets put the tool tip on the robot model — the pose
+        the last step commanded (the arm lags it; `believed_poses` is where it got)."""
+        context = self.ik_system.GetMyContextFromRoot(self.simulator.get_context())
+        return self.control.ik.fk(self.ik_system.q_desired(context))
+
     def _read_metrics(self):
         plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
         m = self._metrics.read(plant_context, self._episode["goal"], self._episode["box_start"])

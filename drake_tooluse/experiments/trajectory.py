@@ -115,14 +115,27 @@ class Extraction:
 
 
 def _pose_row(env) -> np.ndarray:
-    """[p_WT (3), quaternion wxyz of the tip (4), p_WG (3)] as the robot believes them."""
+    """[p_WT (3), quaternion wxyz of the tip (4), p_WG (3)] as the robot believes them, then
+    the commanded tip pose [p_WT* (3), quaternion wxyz (4)]."""
     X_WT, X_WG = env.unwrapped.believed_poses()
+    X_WTd = env.unwrapped.commanded_tip_pose()
     return np.concatenate(
-        [X_WT.translation(), X_WT.rotation().ToQuaternion().wxyz(), X_WG.translation()]
+        [
+            X_WT.translation(),
+            X_WT.rotation().ToQuaternion().wxyz(),
+            X_WG.translation(),
+            X_WTd.translation(),
+            X_WTd.rotation().ToQuaternion().wxyz(),
+        ]
     )
 
 
 ALIGNMENTS = ("start", "contact")
+# What a recorded trajectory holds at each step: where the tip got (the paper's: with Fetch's
+# mocap it is where it was commanded), or the tip pose the step commanded (the IK's joint
+# targets). Baxter's arm lags its command by ~2 cm at full speed, so a replay of where the tip
+# got commands a slower push that trails the recorded one.
+RECORDS = ("achieved", "commanded")
 
 
 @dataclass
@@ -159,15 +172,19 @@ def record_episodes(
     env_kwargs=None,
     align: str = "start",
     trust_pickle: bool = False,
+    record: str = "achieved",
 ):
-    """Runs the policy; returns per-episode arrays of the tool tip's and the gripper's poses at
-    each control step (the robot's belief: forward kinematics of its model), the number of
-    successes and the control period (s) between the rows. `align="start"` (the paper's)
-    stacks the episodes from their first step; `"contact"` delays each so that the tool first touches the box at the same step (an
-    episode that never touches it stays as it is)."""
+    """Runs the policy; returns per-episode arrays of the tool tip's poses (`record`: the
+    commanded ones, or where the tip got, see RECORDS) and the gripper's positions at each
+    control step (the robot's belief: forward kinematics of its model), the number of
+    successes and the control period (s) between the rows. Row k + 1 is what step k commanded
+    (or reached); row 0 is the start. `align="start"` (the paper's) stacks the episodes from
+    their first step; `"contact"` delays each so that the tool first touches the box at the
+    same step (an episode that never touches it stays as it is)."""
     check_int(episodes, 1, 100_000, "episodes")
     check_seed(seed, "seed", episodes)
     check_one_of(align, ALIGNMENTS, "align")
+    check_one_of(record, RECORDS, "record")
     policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs, trust_pickle=trust_pickle)
     recorded, contacts, successes = [], [], 0
     for ep in range(episodes):
@@ -180,8 +197,9 @@ def record_episodes(
     env.close()
     if align == "contact":
         recorded = delay_to_event(recorded, contacts)
-    tips = [r[:, 0:3] for r in recorded]
-    quats = [r[:, 3:7] for r in recorded]
+    tip = slice(0, 7) if record == "achieved" else slice(10, 17)
+    tips = [r[:, tip][:, :3] for r in recorded]
+    quats = [r[:, tip][:, 3:] for r in recorded]
     grippers = [r[:, 7:10] for r in recorded]
     return (pad_episodes(tips), pad_episodes(quats), pad_episodes(grippers), successes, period)
 
@@ -195,14 +213,15 @@ def extract(
     align: str = "start",
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
+    record: str = "achieved",
 ) -> Extraction:
-    """The paper's trajectory for transfer: N episodes (aligned by `align`, see
-    `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
+    """The paper's trajectory for transfer: N episodes (aligned by `align`, the commanded or
+    the reached tip poses by `record`, see `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
     conservative real-robot limits with `tool_length`. The trajectory's time step is the
     control period of the env the policy acts in (its scenario's `control.control_period`);
     `env_kwargs` override the policy's own."""
     tips, quats, grippers, successes, period = record_episodes(
-        policy_dir, episodes, seed, env_kwargs, align, trust_pickle
+        policy_dir, episodes, seed, env_kwargs, align, trust_pickle, record
     )
     mean = average_episodes(tips, quats, period)
     smoothed = smooth(mean, window)

@@ -46,6 +46,7 @@ from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.experiments.trajectory import (
     ALIGNMENTS,
+    RECORDS,
     extract,
     filter_reachable,
     plot_extraction,
@@ -445,14 +446,17 @@ def transfer_experiment(
     use_grasp_estimate: bool = True,
     log=stderr_log,
     trust_pickle: bool = False,
+    record: str = "achieved",
 ) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
     loop, the trajectory (`trajectory_path`, or extracted from the policy's `episodes`
-    episodes in the nominal simulation, aligned by `align`, and kept to the poses every tool
+    episodes in the nominal simulation, aligned by `align`, of the tip poses each step
+    commanded or reached (`record`), and kept to the poses every tool
     reaches under the conservative limits). Everything is written into a staging directory
     that becomes `out` only when complete. Returns the result."""
     tools = check_transfer_args(tools, runs, mode, seed)
     check_one_of(align, ALIGNMENTS, "align")
+    check_one_of(record, RECORDS, "record")
     out = check_output_dir(out, "the transfer's directory")
     check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))  # before any work
     nominal = load_scenario(nominal_path)
@@ -471,6 +475,7 @@ def transfer_experiment(
                 tool_length=tools[0],
                 align=align,
                 trust_pickle=trust_pickle,
+                record=record,
             )
             trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
             for tool in tools[1:]:
@@ -481,6 +486,7 @@ def transfer_experiment(
             extraction = {
                 "episodes": episodes,
                 "align": align,
+                "record": record,
                 "successes": ex.successes,
                 "poses": ex.reachability.poses,
                 "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},

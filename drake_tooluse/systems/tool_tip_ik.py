@@ -58,6 +58,10 @@ class ToolTipIKSystem(LeafSystem):
     def ik(self) -> ToolTipIK:
         return self._ik
 
+    def q_desired(self, context) -> np.ndarray:
+        """The joint targets of the last solve in `context` (this system's context)."""
+        return context.get_discrete_state(self._state).get_value()[:7].copy()
+
     def _update(self, context, discrete_state):
         x = context.get_discrete_state(self._state).get_value()
         q_last, failures = x[:7], x[10]
