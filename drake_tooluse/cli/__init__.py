@@ -9,9 +9,14 @@ never a traceback:
 | --- | --- |
 | 0 | success |
 | 1 | an internal error (a bug: `DRAKE_TOOLUSE_TRACEBACK=1` shows its traceback) |
-| 2 | a usage error: a bad option, value, file or path, named in the message |
-| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest); a `sweep` cell failed (its error is in the table) |
+| 2 | a usage error (a bad option, value, file or path) or an environment problem (a missing dependency, a busy run directory), named in the message |
+| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest), `simulate` none for a waypoint; a `sweep` cell failed |
 | 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
+
+The library raises ValueError or OSError (FileNotFoundError, FileExistsError, ...) for bad
+input, and a RuntimeError of its own (a `raise` in drake_tooluse) for an environment problem
+(Ray, Chromium or Graphviz missing; a run directory locked by another process): these are exit
+2. A RuntimeError from inside a library it calls (Drake's C++, torch) is exit 1, a bug.
 
 Every command prints human-readable text by default and JSON with `--json` (strict JSON: a
 non-finite number is `null`); every `--help` shows the options' defaults and these exit codes.
@@ -21,6 +26,7 @@ Nothing in the library imports this package.
 from __future__ import annotations
 
 import argparse
+import dis
 import json
 import math
 import os
@@ -42,9 +48,9 @@ DESCRIPTION = (
 )
 EPILOG = (
     "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
-    "or path), 3 target not reached (ik: no joint angles put the tip at the pose; sweep: a "
-    "cell failed), "
-    "130 interrupted"
+    "or path; or an environment problem the message names: a missing optional dependency, a "
+    "busy run directory), 3 target not reached (ik: no joint angles put the tip at the pose; "
+    "simulate: none for a waypoint; sweep: a cell failed), 130 interrupted"
 )
 
 
@@ -98,6 +104,25 @@ def _message(e: BaseException) -> str:
     return _one_line(str(e)) or type(e).__name__
 
 
+def _usage_error(e: Exception) -> bool:
+    """Whether `e` is exit 2: a ValueError or OSError (every check at the boundary raises one,
+    naming the value and what is allowed; OSError: a file or directory the system refused, named
+    with the reason), or a RuntimeError from a `raise` in drake_tooluse's own code (an
+    environment problem it names). A RuntimeError from a library it calls is not: a C++
+    exception (pydrake) ends its traceback at the call in our frame, a Python one in the
+    library's frame."""
+    if isinstance(e, (ValueError, OSError)):
+        return True
+    if not isinstance(e, RuntimeError) or e.__traceback__ is None:
+        return False
+    tb = e.__traceback__
+    while tb.tb_next is not None:  # where it was raised
+        tb = tb.tb_next
+    if not str(tb.tb_frame.f_globals.get("__name__", "")).startswith("drake_tooluse."):
+        return False
+    return dis.opname[tb.tb_frame.f_code.co_code[tb.tb_lasti]] == "RAISE_VARARGS"
+
+
 def main(argv=None) -> int:
     args = make_parser().parse_args(argv)
 
@@ -111,12 +136,10 @@ def main(argv=None) -> int:
         out = args.run(args)
     except KeyboardInterrupt:
         return fail(EXIT_INTERRUPTED, "interrupted")
-    except (ValueError, FileNotFoundError, FileExistsError, RuntimeError, OSError) as e:
-        # Every check at the boundary raises one of these, naming the value and what is allowed
-        # (OSError: a file or directory the system refused, named with the reason).
-        return fail(EXIT_USAGE, _message(e))
-    except Exception as e:  # a bug: one line, and the traceback on request
-        if os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):
+    except Exception as e:
+        if _usage_error(e):
+            return fail(EXIT_USAGE, _message(e))
+        if os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):  # a bug: one line, the traceback on request
             raise
         return fail(
             EXIT_INTERNAL,

@@ -124,6 +124,29 @@ def count_arg(value, option: str, lo: int = 1, hi: int = 1_000_000) -> int:
     return check_int(value, lo, hi, option)
 
 
+def choice_arg(value, allowed, option: str, what: str):
+    """An option that takes one of `allowed` names of `what`s (checked before the library
+    that defines them is imported; the library's words)."""
+    if value not in allowed:
+        raise UsageError(f"{option}: unknown {what} {value!r}; choose one of {list(allowed)}")
+    return value
+
+
+def policy_dir_arg(path, option: str = "--policy") -> Path:
+    """A policy directory option: a directory holding policy.json (either format has it; the
+    library checks the rest when it loads it), checked before torch is imported."""
+    path = Path(path)
+    if not path.exists():
+        why = "it does not exist"
+    elif not path.is_dir():
+        why = "it is a file"
+    elif not (path / "policy.json").is_file():
+        why = "it has no policy.json"
+    else:
+        return path
+    raise UsageError(f"{option} {str(path)!r} is not a policy directory: {why}")
+
+
 def output_dir_arg(path, option: str = "--out", must_be_new: bool = True):
     """A directory a command writes, checked before any work (not a file, writable, new)."""
     from drake_tooluse.files import check_output_dir

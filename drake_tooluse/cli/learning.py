@@ -11,15 +11,31 @@ from drake_tooluse.cli.common import (
     EXIT_OK,
     UsageError,
     add_trust_pickle_arg,
+    choice_arg,
     count_arg,
     output_dir_arg,
     parse_json_arg,
+    policy_dir_arg,
     seed_arg,
 )
 from drake_tooluse.envs.registration import ENV_IDS
 
 MAX_TIMESTEPS = 10**10
 MAX_EPISODES = 100_000
+# `learning.config.ALGOS`, which imports torch to name their classes; here for checking
+# --algo before it loads (tests/cli/test_parser.py keeps the two the same).
+ALGOS = ("ppo", "a2c", "ddpg", "trpo")
+
+
+def in_cli_words(error: FileExistsError, out, what: str) -> FileExistsError:
+    """The library's refusal of an --out that already holds a `what` (a run, a sweep) in the
+    command line's words: the library's name its arguments (resume=True), these the flags."""
+    if f"already holds a {what};" not in str(error):
+        return error
+    return FileExistsError(
+        f"--out {str(out)!r} already holds a {what}; continue it with --resume {str(out)!r}, "
+        "or give a new --out"
+    )
 
 
 def cmd_train(args) -> dict:
@@ -33,12 +49,14 @@ def cmd_train(args) -> dict:
         raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
     else:
         out_dir = output_dir_arg(args.out, "--out", must_be_new=False)
+    choice_arg(args.algo, ALGOS, "--algo", "algorithm")
+    choice_arg(args.env, ENV_IDS, "--env", "env")
     count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
     seed_arg(args.seed)
     if args.n_envs is not None:
         count_arg(args.n_envs, "--n-envs", 1, 64)
-    if args.init_from is not None and not args.init_from.is_dir():
-        raise UsageError(f"--init-from {str(args.init_from)!r} is not a policy directory")
+    if args.init_from is not None:
+        policy_dir_arg(args.init_from, "--init-from")
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
     import torch
 
@@ -67,13 +85,9 @@ def cmd_train(args) -> dict:
             trust_pickle=args.trust_pickle,
         )
     except FileExistsError as e:
-        if args.resume is not None or "already holds a run" not in str(e):
+        if args.resume is not None:
             raise
-        # The library's words name its arguments; these name the command line's.
-        raise FileExistsError(
-            f"--out {str(out_dir)!r} already holds a run; continue it with --resume "
-            f"{str(out_dir)!r}, or give a new --out"
-        ) from None
+        raise in_cli_words(e, out_dir, "run") from None
 
 
 def format_train(out: dict) -> str:
@@ -88,6 +102,9 @@ def format_train(out: dict) -> str:
 def cmd_evaluate(args) -> dict:
     from dataclasses import asdict
 
+    policy_dir_arg(args.policy, "--policy")
+    if args.env is not None:
+        choice_arg(args.env, ENV_IDS, "--env", "env")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
@@ -110,10 +127,11 @@ def cmd_evaluate(args) -> dict:
 
 
 def cmd_convert_policy(args) -> dict:
-    from drake_tooluse.learning.policy_dir import convert_policy, load_policy
-
+    policy_dir_arg(args.policy, "--policy")
     if args.out.resolve() != args.policy.resolve():
         output_dir_arg(args.out, "--out")
+    from drake_tooluse.learning.policy_dir import convert_policy, load_policy
+
     out = convert_policy(args.policy, args.out, trust_pickle=args.trust_pickle)
     load_policy(out)  # the new directory loads without pickles
     return {"converted": str(args.policy), "out": str(out)}
@@ -168,6 +186,10 @@ def cmd_sweep(args) -> dict:
     episodes = 20 if args.episodes is None else args.episodes
     count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
     count_arg(episodes, "--episodes", 1, MAX_EPISODES)
+    for algo in args.algos or []:
+        choice_arg(algo, ALGOS, "--algos", "algorithm")
+    for env in args.envs or []:
+        choice_arg(env, ENV_IDS, "--envs", "env")
     seeds = [0] if args.seeds is None else args.seeds
     for seed in seeds:
         seed_arg(seed, "--seeds")
@@ -175,25 +197,28 @@ def cmd_sweep(args) -> dict:
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
     from drake_tooluse.learning.sweep import results_table, sweep
 
-    rows = sweep(
-        args.algos or ["ppo"],
-        args.envs or ["drake_tooluse/ToolPush-v0"],
-        seeds,
-        timesteps,
-        args.out,
-        address=args.address,
-        num_cpus=args.num_cpus,
-        overrides=overrides,
-        episodes=episodes,
-        max_failures=args.max_failures,
-    )
+    try:
+        rows = sweep(
+            args.algos or ["ppo"],
+            args.envs or ["drake_tooluse/ToolPush-v0"],
+            seeds,
+            timesteps,
+            args.out,
+            address=args.address,
+            num_cpus=args.num_cpus,
+            overrides=overrides,
+            episodes=episodes,
+            max_failures=args.max_failures,
+        )
+    except FileExistsError as e:
+        raise in_cli_words(e, args.out, "sweep") from None
     return {"runs": rows, "table": results_table(rows)}
 
 
 def add_parsers(sub) -> None:
     p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
     p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {list(ENV_IDS)}")
-    p.add_argument("--algo", default="ppo", help="ppo, a2c, ddpg or trpo")
+    p.add_argument("--algo", default="ppo", help=f"one of {list(ALGOS)}")
     p.add_argument("--timesteps", type=int, default=1_250_000, help="environment steps in all")
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
     p.add_argument("--seed", type=int, default=0, help="seed of the envs and the policy")
@@ -248,7 +273,7 @@ def add_parsers(sub) -> None:
         help="a grid of runs (algos x envs x seeds) on Ray Tune, local or on a cluster "
         "(pip install '.[cluster]')",
     )
-    p.add_argument("--algos", nargs="+", help="ppo a2c ddpg trpo (default: ppo)")
+    p.add_argument("--algos", nargs="+", help=f"algorithms, of {list(ALGOS)} (default: ppo)")
     p.add_argument("--envs", nargs="+", help="env ids (default: drake_tooluse/ToolPush-v0)")
     p.add_argument("--seeds", type=int, nargs="+", help="one run per seed (default: 0)")
     p.add_argument("--timesteps", type=int, help="environment steps per run (default: 300000)")

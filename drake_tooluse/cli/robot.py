@@ -183,9 +183,20 @@ def format_simulate(out: dict) -> str:
         f"max tip error {out['max_position_error_m'] * 1e3:.3g} mm; "
         f"{out['sim_time_s']:.1f} s simulated in {out['wall_time_s']:.1f} s"
     )
+    failed = [i for i, w in enumerate(out["waypoints"]) if not w["ik_success"]]
+    if failed:
+        lines.append(
+            f"NOT REACHED (exit code {EXIT_NOT_REACHED}): the IK found no joint angles for "
+            f"waypoint(s) {failed}; the arm held its last solved joint angles"
+        )
     if out["recording"]:
         lines.append(f"recording: {out['recording']}")
     return "\n".join(lines)
+
+
+def simulate_status(out: dict) -> int:
+    """The exit code of `simulate`: EXIT_NOT_REACHED when the IK failed at any waypoint."""
+    return EXIT_OK if all(w["ik_success"] for w in out["waypoints"]) else EXIT_NOT_REACHED
 
 
 def add_parsers(sub) -> None:
@@ -250,7 +261,8 @@ def add_parsers(sub) -> None:
     p = sub.add_parser(
         "simulate",
         help="move the tool tip through waypoints in the dynamic "
-        "simulation with the IK in the loop",
+        f"simulation with the IK in the loop (exit code {EXIT_NOT_REACHED} if the IK finds no "
+        "joint angles for a waypoint)",
     )
     add_scenario_args(p)
     p.add_argument(
@@ -277,4 +289,4 @@ def add_parsers(sub) -> None:
         help="measure the tool with the head camera first; the robot model then "
         "holds the measured length and grasp along the tool",
     )
-    p.set_defaults(run=cmd_simulate, show=format_simulate)
+    p.set_defaults(run=cmd_simulate, show=format_simulate, status=simulate_status)

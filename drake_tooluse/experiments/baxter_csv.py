@@ -140,7 +140,7 @@ def check_clearance(
         raise ValueError(
             f"the left arm at {np.round(left_q, 3).tolist()} rad "
             f"{_gap(left_table[i], 'the table')} ({left_names[i]}); it must keep "
-            f"{table_clearance * 100:g} cm: give another --left-arm-q"
+            f"{table_clearance * 100:g} cm: give another left_q (--left-arm-q)"
         )
     worst = {"arms_m": np.inf, "table_m": np.inf, "tool_tip_above_table_m": np.inf}
     for k, q in enumerate(right_q):
@@ -159,7 +159,7 @@ def check_clearance(
             raise ValueError(
                 f"at t={times[k]:.3g} s the right arm's {right_names[j]} "
                 f"{_gap(gaps[i, j], other)} (it must keep "
-                f"{arm_clearance * 100:g} cm); give another --left-arm-q; nothing written"
+                f"{arm_clearance * 100:g} cm); give another left_q (--left-arm-q); nothing written"
             )
         over = table_gaps(right, right_radii)
         links, tool = (over[:-1], over[-1]) if tool_length else (over, np.inf)

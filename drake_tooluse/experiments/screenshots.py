@@ -258,7 +258,8 @@ def find_chromium() -> str:
             return path
     raise RuntimeError(
         "taking the screenshots needs headless Chromium on PATH (chromium, chromium-browser or "
-        "google-chrome; Debian/Ubuntu: apt-get install chromium); `--check` needs none"
+        "google-chrome; Debian/Ubuntu: apt-get install chromium); checking the committed ones "
+        "(check=True, --check) needs none"
     )
 
 

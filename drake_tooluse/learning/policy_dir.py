@@ -45,8 +45,9 @@ LEGACY_MODEL = "policy.zip"
 LEGACY_NORMALIZATION = "vecnormalize.pkl"
 MAX_JSON_BYTES = 1 << 20  # a policy.json or normalization.json is a few kB
 TRUST_HINT = (
-    "convert it once with `drake-tooluse convert-policy --policy DIR --out NEW --trust-pickle`, "
-    "or load it with --trust-pickle (trust_pickle=True) if you trust where it comes from"
+    "convert it once (convert_policy(DIR, NEW, trust_pickle=True); on the command line "
+    "`drake-tooluse convert-policy --policy DIR --out NEW --trust-pickle`), or load it with "
+    "trust_pickle=True (--trust-pickle) if you trust where it comes from"
 )
 
 
@@ -456,7 +457,7 @@ def convert_policy(source, target, trust_pickle: bool = False) -> Path:
     if not trust_pickle:
         raise ValueError(
             f"converting {str(source)!r} loads its pickles, which can run code: pass "
-            "--trust-pickle (trust_pickle=True) if you trust where it comes from"
+            "trust_pickle=True (--trust-pickle) if you trust where it comes from"
         )
     in_place = target.exists() and source.resolve() == target.resolve()
     if not in_place and target.exists() and (not target.is_dir() or any(target.iterdir())):

@@ -354,7 +354,8 @@ def _check_cpus(cpus: dict, available: int, where: str) -> None:
         raise ValueError(
             f"a {algo} run on {env} has {need} env processes and reserves {need} CPUs, but "
             f"{where} {available}: Ray would wait for them forever; give more CPUs "
-            f"(--num-cpus) or fewer env processes (--hyperparams '{{\"n_envs\": {available}}}')"
+            f"(num_cpus, --num-cpus) or fewer env processes (overrides={{'n_envs': "
+            f"{available}}}, --hyperparams '{{\"n_envs\": {available}}}')"
         )
 
 
@@ -382,7 +383,7 @@ def check_sweep(
     out = check_output_dir(out, "out", must_be_new=False)
     if not resume and (out / CONFIG_FILE).exists():
         raise FileExistsError(
-            f"{str(out)!r} already holds a sweep; resume it (--resume) or give a new directory"
+            f"{str(out)!r} already holds a sweep; resume it (resume=True) or give a new directory"
         )
     grid = list(itertools.product(algos, envs, seeds))
     cpus = {}
@@ -397,7 +398,11 @@ def check_sweep(
     if address is None:
         local = num_cpus if num_cpus is not None else (os.cpu_count() or 1)
         check_int(local, 1, 4096, "num_cpus")
-        _check_cpus(cpus, local, "--num-cpus gives" if num_cpus is not None else "this machine has")
+        _check_cpus(
+            cpus,
+            local,
+            "num_cpus (--num-cpus) gives" if num_cpus is not None else "this machine has",
+        )
     return grid, cpus
 
 

@@ -579,9 +579,9 @@ def train(
             obs, act = env_spaces(env_kwargs)
             if init.meta.observation_shape != obs or init.meta.action_shape != act:
                 raise ValueError(
-                    f"--init-from {config.init_from!r} observes {init.meta.observation_shape} "
-                    f"and acts {init.meta.action_shape}; this run's env observes {obs} and acts "
-                    f"{act} (check its env_kwargs)"
+                    f"init_from (--init-from) {config.init_from!r} observes "
+                    f"{init.meta.observation_shape} and acts {init.meta.action_shape}; this "
+                    f"run's env observes {obs} and acts {act} (check its env_kwargs)"
                 )
 
         venv = make_vec_env(config.env_id, config.n_envs, config.seed, env_kwargs)
@@ -739,9 +739,9 @@ def _set_initial_policy(model, init, config: TrainConfig) -> None:
     ]
     if wrong or set(theirs) - set(ours):
         raise ValueError(
-            f"--init-from {config.init_from!r} is a {init.meta.algo} policy whose network does "
-            f"not fit this run's {config.algo} policy ({'; '.join(wrong[:3])}); give the same "
-            "policy_kwargs"
+            f"init_from (--init-from) {config.init_from!r} is a {init.meta.algo} policy whose "
+            f"network does not fit this run's {config.algo} policy ({'; '.join(wrong[:3])}); "
+            "give the same policy_kwargs"
         )
     model.policy.load_state_dict(theirs)
 

@@ -441,18 +441,19 @@ def _text_block(bgr, lines, origin, scale, thickness, swatches=None) -> int:
 def annotate_view(
     color_image: np.ndarray, measurement: ViewMeasurement, info: CameraIntrinsics | None = None
 ) -> np.ndarray:
-    """A BGR image for cv2.imwrite: the orange mask tinted green, each marker's box (blue),
-    the segment between the boxes' outer ends (red: the pixel variant), the 3-D outer ends
-    projected back (yellow: the depth variant; needs `info`), insets of the two markers in
-    the top right corner, the result in words (`measurement_text`) and a legend of the
-    colours (ANNOTATION_COLORS) in the top left. Lines, text and insets scale with the image
-    (as drawn at 1280 px wide)."""
+    """A BGR image for cv2.imwrite: the orange mask's pixels painted green, each marker's box
+    (blue), the segment between the boxes' outer ends (red: the pixel variant), the 3-D outer
+    ends projected back (yellow dots: the depth variant; needs `info`), insets of the two
+    markers in the top right corner, the result in words (`measurement_text`) and a legend of
+    the colours (ANNOTATION_COLORS) in the top left. Every mark is drawn on the image itself,
+    in its legend colour, so a crop to the tool keeps all that the legend lists; lines, text
+    and insets scale with the image (as drawn at 1280 px wide)."""
     bgr = cv2.cvtColor(np.ascontiguousarray(color_image[:, :, :3]), cv2.COLOR_RGB2BGR)
     s = max(bgr.shape[1], 1) / 1280  # the drawing's scale
     line = max(1, round(2 * s))
     colors = {k: c for k, (c, _) in ANNOTATION_COLORS.items()}
     mask = orange_mask(color_image) > 0
-    bgr[mask] = (0.5 * bgr[mask] + 0.5 * np.array(colors["mask"])).astype(np.uint8)
+    bgr[mask] = colors["mask"]  # the swatch's colour, not a blend with what is under it
     base = bgr.copy()
     for box in measurement.boxes:
         cv2.polylines(bgr, [np.rint(np.array(box)).astype(np.int32)], True, colors["box"], line)
@@ -465,6 +466,9 @@ def annotate_view(
             (info.center_x() + info.focal_x() * x / d, info.center_y() + info.focal_y() * y / d)
             for x, y, d in measurement.ends_C
         ]
+    dot = max(2, round(4 * s))
+    for p in ends_3d:
+        cv2.circle(bgr, (int(round(p[0])), int(round(p[1]))), dot, colors["depth"], -1)
     zoom, half = max(2, round(6 * s)), 16  # each inset: a 33 x 33 px window, magnified
     side = (2 * half + 1) * zoom
     top, gap = round(40 * s), round(10 * s)

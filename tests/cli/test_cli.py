@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from drake_tooluse.cli import main
+from drake_tooluse.cli import EXIT_NOT_REACHED, main
 from tests.cli.test_parser import strict_json
 
 
@@ -79,6 +79,17 @@ def test_simulate_json_and_recording(capsys, tmp_path):
     data = json.loads(out)
     assert code == 0 and data["max_position_error_m"] < 1e-3
     assert html.is_file() and data["recording"] == str(html)
+
+
+def test_simulate_exits_3_when_the_ik_misses_a_waypoint(capsys):
+    argv = ["simulate", "--tip-waypoints", "0.66,-0.2,-0.12", "3,0,0", "--move-time", "0.1"]
+    argv += ["--dwell", "0"]
+    code, out, _ = run(capsys, *argv)
+    assert code == EXIT_NOT_REACHED
+    assert "NOT REACHED (exit code 3): the IK found no joint angles for waypoint(s) [1]" in out
+    code, out, _ = run(capsys, *argv, "--json")
+    assert code == EXIT_NOT_REACHED
+    assert [w["ik_success"] for w in json.loads(out)["waypoints"]] == [True, False]
 
 
 @pytest.mark.parametrize(

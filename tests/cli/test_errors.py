@@ -216,7 +216,9 @@ def test_a_read_only_directory_is_refused_before_work(tmp_path, capsys):
 def test_the_sweep_refuses_cells_its_cpus_cannot_hold_before_ray_starts(tmp_path, capsys):
     ray = pytest.importorskip("ray")
     argv = ["sweep", "--num-cpus", "1", "--out", tmp_path / "s", "--timesteps", "100"]
-    assert_one_line_error(capsys, argv, r"reserves 2 CPUs, but --num-cpus gives 1: Ray would wait")
+    assert_one_line_error(
+        capsys, argv, r"reserves 2 CPUs, but num_cpus \(--num-cpus\) gives 1: Ray would wait"
+    )
     assert not ray.is_initialized()
     assert not (tmp_path / "s").exists()  # nothing trained, nothing written
 
@@ -332,3 +334,29 @@ def test_exit_codes(monkeypatch, capsys, error, code):
             main(["fk", "--no-tool", "--q", *["0"] * 7])
     if isinstance(error, PermissionError):
         assert "'/somewhere/x.csv': Permission denied" in err
+
+
+def test_a_runtime_error_is_a_usage_error_only_when_drake_tooluse_raises_it(
+    monkeypatch, capsys, tmp_path
+):
+    """The library's own RuntimeErrors name an environment problem (a missing program, a busy
+    run directory): exit 2; one from inside a library it calls (Drake, torch) is a bug: exit 1."""
+    from drake_tooluse.files import run_lock
+
+    def busy(args):
+        with run_lock(tmp_path):
+            with run_lock(tmp_path):  # a second holder, as another process would be
+                pass
+
+    monkeypatch.setattr(robot_cli, "cmd_fk", busy)
+    assert_one_line_error(capsys, ["fk", "--no-tool", "--q", *["0"] * 7], r"is in use by another")
+
+    def drake_fails(args):
+        from pydrake.multibody.plant import MultibodyPlant
+
+        MultibodyPlant(0.0).GetBodyByName("nope")  # Drake's C++ throws a RuntimeError
+
+    for fail in (drake_fails, lambda args: (_ for _ in ()).throw(RuntimeError("in a library"))):
+        monkeypatch.setattr(robot_cli, "cmd_fk", fail)
+        code, _, err = run(capsys, ["fk", "--no-tool", "--q", *["0"] * 7])
+        assert code == EXIT_INTERNAL and "internal error RuntimeError" in err, err

@@ -72,6 +72,14 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
         ["trajectory", "--policy", str(tmp_path), "--tool-length", "0.7", "--out", str(tmp_path)],
         ["export-csv", "--trajectory", "x.npz", "--tool-length", "0", "--out", "x.csv"],
         ["demo", "--tool-length", "0.9", "--out", str(tmp_path / "d")],
+        ["train", "--out", str(tmp_path / "r"), "--algo", "bogus"],
+        ["train", "--out", str(tmp_path / "r"), "--env", "bogus"],
+        ["train", "--out", str(tmp_path / "r"), "--init-from", str(tmp_path / "none")],
+        ["evaluate", "--policy", str(tmp_path / "none")],
+        ["evaluate", "--policy", str(tmp_path), "--env", "bogus"],
+        ["sweep", "--out", str(tmp_path / "s"), "--algos", "ppo", "bogus"],
+        ["sweep", "--out", str(tmp_path / "s"), "--envs", "bogus"],
+        ["convert-policy", "--policy", str(tmp_path / "none"), "--out", str(tmp_path / "c")],
     ]
     code = (
         "import sys\nfrom drake_tooluse.cli import main\n"
@@ -81,6 +89,45 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == f"{[EXIT_USAGE] * len(cases)} []", out.stdout + out.stderr
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["train", "--algo", "bogus"], "--algo: unknown algorithm 'bogus'; choose one of ['ppo',"),
+        (["train", "--env", "bogus"], "--env: unknown env 'bogus'; choose one of ['drake_tooluse/"),
+        (["sweep", "--algos", "bogus"], "--algos: unknown algorithm 'bogus'; choose one of"),
+        (
+            ["train", "--init-from", "{d}/none"],
+            "--init-from '{d}/none' is not a policy directory: it does not exist",
+        ),
+        (
+            ["evaluate", "--policy", "{d}"],
+            "--policy '{d}' is not a policy directory: it has no policy.json",
+        ),
+        (
+            ["evaluate", "--policy", "{d}/f"],
+            "--policy '{d}/f' is not a policy directory: it is a file",
+        ),
+    ],
+)
+def test_unknown_names_and_policy_directories_are_refused_naming_what_is_allowed(
+    tmp_path, capsys, argv, message
+):
+    from drake_tooluse.cli import main
+
+    (tmp_path / "f").write_text("")
+    out = ["--out", str(tmp_path / "run")] if argv[0] in ("train", "sweep") else []
+    assert main([a.replace("{d}", str(tmp_path)) for a in argv] + out) == EXIT_USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message.replace("{d}", str(tmp_path)) in err, err
+
+
+def test_the_cli_names_the_algorithms_the_library_has():
+    from drake_tooluse.cli.learning import ALGOS
+    from drake_tooluse.learning import config
+
+    assert ALGOS == config.ALGOS
 
 
 def test_the_cli_checks_tool_lengths_in_the_robot_models_range():

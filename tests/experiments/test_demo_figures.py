@@ -1,6 +1,8 @@
 """The demo's figures: the goal drawn where the scene camera sees it, the camera panel cropped
 to the tool, the annotation's legend and words."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
@@ -100,3 +102,36 @@ def test_the_annotation_says_which_estimate_the_robot_uses_and_shows_its_legend(
         legend = out[: out.shape[0] // 3, : out.shape[1] // 2]
         for color, _ in ANNOTATION_COLORS.values():  # every colour's swatch, BGR
             assert (legend == np.array(color, np.uint8)).all(axis=2).sum() >= (width // 160) ** 2
+
+
+# A 1280 x 800 pinhole camera's intrinsics (what annotate_view reads of Drake's CameraInfo).
+PINHOLE = SimpleNamespace(
+    **{
+        k: (lambda v=v: v)
+        for k, v in dict(focal_x=1e3, focal_y=1e3, center_x=640, center_y=400).items()
+    }
+)
+
+
+def test_what_the_cropped_panel_shows_matches_its_legend():
+    """Every colour of the legend is drawn inside the camera panel's crop, in its swatch's
+    colour exactly: the mask painted (not blended), the depth variant's ends as dots on the
+    image (not only in the corner insets, which the crop cuts off)."""
+    image = np.full((800, 1280, 3), 60, np.uint8)
+    a = [(500, 395), (500, 405), (520, 405), (520, 395)]
+    b = [(760, 395), (760, 405), (780, 405), (780, 395)]
+    for box in (a, b):
+        image[395:406, box[0][0] : box[2][0] + 1] = (255, 120, 0)  # orange marker bands
+    view = _view(a, b)
+    depth_px = [(497.0, 400.0), (783.0, 401.0)]  # where the 3-D ends project
+    view.ends_C = [[(u - 640) / 1000 * 0.8, (v - 400) / 1000 * 0.8, 0.8] for u, v in depth_px]
+    out = annotate_view(image, view, PINHOLE)
+    rows, cols = tool_crop(out.shape, view)
+    panel = out[rows, cols]
+    colors = {k: np.array(c, np.uint8) for k, (c, _) in ANNOTATION_COLORS.items()}
+    for name, color in colors.items():
+        assert (panel == color).all(axis=2).sum() >= 4, name
+    # The mask's pixels that no line or dot covers are the swatch's green exactly.
+    assert (out[398:403, 503:518] == colors["mask"]).all()
+    for u, v in depth_px:
+        assert (out[round(v), round(u)] == colors["depth"]).all()

@@ -52,7 +52,9 @@ def test_a_failed_cell_is_reported_and_the_others_finish(tmp_path, capsys):
     assert len(table) == 4 and "| failed: ValueError" in table[2] and "| finished |" in table[3]
     # A new sweep into the same directory is refused; --resume names it.
     assert main(["sweep", "--out", str(tmp_path)]) == 2
-    assert "already holds a sweep; resume it (--resume)" in capsys.readouterr().err
+    assert f"--out '{tmp_path}' already holds a sweep; continue it with --resume" in (
+        capsys.readouterr().err
+    )
 
 
 def test_resume_refuses_a_second_grid(tmp_path, capsys):
@@ -65,7 +67,7 @@ def test_resume_refuses_a_second_grid(tmp_path, capsys):
 def test_cells_too_large_for_the_cpus_are_refused_before_ray_starts(tmp_path, capsys):
     argv = ["sweep", "--out", str(tmp_path), "--num-cpus", "1", "--hyperparams", '{"n_envs": 2}']
     assert main(argv) == 2
-    assert "reserves 2 CPUs, but --num-cpus gives 1" in capsys.readouterr().err
+    assert "reserves 2 CPUs, but num_cpus (--num-cpus) gives 1" in capsys.readouterr().err
     assert not (tmp_path / "sweep_config.json").exists()
 
 
