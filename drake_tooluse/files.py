@@ -34,6 +34,8 @@ import cv2
 import numpy as np
 import yaml
 
+from drake_tooluse.validation import EnvironmentProblem
+
 _HOST = re.sub(r"[^A-Za-z0-9_-]", "_", socket.gethostname()) or "host"
 # .<name>.tmp-<pid>@<host>.<random>: the random part is mkstemp/mkdtemp's (8 of [a-z0-9_]).
 _ORPHAN = re.compile(r"^\..+\.tmp-(?P<pid>\d+)@(?P<host>[A-Za-z0-9_-]+)\.[a-z0-9_]+$")
@@ -385,7 +387,7 @@ def run_lock(directory: str | Path):
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             holder = os.pread(fd, 64, 0).decode(errors="replace").strip() or "?"
-            raise RuntimeError(
+            raise EnvironmentProblem(
                 f"{str(directory)!r} is in use by another process (pid {holder}); wait for it "
                 "to end or stop it first"
             ) from None

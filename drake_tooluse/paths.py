@@ -12,6 +12,8 @@ import os
 from importlib.resources import files
 from pathlib import Path
 
+from drake_tooluse.validation import EnvironmentProblem
+
 __all__ = [
     "BAXTER_URDF",
     "BAXTER_URL",
@@ -31,7 +33,7 @@ def _package_dir(package: str, *parts: str) -> Path:
     try:
         resource = files(package)
     except ModuleNotFoundError as error:
-        raise RuntimeError(
+        raise EnvironmentProblem(
             f"drake-tooluse's data package {package!r} is missing ({error}); install the project "
             "with `pip install .` or `pip install -e .` from a checkout"
         ) from error
@@ -40,7 +42,7 @@ def _package_dir(package: str, *parts: str) -> Path:
     try:
         return Path(os.fspath(resource))
     except TypeError:
-        raise RuntimeError(
+        raise EnvironmentProblem(
             f"drake-tooluse's data {package!r} are not a folder on disk ({resource!r}): Drake "
             "reads them by file name, so install the project unzipped (`pip install .`)"
         ) from None

@@ -6,6 +6,13 @@ import math
 
 import numpy as np
 
+
+class EnvironmentProblem(RuntimeError):
+    """What this machine lacks or holds busy — a program, an optional package, the installed
+    data, a run directory another process uses — named in the message with what to do; the
+    command line reports it as a usage error (exit 2), where another RuntimeError is a bug."""
+
+
 SEED_MAX = 2**32 - 1  # Drake's RandomGenerator and numpy's legacy seeding take 32 bits
 
 

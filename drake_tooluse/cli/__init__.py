@@ -14,9 +14,9 @@ never a traceback:
 | 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
 
 The library raises ValueError or OSError (FileNotFoundError, FileExistsError, ...) for bad
-input, and a RuntimeError of its own (a `raise` in drake_tooluse) for an environment problem
-(Ray, Chromium or Graphviz missing; a run directory locked by another process): these are exit
-2. A RuntimeError from inside a library it calls (Drake's C++, torch) is exit 1, a bug.
+input, and `validation.EnvironmentProblem` (a RuntimeError) for an environment problem (Ray,
+Chromium or Graphviz missing; a run directory locked by another process): these are exit 2.
+Any other RuntimeError (from Drake's C++, torch, or a bug of ours) is exit 1.
 
 Every command prints human-readable text by default and JSON with `--json` (strict JSON: a
 non-finite number is `null`); every `--help` shows the options' defaults and these exit codes.
@@ -26,7 +26,6 @@ Nothing in the library imports this package.
 from __future__ import annotations
 
 import argparse
-import dis
 import json
 import math
 import os
@@ -40,6 +39,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
     EXIT_OK,
     EXIT_USAGE,
 )
+from drake_tooluse.validation import EnvironmentProblem
 
 GROUPS = (robot, learning, experiments, measure, maintenance)
 DESCRIPTION = (
@@ -107,20 +107,9 @@ def _message(e: BaseException) -> str:
 def _usage_error(e: Exception) -> bool:
     """Whether `e` is exit 2: a ValueError or OSError (every check at the boundary raises one,
     naming the value and what is allowed; OSError: a file or directory the system refused, named
-    with the reason), or a RuntimeError from a `raise` in drake_tooluse's own code (an
-    environment problem it names). A RuntimeError from a library it calls is not: a C++
-    exception (pydrake) ends its traceback at the call in our frame, a Python one in the
-    library's frame."""
-    if isinstance(e, (ValueError, OSError)):
-        return True
-    if not isinstance(e, RuntimeError) or e.__traceback__ is None:
-        return False
-    tb = e.__traceback__
-    while tb.tb_next is not None:  # where it was raised
-        tb = tb.tb_next
-    if not str(tb.tb_frame.f_globals.get("__name__", "")).startswith("drake_tooluse."):
-        return False
-    return dis.opname[tb.tb_frame.f_code.co_code[tb.tb_lasti]] == "RAISE_VARARGS"
+    with the reason), or an `EnvironmentProblem` (a missing program or package, a busy run
+    directory, named). Any other RuntimeError — from Drake's C++, torch, or our code — is a bug."""
+    return isinstance(e, (ValueError, OSError, EnvironmentProblem))
 
 
 def main(argv=None) -> int:

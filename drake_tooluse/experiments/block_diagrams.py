@@ -19,6 +19,7 @@ from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import waypoint_trajectory
+from drake_tooluse.validation import EnvironmentProblem
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import home_tip_pose
 
@@ -81,7 +82,7 @@ def render_svg(dot_text: str, svg_path: str | Path) -> Path:
     """Renders Graphviz text to SVG with the `dot` program (Debian package `graphviz`)."""
     dot = shutil.which("dot")
     if dot is None:
-        raise RuntimeError(
+        raise EnvironmentProblem(
             "rendering a block diagram needs Graphviz's `dot` (apt-get install graphviz)"
         )
     svg = subprocess.run(

@@ -35,6 +35,7 @@ from drake_tooluse.diagrams.trajectory import simulate_waypoints
 from drake_tooluse.files import atomic_write_bytes, atomic_write_json
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.model import TOOL_DOWN_RPY
+from drake_tooluse.validation import EnvironmentProblem
 from drake_tooluse.world.scenario import load_scenario
 
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
@@ -256,7 +257,7 @@ def find_chromium() -> str:
         path = shutil.which(name)
         if path:
             return path
-    raise RuntimeError(
+    raise EnvironmentProblem(
         "taking the screenshots needs headless Chromium on PATH (chromium, chromium-browser or "
         "google-chrome; Debian/Ubuntu: apt-get install chromium); checking the committed ones "
         "(check=True, --check) needs none"
@@ -287,12 +288,14 @@ def take_screenshot(html_path: Path, png_path: Path, window: tuple[int, int], wa
         try:
             done = subprocess.run(args, capture_output=True, text=True, timeout=CHROMIUM_TIMEOUT_S)
         except subprocess.TimeoutExpired:
-            raise RuntimeError(
+            raise EnvironmentProblem(
                 f"Chromium took over {CHROMIUM_TIMEOUT_S} s on {html_path}"
             ) from None
         if done.returncode != 0 or not shot.is_file():
             tail = (done.stderr or "").strip().splitlines()[-1:] or ["no output"]
-            raise RuntimeError(f"Chromium made no screenshot (exit {done.returncode}): {tail[0]}")
+            raise EnvironmentProblem(
+                f"Chromium made no screenshot (exit {done.returncode}): {tail[0]}"
+            )
         return atomic_write_bytes(png_path, shot.read_bytes())
 
 

@@ -51,7 +51,7 @@ from drake_tooluse.files import atomic_dir, atomic_write_json, atomic_write_text
 from drake_tooluse.learning.config import check_algo, check_env_id, resolve_config
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.train import train
-from drake_tooluse.validation import check_int, check_mapping, check_seed
+from drake_tooluse.validation import EnvironmentProblem, check_int, check_mapping, check_seed
 
 EVALUATION_SEED = 1000
 MAX_EPISODES = 100_000
@@ -208,7 +208,7 @@ def sweep(
         from ray import tune
         from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
     except ImportError:
-        raise RuntimeError(
+        raise EnvironmentProblem(
             "the sweep needs Ray Tune: install the cluster extra (pip install '.[cluster]')"
         ) from None
     if resume:
