@@ -342,7 +342,7 @@ def run_transfer(
     )
     goals["tool_difference_met"] = difference is not None and difference <= TOOL_DIFFERENCE_GOAL
     return {
-        "policy": str(policy_dir),
+        "policy": str(Path(policy_dir).absolute()),
         "mode": mode,
         "runs": runs,
         "seed": seed,
@@ -453,7 +453,8 @@ def transfer_experiment(
     episodes in the nominal simulation, aligned by `align`, of the tip poses each step
     commanded or reached (`record`), and kept to the poses every tool
     reaches under the conservative limits). Everything is written into a staging directory
-    that becomes `out` only when complete. Returns the result."""
+    that becomes `out` only when complete. Every path in the result is absolute (as the demo's
+    metrics.json). Returns the result."""
     tools = check_transfer_args(tools, runs, mode, seed)
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(record, RECORDS, "record")
@@ -465,7 +466,7 @@ def transfer_experiment(
         trajectory, extraction = None, None
         if mode == "open-loop" and trajectory_path is not None:
             trajectory = TipTrajectory.load(trajectory_path)
-            extraction = {"file": str(trajectory_path), "poses": len(trajectory)}
+            extraction = {"file": str(Path(trajectory_path).absolute()), "poses": len(trajectory)}
         elif mode == "open-loop":
             log(f"extracting the trajectory from {episodes} episodes …")
             ex = extract(
@@ -491,7 +492,7 @@ def transfer_experiment(
                 "poses": ex.reachability.poses,
                 "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
                 "kept": len(trajectory),
-                "file": str(out / "trajectory.npz"),
+                "file": str(out.absolute() / "trajectory.npz"),
             }
         result = run_transfer(
             policy_dir,
@@ -506,13 +507,13 @@ def transfer_experiment(
             use_grasp_estimate=use_grasp_estimate,
             trust_pickle=trust_pickle,
         )
-        result["nominal_scenario"] = str(nominal_path)
-        result["reality_scenario"] = str(reality_path)
+        result["nominal_scenario"] = str(Path(nominal_path).absolute())
+        result["reality_scenario"] = str(Path(reality_path).absolute())
         if extraction is not None:
             result["trajectory"] = extraction
         plot_transfer(result, work / "transfer_boxplot.png")
-        result["figure"] = str(out / "transfer_boxplot.png")
-        result["json"] = str(out / "transfer.json")
+        result["figure"] = str(out.absolute() / "transfer_boxplot.png")
+        result["json"] = str(out.absolute() / "transfer.json")
         atomic_write_json(work / "transfer.json", result)
     return result
 

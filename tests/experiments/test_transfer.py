@@ -3,6 +3,7 @@
 import dataclasses as dc
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -85,9 +86,10 @@ def test_tip_trajectory_source_interpolates_holds_and_leads():
     np.testing.assert_allclose(np.abs(at(0.05)[3:]), q, atol=1e-12)  # no flip through zero
 
 
-def test_transfer_closed_loop_json(tmp_path, capsys):
+def test_transfer_closed_loop_json(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     assert (
-        main(["transfer", "--runs", "1", "--tools", "0.15", "--out", str(tmp_path / "t"), "--json"])
+        main(["transfer", "--runs", "1", "--tools", "0.15", "--out", "t", "--json"])
         == 0
     )
     out = json.loads(capsys.readouterr().out)
@@ -112,6 +114,9 @@ def test_transfer_closed_loop_json(tmp_path, capsys):
     assert out["goals"]["tool_travel_difference_m"] is None  # one tool
     assert json.loads((tmp_path / "t" / "transfer.json").read_text())["tools"] == out["tools"]
     assert (tmp_path / "t" / "transfer_boxplot.png").stat().st_size > 1000
+    # One rule for the paths it records: absolute (a relative --out too).
+    for key in ("policy", "nominal_scenario", "reality_scenario", "figure", "json"):
+        assert Path(out[key]).is_absolute() and Path(out[key]).exists(), key
 
 
 def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
