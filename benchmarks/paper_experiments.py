@@ -162,13 +162,16 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
 
 def commit(path: Path, message: str) -> None:
     """Commits `path` alone (whatever else is staged stays staged); retried on a busy index."""
+    git = ["git", "-C", str(ROOT)]
     for _ in range(10):
-        git = ["git", "-C", str(ROOT)]
         subprocess.run([*git, "add", "--", str(path)], capture_output=True)
+        unchanged = subprocess.run([*git, "diff", "--cached", "--quiet", "HEAD", "--", str(path)])
+        if unchanged.returncode == 0:
+            return
         done = subprocess.run(
             [*git, "commit", "-q", "-m", message, "--", str(path)], capture_output=True, text=True
         )
-        if done.returncode == 0 or "nothing" in done.stdout + done.stderr:
+        if done.returncode == 0:
             return
         time.sleep(3)
     print(f"[{_stamp()}] could not commit {path}: {done.stderr.strip()}", flush=True)
