@@ -18,6 +18,7 @@ figure; a cell with no finished seed is left out).
 import argparse
 import csv
 import json
+import os
 from pathlib import Path
 
 import matplotlib
@@ -145,6 +146,32 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
             f"- `{cell}`: seeds {', '.join(map(str, todo))} of {c['timesteps']} steps{rate}{where}"
         )
     return "\n".join(lines) + "\n" if lines else "Every cell has all its seeds.\n"
+
+
+def earlier_runs(path: Path) -> str:
+    """The single-seed runs of an earlier session (docs/results/paper_experiments.json), kept
+    until the study above replaces them: most trained with the first-order IK since retired."""
+    if not path.is_file():
+        return ""
+    lines = [
+        "## Earlier single-seed runs (before the fast IK)\n",
+        "One seed each, at budgets below the paper's, from `docs/results/paper_experiments.json`"
+        " (an earlier version of the runner). Every run but `ppo_env1_fullik` and `ppo_env1_tip`"
+        " trained with the first-order differential IK, since retired; the evaluations are of "
+        "the current code. Kept until the cells above replace them.\n",
+        "| run | steps | final box–goal mean / median (cm) | success | box travel (cm) | "
+        "tool / gripper touched |",
+        "| --- | --- | --- | --- | --- | --- |",
+    ]
+    for name, r in json.loads(path.read_text()).items():
+        e, t = r["evaluate_best"], r["train"]
+        lines.append(
+            f"| {name} | {t['timesteps']} | {e['final_box_to_goal_mean_m'] * 100:.2f} / "
+            f"{e['final_box_to_goal_median_m'] * 100:.2f} | {e['success_rate'] * 100:.0f} % | "
+            f"{e['box_travel_mean_m'] * 100:.1f} | {e['tool_touched_rate'] * 100:.0f} % / "
+            f"{e['gripper_touched_rate'] * 100:.0f} % |"
+        )
+    return "\n".join(lines) + "\n"
 
 
 def _curve(run: Path):
@@ -374,6 +401,25 @@ def main() -> None:
         reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, args.runs_dir)
     )
     page += "\n" + discussion(results)
+    where = Path(os.path.relpath(args.figures, args.doc.parent))
+    page += (
+        "\n## Figures\n\n"
+        + "\n\n".join(
+            f"![{caption}]({(where / name).as_posix()})"
+            for name, caption in (
+                ("training_env1_algorithms.png", "Env1: the four algorithms, seed bands"),
+                (
+                    "training_env1_paper_action.png",
+                    "PPO: the paper's action and the position action",
+                ),
+                ("training_env3_finetune.png", "Env3: fine-tuned against from scratch"),
+                ("training_env1_trajectories.png", "Generated tool-tip trajectories"),
+            )
+            if (args.figures / name).is_file()
+        )
+        + "\n"
+    )
+    page += "\n" + earlier_runs(args.results.parent / "paper_experiments.json")
     atomic_write_text(args.doc, page)
     print(f"wrote {args.doc} and the figures in {args.figures}")
 
