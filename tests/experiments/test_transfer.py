@@ -88,10 +88,7 @@ def test_tip_trajectory_source_interpolates_holds_and_leads():
 
 def test_transfer_closed_loop_json(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    assert (
-        main(["transfer", "--runs", "1", "--tools", "0.15", "--out", "t", "--json"])
-        == 0
-    )
+    assert main(["transfer", "--runs", "1", "--tools", "0.15", "--out", "t", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["mode"] == "closed-loop" and out["runs"] == 1
     (tool,) = out["tools"]
