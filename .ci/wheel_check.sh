@@ -42,7 +42,7 @@ names = set(zipfile.ZipFile(sys.argv[1]).namelist())
 need = ["drake_tooluse/models/package.xml", "drake_tooluse/models/baxter/baxter.urdf",
         "drake_tooluse/scenarios/push.yaml", "drake_tooluse/scenarios/reality.yaml",
         "drake_tooluse/paths.py"]
-need += [f"drake_tooluse/models/policies/{p}/{f}" for p in ("ppo_toolpush", "ppo_toolpush_tip")
+need += [f"drake_tooluse/models/policies/{p}/{f}" for p in ("ppo_toolpush", "ppo_toolpush_tip", "ppo_toolpush_paper_action")
          for f in ("policy.json", "policy.safetensors", "normalization.json", "metrics.json")]
 missing = [n for n in need if n not in names]
 if not any(n.startswith("drake_tooluse/") and "/hyperparams/" in n and n.endswith(".yaml") for n in names):

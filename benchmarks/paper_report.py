@@ -8,7 +8,8 @@
 Statistics are rliable's (Agarwal et al. 2021): over the seeds of a cell, each seed's 100
 evaluation episodes (the same seeded starts for every run) as the strata, the mean and the
 interquartile mean (IQM) of the final box–goal distance and the success rate, each with a 95 %
-stratified-bootstrap confidence interval (2,000 resamples of the seeds, fixed random state).
+stratified-bootstrap confidence interval (2,000 resamples of the seeds, seeded: the page is
+the same every time it is made).
 Figures: Env1's reward curves of the four algorithms with seed bands (the paper's four-panel
 figure), PPO with the paper's action beside the position action, Env3 fine-tuned against from
 scratch, and N generated tool-tip trajectories per algorithm with their mean (the paper's 3-D
@@ -65,11 +66,9 @@ def interval_estimates(entries: dict) -> dict:
 
     out = {}
     for name, scores, scale in (("distance_cm", distance, 100.0), ("success_pct", success, 100.0)):
+        np.random.seed(0)  # rliable's StratifiedBootstrap draws from NumPy's global generator
         points, intervals = rly.get_interval_estimates(
-            {"cell": scores * scale},
-            aggregates,
-            reps=BOOTSTRAP_REPS,
-            random_state=np.random.RandomState(0),
+            {"cell": scores * scale}, aggregates, reps=BOOTSTRAP_REPS
         )
         out[name] = {
             "mean": float(points["cell"][0]),
@@ -78,6 +77,19 @@ def interval_estimates(entries: dict) -> dict:
             "iqm_ci": [float(v) for v in intervals["cell"][:, 1]],
         }
     return out
+
+
+_STATS: dict = {}
+
+
+def cell_stats(results: dict, cell: str) -> dict:
+    """`interval_estimates` of a cell's finished seeds, computed once (the page quotes them in
+    more than one place, and a bootstrap's resamples are drawn again on every call)."""
+    done = finished(results, cell)
+    key = (cell, tuple(sorted(done)))
+    if key not in _STATS:
+        _STATS[key] = interval_estimates(done)
+    return _STATS[key]
 
 
 def _ci(d: dict, key: str, digits: int) -> str:
@@ -107,7 +119,7 @@ def study_table(results: dict) -> str:
         if not done:
             lines.append(head + f" {c['timesteps']} | | | | | | | | {paper} |")
             continue
-        stats = interval_estimates(done)
+        stats = cell_stats(results, cell)
         evals = [e["evaluate_best"] for e in done.values()]
         per_seed = ", ".join(
             f"s{s}: {e['evaluate_best']['final_box_to_goal_mean_m'] * 100:.2f} / "
@@ -204,7 +216,11 @@ def plot_band(ax, runs_dir: Path, cell: str, seeds, label: str, color: str, offs
     ax.fill_between(x, ys.min(axis=0), ys.max(axis=0), color=color, alpha=0.2)
 
 
-def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path:
+def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | None:
+    path = figures / "training_env1_algorithms.png"
+    if not any(finished(results, cell) for cell in ALGORITHMS):
+        path.unlink(missing_ok=True)  # no stale figure beside the page
+        return None
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharey=True)
     for ax, (cell, name), color in zip(
         axes.flat, ALGORITHMS.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red")
@@ -220,10 +236,14 @@ def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path:
             ax.text(0.5, 0.5, "not run yet", ha="center", transform=ax.transAxes)
     fig.suptitle("Env1 (ToolPush-v0): mean over seeds, band = the seeds' range", fontsize=10)
     fig.tight_layout()
-    return atomic_write_figure(figures / "training_env1_algorithms.png", fig)
+    return atomic_write_figure(path, fig)
 
 
 def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str, name: str):
+    path = figures / f"{name}.png"
+    if not any(finished(results, cell) for cell, *_ in pairs):
+        path.unlink(missing_ok=True)  # no stale figure beside the page
+        return None
     fig, ax = plt.subplots(figsize=(6.5, 4))
     for cell, label, color, offset in pairs:
         plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset)
@@ -234,13 +254,14 @@ def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str,
         ax.legend(fontsize=8, loc="lower right")
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
-    return atomic_write_figure(figures / f"{name}.png", fig)
+    return atomic_write_figure(path, fig)
 
 
 def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) -> Path | None:
     """N tool-tip paths per algorithm (its first finished seed's best policy) and their mean."""
     cells = [c for c in ALGORITHMS if finished(results, c)]
     if not cells:
+        (figures / "training_env1_trajectories.png").unlink(missing_ok=True)
         return None
     fig = plt.figure(figsize=(5 * len(cells), 4.5))
     for i, cell in enumerate(cells):
@@ -285,7 +306,7 @@ def _brief(results: dict, cell: str) -> str | None:
     done = finished(results, cell)
     if not done:
         return None
-    st = interval_estimates(done)
+    st = cell_stats(results, cell)
     d, s = st["distance_cm"], st["success_pct"]
     return (
         f"{d['mean']:.2f} cm [{d['mean_ci'][0]:.2f}, {d['mean_ci'][1]:.2f}] and "

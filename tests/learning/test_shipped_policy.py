@@ -1,7 +1,9 @@
 """The shipped policies (models/policies/) load, act, and reproduce their metrics.
 
 - ppo_toolpush: the paper's observation (30 values);
-- ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy.
+- ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy;
+- ppo_toolpush_paper_action: the paper's observation and its 7-d action (tip position change
+  + quaternion change).
 """
 
 import json
@@ -14,7 +16,11 @@ from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import load_policy
 
 POLICIES = Path(__file__).resolve().parents[2] / "models" / "policies"
-SHIPPED = {"ppo_toolpush": 30, "ppo_toolpush_tip": 12}  # name -> observation size
+SHIPPED = {  # name -> (observation size, action size)
+    "ppo_toolpush": (30, 3),
+    "ppo_toolpush_tip": (12, 3),
+    "ppo_toolpush_paper_action": (30, 7),
+}
 
 
 def _metrics(name):
@@ -32,9 +38,11 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
     policy = load_policy(POLICIES / name)
     assert policy.meta.env_id == "drake_tooluse/ToolPush-v0"
     assert policy.meta.env_kwargs["ik_mode"] == "full"  # InverseKinematics in the loop
-    assert policy.meta.observation_shape == [SHIPPED[name]]
-    action = policy.act(np.zeros(SHIPPED[name], np.float32))
-    assert action.shape == (3,) and np.all(np.abs(action) <= 1.0)
+    observations, actions = SHIPPED[name]
+    assert policy.meta.observation_shape == [observations]
+    assert policy.meta.action_shape == [actions]
+    action = policy.act(np.zeros(observations, np.float32))
+    assert action.shape == (actions,) and np.all(np.abs(action) <= 1.0)
     metrics = _metrics(name)
     assert metrics["episodes"] == 100
     assert metrics["final_box_to_goal_mean_m"] <= 0.04 and metrics["success_rate"] >= 0.8
