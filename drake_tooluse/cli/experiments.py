@@ -7,6 +7,7 @@ from pathlib import Path
 
 from drake_tooluse.cli.common import (
     add_trust_pickle_arg,
+    choice_arg,
     count_arg,
     output_dir_arg,
     output_file_arg,
@@ -17,10 +18,17 @@ from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POL
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
 
 MAX_EPISODES = 100_000
+# The names `experiments.transfer.MODES`, `experiments.trajectory.ALIGNMENTS` and `RECORDS`
+# hold (those modules import Drake); here to check them first. A test holds them equal.
+MODES = ("closed-loop", "open-loop")
+ALIGNMENTS = ("start", "contact")
+RECORDS = ("achieved", "commanded")
 
 
 def cmd_trajectory(args) -> dict:
     length = tool_length_arg(args.tool_length)
+    choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
+    choice_arg(args.record, RECORDS, "--record", "recording")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
@@ -114,6 +122,11 @@ def cmd_transfer(args) -> dict:
     """Runs the experiment into a new directory (transfer.json, the box plot)."""
     from drake_tooluse.experiments.runs import new_run_dir
 
+    choice_arg(args.mode, MODES, "--mode", "mode")
+    choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
+    choice_arg(args.record, RECORDS, "--record", "recording")
+    for tool in args.tools:
+        tool_length_arg(tool, "--tools")
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
     runs = count_arg(args.runs, "--runs", 1, 10_000)
     seed_arg(args.seed, "--seed", runs)

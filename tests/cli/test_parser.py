@@ -80,6 +80,10 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
         ["sweep", "--out", str(tmp_path / "s"), "--algos", "ppo", "bogus"],
         ["sweep", "--out", str(tmp_path / "s"), "--envs", "bogus"],
         ["convert-policy", "--policy", str(tmp_path / "none"), "--out", str(tmp_path / "c")],
+        ["transfer", "--mode", "bogus", "--out", str(tmp_path / "t")],
+        ["transfer", "--tools", "0.125", "0.9", "--out", str(tmp_path / "t")],
+        ["transfer", "--align", "middle", "--out", str(tmp_path / "t")],
+        ["trajectory", "--policy", str(tmp_path), "--record", "bogus", "--out", str(tmp_path)],
     ]
     code = (
         "import sys\nfrom drake_tooluse.cli import main\n"
@@ -128,6 +132,14 @@ def test_the_cli_names_the_algorithms_the_library_has():
     from drake_tooluse.learning import config
 
     assert ALGOS == config.ALGOS
+
+
+def test_the_cli_names_the_modes_alignments_and_recordings_the_library_has():
+    from drake_tooluse.cli import experiments as cli
+    from drake_tooluse.experiments import trajectory, transfer
+
+    assert cli.MODES == transfer.MODES
+    assert (cli.ALIGNMENTS, cli.RECORDS) == (trajectory.ALIGNMENTS, trajectory.RECORDS)
 
 
 def test_the_cli_checks_tool_lengths_in_the_robot_models_range():

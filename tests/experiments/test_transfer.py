@@ -148,7 +148,7 @@ def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
 @pytest.mark.parametrize(
     "argv, match",
     [
-        (["--mode", "sideways"], r"mode='sideways'.*closed-loop"),
+        (["--mode", "sideways"], r"--mode: unknown mode 'sideways'; choose one of \['closed-loop'"),
         (["--tools", "0.7"], r"0.7.*\(0, 0.6\]"),
         (["--runs", "0"], r"--runs=0 is outside the allowed range \[1, 10000\]"),
     ],
