@@ -34,7 +34,7 @@ import sys
 import time
 from pathlib import Path
 
-from drake_tooluse.files import atomic_write_json
+from drake_tooluse.files import atomic_write_json, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results" / "paper_study.json"
@@ -122,11 +122,43 @@ def _stamp() -> str:
     return time.strftime("%H:%M:%S")
 
 
+def settings_differ(out: Path, cell: str, seed: int) -> str | None:
+    """How the run in `out` (its config.json) was trained other than the cell asks, or None:
+    a cell redefined in this file must not reuse (or resume) runs of its old definition."""
+    path = out / "config.json"
+    if not path.is_file():
+        return None
+    saved, c = json.loads(path.read_text()), CELLS[cell]
+    differences = [
+        f"{key} {saved[key]!r} (the cell: {want!r})"
+        for key, want in (("env_id", c["env"]), ("algo", c["algo"]), ("seed", seed))
+        if saved[key] != want
+    ]
+    for key, want in c.get("hyperparams", {}).items():
+        if saved["hyperparams"].get(key) != want:
+            differences.append(f"{key} {saved['hyperparams'].get(key)!r} (the cell: {want!r})")
+    source = saved.get("init_from")
+    if "init_from" in c and (
+        source is None or Path(source).parts[-3:-1] != (c["init_from"], f"s{seed}")
+    ):
+        differences.append(f"init_from {source!r} (the cell: {c['init_from']}/s{seed}/best)")
+    return "; ".join(differences) or None
+
+
 def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
     """Trains (or resumes) one run and evaluates its best policy; a failure is recorded."""
     c = CELLS[cell]
     out = run_dir(runs_dir, cell, seed)
     entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+    differ = settings_differ(out, cell, seed)
+    if differ:
+        error = f"{out} holds a run trained otherwise: {differ}; move it away to rerun the cell"
+        print(f"[{_stamp()}] {cell} seed {seed} skipped: {error}", flush=True)
+        return {"error": error}
+    source = c.get("init_from")
+    if source and not trained(run_dir(runs_dir, source, seed), CELLS[source]["timesteps"]):
+        print(f"[{_stamp()}] {cell} seed {seed} waits for {source} seed {seed}", flush=True)
+        return {"error": f"waits for {source} seed {seed} to finish (it starts from its policy)"}
     if not trained(out, c["timesteps"]):
         cmd = train_command(cell, seed, runs_dir, resume=(out / "config.json").is_file())
         print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
@@ -164,7 +196,9 @@ def commit(path: Path, message: str) -> None:
     """Commits `path` alone (whatever else is staged stays staged); retried on a busy index."""
     git = ["git", "-C", str(ROOT)]
     for _ in range(10):
-        subprocess.run([*git, "add", "--", str(path)], capture_output=True)
+        if subprocess.run([*git, "add", "--", str(path)], capture_output=True).returncode != 0:
+            time.sleep(3)  # the index is busy (another git command)
+            continue
         unchanged = subprocess.run([*git, "diff", "--cached", "--quiet", "HEAD", "--", str(path)])
         if unchanged.returncode == 0:
             return
@@ -211,18 +245,19 @@ def main() -> int:
     if args.status:
         status(args.runs_dir, results)
         return 0
-    for cell in args.only or list(CELLS):
-        c = CELLS[cell]
-        for seed in c["seeds"]:
-            if args.seeds is not None and seed not in args.seeds:
-                continue
-            entry = run_one(cell, seed, args.runs_dir, results)
-            spec = {k: v for k, v in c.items() if k != "seeds"}
-            results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
-            results[cell]["seeds"][str(seed)] = entry
-            atomic_write_json(args.out, results)
-            if args.commit:
-                commit(args.out, f"Paper study: {cell} seed {seed}")
+    with run_lock(args.runs_dir):  # one job at a time: a second would train the same runs
+        for cell in args.only or list(CELLS):
+            c = CELLS[cell]
+            for seed in c["seeds"]:
+                if args.seeds is not None and seed not in args.seeds:
+                    continue
+                entry = run_one(cell, seed, args.runs_dir, results)
+                spec = {k: v for k, v in c.items() if k != "seeds"}
+                results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
+                results[cell]["seeds"][str(seed)] = entry
+                atomic_write_json(args.out, results)
+                if args.commit:
+                    commit(args.out, f"Paper study: {cell} seed {seed}")
     return 0
 
 
