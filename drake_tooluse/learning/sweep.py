@@ -26,12 +26,16 @@ times, on any node, from its last checkpoint on the driver's disk; a cell that s
 last checkpoint (`train(resume=True)`). It reads only JSON and the pickle-free checkpoints, never
 Tune's pickled experiment state.
 
-Every argument is checked before Ray starts (`check_sweep`), and the CPUs before Tune does: a
-cell's env processes must fit on one node (else Ray would wait for the lease forever).
+Every argument is checked before Ray starts (`check_sweep`), and the CPUs Ray sees before Tune
+starts: a cell's env processes must fit on one node (else Ray would wait for the lease
+forever). One sweep process at a time holds `OUT` (`files.run_lock`). The driver must run on a
+node of the cluster (Ray Client `ray://` addresses are refused): that node's disk holds `OUT`.
+A cell is retried on any failure, a deterministic one included (Tune cannot tell them apart).
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
 import itertools
 import json
@@ -47,7 +51,14 @@ from pathlib import Path
 
 import torch
 
-from drake_tooluse.files import atomic_dir, atomic_write_json, atomic_write_text, check_output_dir
+from drake_tooluse.files import (
+    atomic_dir,
+    atomic_write_json,
+    atomic_write_text,
+    check_output_dir,
+    recover_dir,
+    run_lock,
+)
 from drake_tooluse.learning.config import check_algo, check_env_id, resolve_config
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.train import train
@@ -89,6 +100,7 @@ class RunStore:
 
     def get(self, name: str) -> bytes | None:
         run = self.runs_dir / name
+        recover_dir(run)
         return _pack(run) if (run / "config.json").is_file() else None
 
     def put(self, name: str, data: bytes) -> None:
@@ -224,30 +236,39 @@ def sweep(
         }
     check_int(max_failures, 0, MAX_FAILURES, "max_failures")
     grid, cpus = check_sweep(**settings, out=out, address=address, num_cpus=num_cpus, resume=resume)
+    if ray.is_initialized():
+        raise EnvironmentProblem(
+            "Ray is already initialized in this process; the sweep connects and disconnects on "
+            "its own: call it before ray.init() or after ray.shutdown()"
+        )
     out = Path(out).absolute()
     runs_dir = out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
-    if not resume:
-        atomic_write_json(out / CONFIG_FILE, settings)
-    todo = [c for c in grid if not (runs_dir / _run_name(*c) / CELL_FILE).is_file()]
-    errors: dict = {}
-    write_table(out, grid, errors)
-    if not todo:
-        return _rows(out, grid, errors)
-    os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's console tables: the table is ours
-    logging.getLogger("ray.tune").setLevel(logging.CRITICAL)  # its tracebacks: one line each here
-    ray.init(
-        address=address,
-        num_cpus=num_cpus if address is None else None,
-        include_dashboard=False,
-        ignore_reinit_error=True,
-        log_to_driver=False,
-        logging_level=logging.WARNING,
-    )
-    try:
-        if address is not None:  # a cluster's CPUs are known once connected
-            per_node = [n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]]
-            _check_cpus(cpus, int(max(per_node, default=0)), f"the largest node at {address!r} has")
+    with run_lock(out), contextlib.ExitStack() as stack:  # one sweep process per directory
+        for cell in grid:
+            recover_dir(runs_dir / _run_name(*cell))  # a replace a crash cut in two
+        todo = [c for c in grid if not (runs_dir / _run_name(*c) / CELL_FILE).is_file()]
+        errors: dict = {}
+        if not todo:
+            write_table(out, grid, errors)
+            return _rows(out, grid, errors)
+        os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's console tables: ours instead
+        logging.getLogger("ray.tune").setLevel(logging.CRITICAL)  # its tracebacks: one line here
+        ray.init(
+            address=address,
+            num_cpus=num_cpus if address is None else None,
+            include_dashboard=False,
+            log_to_driver=False,
+            logging_level=logging.WARNING,
+        )
+        stack.callback(ray.shutdown)
+        # The CPUs Ray sees (a container's limit, a cluster's nodes): a cell fits on one node.
+        per_node = [n["Resources"].get("CPU", 0) for n in ray.nodes() if n["Alive"]]
+        where = f"the largest node at {address!r} has" if address else "the local Ray has"
+        _check_cpus(cpus, int(max(per_node, default=0)), where)
+        if not resume:
+            atomic_write_json(out / CONFIG_FILE, settings)
+        write_table(out, grid, errors)
         here = ray.get_runtime_context().get_node_id()
         store = (
             ray.remote(RunStore)
@@ -288,9 +309,7 @@ def sweep(
         for result in tuner.fit():
             if result.error is not None:
                 errors[_cell_name(result.config)] = _one_line(result.error)
-    finally:
-        ray.shutdown()
-    write_table(out, grid, errors)
+        write_table(out, grid, errors)
     return _rows(out, grid, errors)
 
 
@@ -395,8 +414,14 @@ def check_sweep(
             raise FileExistsError(
                 f"{str(run_dir)!r} already holds a run; give the sweep a new directory"
             )
-    if address is None:
-        local = num_cpus if num_cpus is not None else (os.cpu_count() or 1)
+    if address is not None and address.startswith("ray://"):
+        raise ValueError(
+            f"address={address!r} is a Ray Client address, which is not supported: start the "
+            "sweep on a node of the cluster (address 'auto' or 'HEAD_IP:6379'), where its "
+            "results are written"
+        )
+    if address is None:  # the CPUs this process may use (taskset, a container's cpuset)
+        local = num_cpus if num_cpus is not None else len(os.sched_getaffinity(0))
         check_int(local, 1, 4096, "num_cpus")
         _check_cpus(
             cpus,

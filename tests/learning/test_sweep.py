@@ -82,8 +82,11 @@ def test_a_killed_worker_node_s_cell_continues_on_another_node(tmp_path):
     runs = tmp_path / "runs"
     latest = [runs / f"ppo_ToolPush-v0_s{s}" / "checkpoints" / "latest.json" for s in (0, 1)]
 
+    saved = {}
+
     def kill_the_worker():  # once both cells (one on each node) have a checkpoint here
         _wait_for(latest)
+        saved.update({p.parent.parent.name: json.loads(p.read_text())["timesteps"] for p in latest})
         cluster.remove_node(worker)
 
     killer = threading.Thread(target=kill_the_worker)
@@ -100,7 +103,9 @@ def test_a_killed_worker_node_s_cell_continues_on_another_node(tmp_path):
     resumed = [r for r in rows.values() if r["resumes"]]
     assert len(resumed) == 1, "the killed cell continued from its checkpoint, the other did not"
     (r,) = resumed
-    assert r["resumes"][0]["from_timesteps"] >= 256
+    # It continued from the checkpoint it had sent before the kill (or a later one), not
+    # from an older copy or from the start.
+    assert r["resumes"][0]["from_timesteps"] >= saved[r["run"].split("/")[-1]] >= 256
     first = json.loads((tmp_path / r["run"] / "config.json").read_text())["command"]
     assert f"on node {worker_id}" in first and f"on node {head_id}" in r["resumes"][0]["command"]
     assert r["node_id"] == head_id
@@ -137,3 +142,9 @@ def test_a_killed_sweep_resumes_keeping_finished_cells(tmp_path):
     assert row["status"] == "finished" and row["timesteps"] >= 4000
     assert row["resumes"][0]["from_timesteps"] >= 256
     assert len(_rows(out)) == 2
+
+
+def test_a_ray_client_address_is_refused(tmp_path, capsys):
+    # The driver's disk holds OUT; through Ray Client it would be the head's.
+    assert main(["sweep", "--out", str(tmp_path), "--address", "ray://head:10001"]) == 2
+    assert "is a Ray Client address, which is not supported" in capsys.readouterr().err
