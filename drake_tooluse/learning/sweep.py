@@ -192,6 +192,24 @@ def _cell_name(config: dict) -> str:
     return _run_name(spec["algo"], spec["env"], spec["seed"])
 
 
+@contextlib.contextmanager
+def _quiet_tune():
+    """While the sweep runs: no console tables from Tune (the table is ours) and none of its
+    tracebacks (each failed cell is one line in the table); both restored after."""
+    tune_logger = logging.getLogger("ray.tune")
+    level, output = tune_logger.level, os.environ.get("RAY_AIR_NEW_OUTPUT")
+    os.environ["RAY_AIR_NEW_OUTPUT"] = "0"
+    tune_logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        tune_logger.setLevel(level)
+        if output is None:
+            os.environ.pop("RAY_AIR_NEW_OUTPUT", None)
+        else:
+            os.environ["RAY_AIR_NEW_OUTPUT"] = output
+
+
 def _one_line(error) -> str:
     """The last line of a trial's error (Ray's carry the remote traceback above it)."""
     lines = [line.strip() for line in str(error).splitlines() if line.strip()]
@@ -252,8 +270,7 @@ def sweep(
         if not todo:
             write_table(out, grid, errors)
             return _rows(out, grid, errors)
-        os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")  # Tune's console tables: ours instead
-        logging.getLogger("ray.tune").setLevel(logging.CRITICAL)  # its tracebacks: one line here
+        stack.enter_context(_quiet_tune())
         ray.init(
             address=address,
             num_cpus=num_cpus if address is None else None,
