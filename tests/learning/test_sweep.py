@@ -72,7 +72,10 @@ def test_cells_too_large_for_the_cpus_are_refused_before_ray_starts(tmp_path, ca
 
 
 @pytest.mark.slow
-def test_a_killed_worker_node_s_cell_continues_on_another_node(tmp_path):
+def test_on_two_nodes_a_killed_worker_s_cell_continues_and_a_failed_cell_is_reported(tmp_path):
+    """Two 1-CPU nodes; A2C seeds 0 and 1 start one on each; the worker node is removed once
+    both have a checkpoint on the driver's disk. PPO refuses the grid's n_steps · n_envs = 1
+    when it is built: its two cells fail (retried once each) while the A2C cells finish."""
     from ray.cluster_utils import Cluster
 
     cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 1})
@@ -80,11 +83,11 @@ def test_a_killed_worker_node_s_cell_continues_on_another_node(tmp_path):
     cluster.wait_for_nodes()
     head_id, worker_id = cluster.head_node.node_id, worker.node_id
     runs = tmp_path / "runs"
-    latest = [runs / f"ppo_ToolPush-v0_s{s}" / "checkpoints" / "latest.json" for s in (0, 1)]
+    latest = [runs / f"a2c_ToolPush-v0_s{s}" / "checkpoints" / "latest.json" for s in (0, 1)]
 
     saved = {}
 
-    def kill_the_worker():  # once both cells (one on each node) have a checkpoint here
+    def kill_the_worker():  # once both A2C cells (one on each node) have a checkpoint here
         _wait_for(latest)
         saved.update({p.parent.parent.name: json.loads(p.read_text())["timesteps"] for p in latest})
         cluster.remove_node(worker)
@@ -92,15 +95,20 @@ def test_a_killed_worker_node_s_cell_continues_on_another_node(tmp_path):
     killer = threading.Thread(target=kill_the_worker)
     killer.start()
     try:
-        argv = ["sweep", "--seeds", "0", "1", "--timesteps", "3000", "--out", str(tmp_path)]
-        argv += ["--address", cluster.address, "--episodes", "1"]
-        assert main([*argv, "--hyperparams", json.dumps({**TINY, "n_steps": 128})]) == 0
+        argv = ["sweep", "--algos", "a2c", "ppo", "--seeds", "0", "1", "--timesteps", "3000"]
+        argv += ["--out", str(tmp_path), "--address", cluster.address, "--episodes", "1"]
+        argv += ["--max-failures", "1", "--hyperparams", json.dumps({**TINY, "n_steps": 1})]
+        assert main(argv) == 3  # a cell failed
     finally:
         killer.join()
         cluster.shutdown()
     rows = _rows(tmp_path)
-    assert all(r["status"] == "finished" and r["timesteps"] >= 3000 for r in rows.values())
-    resumed = [r for r in rows.values() if r["resumes"]]
+    for seed in (0, 1):
+        assert rows[("ppo", seed)]["status"] == "failed"
+        assert "n_steps * n_envs` must be greater than 1" in rows[("ppo", seed)]["error"]
+    a2c = [rows[("a2c", seed)] for seed in (0, 1)]
+    assert all(r["status"] == "finished" and r["timesteps"] >= 3000 for r in a2c)
+    resumed = [r for r in a2c if r["resumes"]]
     assert len(resumed) == 1, "the killed cell continued from its checkpoint, the other did not"
     (r,) = resumed
     # It continued from the checkpoint it had sent before the kill (or a later one), not
