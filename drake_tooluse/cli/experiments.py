@@ -14,15 +14,11 @@ from drake_tooluse.cli.common import (
     seed_arg,
     tool_length_arg,
 )
+from drake_tooluse.experiments.choices import ALIGNMENTS, MODES, RECORDS
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
 
 MAX_EPISODES = 100_000
-# The names `experiments.transfer.MODES`, `experiments.trajectory.ALIGNMENTS` and `RECORDS`
-# hold (those modules import Drake); here to check them first. A test holds them equal.
-MODES = ("closed-loop", "open-loop")
-ALIGNMENTS = ("start", "contact")
-RECORDS = ("achieved", "commanded")
 
 
 def cmd_trajectory(args) -> dict:

@@ -19,12 +19,10 @@ from drake_tooluse.cli.common import (
     seed_arg,
 )
 from drake_tooluse.envs.registration import ENV_IDS
+from drake_tooluse.learning.algorithms import ALGOS
 
 MAX_TIMESTEPS = 10**10
 MAX_EPISODES = 100_000
-# `learning.config.ALGOS`, which imports torch to name their classes; here for checking
-# --algo before it loads (tests/cli/test_parser.py keeps the two the same).
-ALGOS = ("ppo", "a2c", "ddpg", "trpo")
 
 
 def in_cli_words(error: FileExistsError, out, what: str) -> FileExistsError:

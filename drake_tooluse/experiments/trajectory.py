@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform
 
+from drake_tooluse.experiments.choices import ALIGNMENTS, RECORDS
 from drake_tooluse.files import atomic_dir, atomic_write_figure
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
@@ -128,14 +129,6 @@ def _pose_row(env) -> np.ndarray:
             X_WTd.rotation().ToQuaternion().wxyz(),
         ]
     )
-
-
-ALIGNMENTS = ("start", "contact")
-# What a recorded trajectory holds at each step: where the tip got (the paper's: with Fetch's
-# mocap it is where it was commanded), or the tip pose the step commanded (the IK's joint
-# targets). Baxter's arm lags its command by ~2 cm at full speed, so a replay of where the tip
-# got commands a slower push that trails the recorded one.
-RECORDS = ("achieved", "commanded")
 
 
 @dataclass

@@ -43,10 +43,9 @@ from matplotlib.patches import Patch
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy, run_push
 from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
+from drake_tooluse.experiments.choices import ALIGNMENTS, MODES, RECORDS
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.experiments.trajectory import (
-    ALIGNMENTS,
-    RECORDS,
     extract,
     filter_reachable,
     plot_extraction,
@@ -68,7 +67,6 @@ from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
 
-MODES = ("closed-loop", "open-loop")
 WORLDS = ("nominal", "reality")
 MAX_STEPS = 100  # control steps of a closed-loop run (the env's episode)
 SETTLE_TIME = 1.0  # s after an open-loop trajectory ends

@@ -19,11 +19,11 @@ from sb3_contrib import TRPO
 from drake_tooluse.envs.push_env import check_env_kwargs
 from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.files import read_yaml
+from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.paths import HYPERPARAMS_DIR
 from drake_tooluse.validation import check_bool, check_int, check_mapping, check_seed
 
-ALGORITHMS = {"ppo": sb3.PPO, "a2c": sb3.A2C, "ddpg": sb3.DDPG, "trpo": TRPO}
-ALGOS = tuple(ALGORITHMS)
+ALGORITHMS = dict(zip(ALGOS, (sb3.PPO, sb3.A2C, sb3.DDPG, TRPO)))
 OFF_POLICY = ("ddpg",)
 POLICIES = ("MlpPolicy",)
 # Keys of a hyperparameter entry that are not the algorithm's own arguments.
