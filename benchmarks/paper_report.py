@@ -37,7 +37,7 @@ from drake_tooluse.envs.registration import MAX_EPISODE_STEPS  # noqa: E402
 from drake_tooluse.experiments.trajectory import record_episodes  # noqa: E402
 from drake_tooluse.files import atomic_write_figure, atomic_write_text  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
-from drake_tooluse.systems.tip_target import MAX_QUATERNION_STEP  # noqa: E402
+from drake_tooluse.systems.tip_target import Workspace, apply_action  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 FIGURES = ROOT / "docs" / "figures"
@@ -288,22 +288,25 @@ def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) ->
 
 def orientation_drift(std: float, steps: int, episodes: int = 2000) -> float:
     """Mean tilt (rad) of the tool after `steps` steps of the paper's action with Gaussian
-    exploration noise of `std` on the quaternion change (the mean action zero): each step adds
-    MAX_QUATERNION_STEP · N(0, std²) per component (clipped to [-1, 1], as actions are) to the
-    current quaternion, then normalizes (`systems.tip_target.apply_action`): the orientation
-    random-walks with nothing pulling it back."""
+    exploration noise of `std` on it (the mean action zero, clipped to [-1, 1] as actions are),
+    each step applied by the env's own `systems.tip_target.apply_action`: the quaternion change
+    is added to the current quaternion and normalized, so the orientation random-walks with
+    nothing pulling it back."""
     rng = np.random.default_rng(0)
-    q0 = RollPitchYaw(TOOL_DOWN_RPY).ToQuaternion().wxyz()
-    q = np.tile(q0, (episodes, 1))
+    workspace = Workspace(np.full(3, -np.inf), np.full(3, np.inf))  # position: irrelevant here
+    start = np.concatenate([np.zeros(3), RollPitchYaw(TOOL_DOWN_RPY).ToQuaternion().wxyz()])
+    targets = np.tile(start, (episodes, 1))
     for _ in range(steps):
-        q = q + MAX_QUATERNION_STEP * np.clip(rng.normal(0.0, std, q.shape), -1.0, 1.0)
-        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        noise = np.clip(rng.normal(0.0, std, (episodes, 4)), -1.0, 1.0)
+        for target, quaternion_change in zip(targets, noise):
+            action = np.concatenate([np.zeros(3), quaternion_change])
+            target[:] = apply_action(target, action, "paper", workspace)
 
     def axis(quaternion):  # the tool's axis (z of the tip frame), as a copy
         return np.array(RotationMatrix(Quaternion(quaternion)).matrix())[:, 2]
 
-    z0 = axis(q0)
-    return float(np.mean([np.arccos(np.clip(axis(x) @ z0, -1.0, 1.0)) for x in q]))
+    z0 = axis(start[3:])
+    return float(np.mean([np.arccos(np.clip(axis(t[3:]) @ z0, -1.0, 1.0)) for t in targets]))
 
 
 def _brief(results: dict, cell: str) -> str | None:
