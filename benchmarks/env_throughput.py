@@ -1,6 +1,6 @@
 """Env throughput: random-action steps per second on one core, ours beside Gymnasium-Robotics'
-FetchPushDense-v4 (MuJoCo) measured in the same run (interleaved rounds, the median round),
-and where a step's time goes.
+FetchPushDense-v4 (MuJoCo) measured in the same run (interleaved rounds: the median round, and
+the median of the per-round ratios), and where a step's time goes.
 
     pip install -e ".[bench]"        # mujoco < 3.4 + gymnasium-robotics 1.4.2 (optional)
     python benchmarks/env_throughput.py [--steps 4000] [--out FILE]
@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 import drake_tooluse  # noqa: E402,F401
 from drake_tooluse.files import atomic_write_json  # noqa: E402
 
+FETCH = "FetchPushDense-v4 (MuJoCo)"
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_throughput.json"
 
 
@@ -38,13 +39,13 @@ def run_random(env, steps: int, seed: int = 0) -> float:
 
 
 def interleaved(envs: dict, steps: int, rounds: int) -> dict:
-    """Seconds per step of each env: `rounds` rounds, each env taking `steps // rounds` steps
-    in turn (so a slow spell of the machine falls on all of them), the median round."""
+    """Seconds per step of each env in each of `rounds` rounds, each env taking
+    `steps // rounds` steps in turn (so a slow spell of the machine falls on all of them)."""
     times = {name: [] for name in envs}
     for r in range(rounds):
         for name, env in envs.items():
             times[name].append(run_random(env, max(steps // rounds, 1), seed=r))
-    return {name: float(np.median(t)) for name, t in times.items()}
+    return {name: np.array(t) for name, t in times.items()}
 
 
 class _Timer:
@@ -124,33 +125,38 @@ def main() -> None:
     envs = {}
     fetch_env = fetch_push_env()
     if fetch_env is not None:
-        envs["FetchPushDense-v4 (MuJoCo)"] = fetch_env
+        envs[FETCH] = fetch_env
     for action_mode in ("paper", "position"):
         envs[f"ToolPush-v0 action_mode={action_mode}"] = gym.make(
             "drake_tooluse/ToolPush-v0", action_mode=action_mode
         )
     for env in envs.values():  # warm up: compiled kernels, caches
         run_random(env, 50)
-    per_step = interleaved(envs, args.steps, args.rounds)
-    rows = list(per_step.items())
-    fetch = per_step.get("FetchPushDense-v4 (MuJoCo)")
-    print("| env | steps/s | ms/step | ratio ours / FetchPush |")
-    print("| --- | --- | --- | --- |")
+    rounds = interleaved(envs, args.steps, args.rounds)
+    fetch_rounds = rounds.get(FETCH)
+    # Two ratios: of the median rounds, and the median of the per-round ratios (each round's
+    # envs ran back to back, so the pair shares the machine's speed of that moment).
+    print("| env | steps/s | ms/step | ratio of medians | median per-round ratio |")
+    print("| --- | --- | --- | --- | --- |")
     results = []
-    for name, sec in rows:
-        ratio = f"{fetch / sec:.2f}" if fetch is not None and not name.startswith("Fetch") else "—"
-        print(f"| {name} | {1 / sec:.0f} | {sec * 1e3:.3f} | {ratio} |")
+    for name, t in rounds.items():
+        sec = float(np.median(t))
+        ours = fetch_rounds is not None and name != FETCH
+        ratio = float(np.median(fetch_rounds)) / sec if ours else None
+        paired = float(np.median(fetch_rounds / t)) if ours else None
+        shown = [f"{x:.2f}" if x is not None else "—" for x in (ratio, paired)]
+        print(f"| {name} | {1 / sec:.0f} | {sec * 1e3:.3f} | {shown[0]} | {shown[1]} |")
         results.append(
             {
                 "env": name,
                 "steps_per_s": 1 / sec,
                 "ms_per_step": sec * 1e3,
-                "ratio_to_fetchpush": None
-                if fetch is None or name.startswith("Fetch")
-                else fetch / sec,
+                "ratio_to_fetchpush": ratio,
+                "median_round_ratio_to_fetchpush": paired,
+                "round_ms_per_step": [x * 1e3 for x in t],
             }
         )
-    if fetch is None:
+    if fetch_rounds is None:
         print("(FetchPushDense-v4 not installed: pip install -e '.[bench]' to compare)")
     plant = plant_only_ms()
     parts = breakdown(max(args.steps // 2, 200))

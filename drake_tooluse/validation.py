@@ -49,6 +49,13 @@ def check_positive(value, name: str, unit: str = "") -> float:
     return check_in_range(value, 0.0, math.inf, name, unit, lower_inclusive=False)
 
 
+def all_finite(a: np.ndarray) -> bool:
+    """Whether every value of the float array `a` is finite. A finite sum proves it in one
+    cheap reduction (this runs several times per control step); only where the sum is not
+    finite (a NaN or inf, or finite values that overflow it) does the exact test decide."""
+    return math.isfinite(a.sum()) or bool(np.isfinite(a).all())
+
+
 def check_finite_vector(values, size: int, name: str) -> np.ndarray:
     """Returns `values` as a float array of shape (size,), all finite."""
     try:
@@ -57,7 +64,7 @@ def check_finite_vector(values, size: int, name: str) -> np.ndarray:
         raise ValueError(f"{name}={values!r} is not a vector of {size} numbers") from None
     if a.size != size:
         raise ValueError(f"{name} has {a.size} values; it needs exactly {size}")
-    if not np.isfinite(a).all():
+    if not all_finite(a):
         raise ValueError(f"{name}={a.tolist()} must be finite (no NaN or inf)")
     return a
 
@@ -71,7 +78,7 @@ def check_one_of(value, allowed, name: str):
 def check_unit_quaternion(wxyz, name: str = "quaternion") -> np.ndarray:
     """Returns the normalized quaternion (w, x, y, z); a zero or non-finite one is an error."""
     q = check_finite_vector(wxyz, 4, name)
-    norm = float(np.linalg.norm(q))
+    norm = math.sqrt(q.dot(q))  # np.linalg.norm's arithmetic, without its dispatch cost
     if norm < 1e-9:
         raise ValueError(
             f"{name}={q.tolist()} has zero norm; a rotation needs a non-zero "

@@ -9,7 +9,7 @@ SceneGraph) as a `RuntimeError`. A failed check in its inline C++ (`DRAKE_THROW_
 
 from __future__ import annotations
 
-import numpy as np
+from drake_tooluse.validation import all_finite
 
 DRAKE_FAILURE = "Failure at "
 
@@ -39,4 +39,4 @@ def advance(simulator, time: float) -> str | None:
 def finite_state(plant, plant_context) -> bool:
     """Whether the plant's positions and velocities are all finite (read without running any
     Python system)."""
-    return bool(np.isfinite(plant.GetPositionsAndVelocities(plant_context)).all())
+    return all_finite(plant.GetPositionsAndVelocities(plant_context))

@@ -25,6 +25,7 @@ observation, the last finite reward and metrics (NaN would poison a `VecNormaliz
 from __future__ import annotations
 
 import dataclasses as dc
+import math
 from pathlib import Path
 
 import gymnasium as gym
@@ -47,6 +48,7 @@ from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.observation import OBSERVATION_SIZES
 from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
 from drake_tooluse.validation import (
+    all_finite,
     check_bool,
     check_in_range,
     check_mapping,
@@ -261,7 +263,7 @@ class ToolPushEnv(DrakeGymEnv):
         if not sim_error:
             observation = np.asarray(self.observation_port.Eval(context), np.float32)
             m = self._read_metrics()
-            sim_error = not (np.isfinite(observation).all() and _finite(m))
+            sim_error = not (all_finite(observation) and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
         else:
@@ -358,4 +360,6 @@ class ToolPushEnv(DrakeGymEnv):
 
 
 def _finite(m) -> bool:
-    return all(np.isfinite(v) for v in (m.box_to_goal, m.tip_to_box, m.box_travel))
+    return (
+        math.isfinite(m.box_to_goal) and math.isfinite(m.tip_to_box) and math.isfinite(m.box_travel)
+    )

@@ -39,7 +39,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
 from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.validation import check_one_of
+from drake_tooluse.validation import all_finite, check_one_of
 from drake_tooluse.world.scene import World
 
 OBSERVATION_SIZES = {"paper": 30, "tip": 12}
@@ -113,7 +113,7 @@ class ToolPushObservation(LeafSystem):
     def observation(self, x, goal) -> np.ndarray:
         """The observation from the plant state x and the goal; NaN where the state is not
         finite (a failed simulation: the robot model refuses such joint angles)."""
-        if not np.isfinite(x).all():
+        if not all_finite(x):
             return np.full(self._size, np.nan)
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)

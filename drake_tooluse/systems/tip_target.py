@@ -14,6 +14,7 @@ The target position is kept inside a workspace box above the table (clipped, see
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,6 +24,7 @@ from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.kinematics import ArmChain
 from drake_tooluse.systems.lifetime import weak_method
+from drake_tooluse.validation import all_finite
 
 ACTION_MODES = {"paper": 7, "pose": 6, "position": 3}
 MAX_TRANSLATION_STEP = 0.02  # m per step
@@ -50,7 +52,7 @@ def check_action(action, mode: str) -> np.ndarray:
     size = ACTION_MODES[mode]
     if a.size != size:
         raise ValueError(f"action has {a.size} values; action_mode={mode!r} needs {size}")
-    if not np.isfinite(a).all():
+    if not all_finite(a):
         raise ValueError(
             f"action {a.tolist()} holds NaN or infinite values; actions must be "
             "finite (they are clipped to [-1, 1])"
@@ -68,7 +70,7 @@ def apply_action(
     quat = target[3:]
     if mode == "paper":
         quat = quat + MAX_QUATERNION_STEP * action[3:7]
-        norm = np.linalg.norm(quat)
+        norm = math.sqrt(quat.dot(quat))  # np.linalg.norm's own arithmetic, without its dispatch
         quat = quat / norm if norm > 1e-6 else target[3:]
     elif mode == "pose":
         rotvec = MAX_ROTATION_STEP * action[3:6]

@@ -39,20 +39,16 @@ class ToolTipIKSystem(LeafSystem):
         self._ik = ik
         q0 = ik.check_q(q0, "q0")
         self._pose_port = self.DeclareVectorInputPort("tip_pose_desired", 7)
-        self._state = self.DeclareDiscreteState(np.concatenate([q0, [1.0, 0.0, 0.0, 0.0]]))
+        # Two state groups, each its own output port: Drake copies them out with no Python call.
+        self._desired = self.DeclareDiscreteState(np.concatenate([q0, np.zeros(7)]))
+        self._status = self.DeclareDiscreteState(np.array([1.0, 0.0, 0.0, 0.0]))
         # Callbacks through weak_method: a released diagram frees this system (lifetime.py).
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_method(self._update))
-        # Outputs depend on the discrete state only: cached between plant steps.
-        xd = {self.xd_ticket()}
         self.DeclareVectorOutputPort(
-            "q_desired", 7, weak_method(self._calc_q), prerequisites_of_calc=xd
+            "q_desired", 7, weak_method(self._calc_q), prerequisites_of_calc={self.xd_ticket()}
         )
-        self.DeclareVectorOutputPort(
-            "desired_state", 14, weak_method(self._calc_desired_state), prerequisites_of_calc=xd
-        )
-        self.DeclareVectorOutputPort(
-            "status", 4, weak_method(self._calc_status), prerequisites_of_calc=xd
-        )
+        self.DeclareStateOutputPort("desired_state", self._desired)
+        self.DeclareStateOutputPort("status", self._status)
 
     @property
     def ik(self) -> ToolTipIK:
@@ -60,29 +56,23 @@ class ToolTipIKSystem(LeafSystem):
 
     def q_desired(self, context) -> np.ndarray:
         """The joint targets of the last solve in `context` (this system's context)."""
-        return context.get_discrete_state(self._state).get_value()[:7].copy()
+        return context.get_discrete_state(self._desired).get_value()[:7].copy()
 
     def _update(self, context, discrete_state):
-        x = context.get_discrete_state(self._state).get_value()
-        q_last, failures = x[:7], x[10]
+        q_last = context.get_discrete_state(self._desired).get_value()[:7]
+        failures = context.get_discrete_state(self._status).get_value()[3]
         # [p, quaternion]: the solver checks it and normalizes the quaternion.
         result = self._ik.solve(self._pose_port.Eval(context), q_seed=q_last)
+        status = discrete_state.get_mutable_vector(self._status)
         if result.success:
-            new = np.concatenate(
-                [result.q, [1.0, result.position_error, result.orientation_error, 0.0]]
+            discrete_state.get_mutable_vector(self._desired).SetFromVector(
+                np.concatenate([result.q, np.zeros(7)])
             )
-        else:
-            new = np.concatenate(
-                [q_last, [0.0, result.position_error, result.orientation_error, failures + 1]]
+            status.SetFromVector([1.0, result.position_error, result.orientation_error, 0.0])
+        else:  # hold the last valid solution (the desired state is left as it was)
+            status.SetFromVector(
+                [0.0, result.position_error, result.orientation_error, failures + 1]
             )
-        discrete_state.get_mutable_vector(self._state).SetFromVector(new)
 
     def _calc_q(self, context, output):
-        output.SetFromVector(context.get_discrete_state(self._state).get_value()[:7])
-
-    def _calc_desired_state(self, context, output):
-        q = context.get_discrete_state(self._state).get_value()[:7]
-        output.SetFromVector(np.concatenate([q, np.zeros(7)]))
-
-    def _calc_status(self, context, output):
-        output.SetFromVector(context.get_discrete_state(self._state).get_value()[7:])
+        output.SetFromVector(context.get_discrete_state(self._desired).get_value()[:7])

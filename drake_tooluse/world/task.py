@@ -34,25 +34,31 @@ class PushMetricsReader:
 
     def __init__(self, world: World):
         plant = world.plant
-        self._world = world
+        self._plant = plant
         self._box = world.box
-        self._tool_index = world.tool.index() if world.tool is not None else None
-        self._robot_bodies = {plant.get_body(i).index() for i in plant.GetBodyIndices(world.baxter)}
+        self._tip_frame = world.tip_frame
+        # Body indices as ints: comparing ints is cheaper than comparing pydrake's BodyIndex
+        # objects, and this runs every control step.
+        self._box_index = int(world.box.index())
+        self._tool_index = int(world.tool.index()) if world.tool is not None else None
+        self._robot_bodies = {int(i) for i in plant.GetBodyIndices(world.baxter)}
         self._robot_bodies.discard(self._tool_index)
 
     def read(self, plant_context, goal, box_start) -> PushMetrics:
-        plant = self._world.plant
         p_box = self._box.EvalPoseInWorld(plant_context).translation()
-        p_tip = self._world.tip_frame.CalcPoseInWorld(plant_context).translation()
+        p_tip = self._tip_frame.CalcPoseInWorld(plant_context).translation()
         tool_touch = gripper_touch = False
-        contacts = plant.get_contact_results_output_port().Eval(plant_context)
-        box = self._box.index()
+        contacts = self._plant.get_contact_results_output_port().Eval(plant_context)
+        box = self._box_index
         for i in range(contacts.num_point_pair_contacts()):
             info = contacts.point_pair_contact_info(i)
-            a, b = info.bodyA_index(), info.bodyB_index()
-            if box not in (a, b):
+            a, b = int(info.bodyA_index()), int(info.bodyB_index())
+            if a == box:
+                other = b
+            elif b == box:
+                other = a
+            else:
                 continue
-            other = b if a == box else a
             tool_touch |= other == self._tool_index
             gripper_touch |= other in self._robot_bodies
         return PushMetrics(
