@@ -8,9 +8,12 @@ stopped), evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seed
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
 goes on. Results are written atomically to docs/results/paper_study.json after every run; with
-`--commit` each is also committed (that file only). `--status` prints what is done, what is
-missing and the measured time per run. `python benchmarks/paper_report.py` makes
-docs/TRAINING.md's tables and figures from them.
+`--commit` each is also committed (that file only). When a cell has finished a run in this job,
+the report is regenerated once its seeds are through (`python benchmarks/paper_report.py`:
+docs/TRAINING.md's tables and figures, needs the `bench` extra's rliable; a report that fails
+is logged and the job goes on) and, with `--commit`, committed (the page and its figures), so
+the page is current whenever a session ends. `--status` prints what is done, what is missing
+and the measured time per run.
 
 Cells, cheapest evidence first (the order they run in):
   ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
@@ -38,6 +41,8 @@ from drake_tooluse.files import atomic_write_json, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results" / "paper_study.json"
+REPORT = ROOT / "docs" / "TRAINING.md"
+FIGURES = ROOT / "docs" / "figures"  # the report's figures: training_*.png
 ENV1, ENV2, ENV3 = (
     "drake_tooluse/ToolPush-v0",
     "drake_tooluse/ToolPushBoxReward-v0",
@@ -192,23 +197,43 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
     }
 
 
-def commit(path: Path, message: str) -> None:
-    """Commits `path` alone (whatever else is staged stays staged); retried on a busy index."""
+def commit(paths: list[Path], message: str) -> None:
+    """Commits `paths` alone (whatever else is staged stays staged); retried on a busy index."""
     git = ["git", "-C", str(ROOT)]
+    names = [str(p) for p in paths]
     for _ in range(10):
-        if subprocess.run([*git, "add", "--", str(path)], capture_output=True).returncode != 0:
+        if subprocess.run([*git, "add", "--", *names], capture_output=True).returncode != 0:
             time.sleep(3)  # the index is busy (another git command)
             continue
-        unchanged = subprocess.run([*git, "diff", "--cached", "--quiet", "HEAD", "--", str(path)])
+        unchanged = subprocess.run([*git, "diff", "--cached", "--quiet", "HEAD", "--", *names])
         if unchanged.returncode == 0:
             return
         done = subprocess.run(
-            [*git, "commit", "-q", "-m", message, "--", str(path)], capture_output=True, text=True
+            [*git, "commit", "-q", "-m", message, "--", *names], capture_output=True, text=True
         )
         if done.returncode == 0:
             return
         time.sleep(3)
-    print(f"[{_stamp()}] could not commit {path}: {done.stderr.strip()}", flush=True)
+    print(f"[{_stamp()}] could not commit {names}: {done.stderr.strip()}", flush=True)
+
+
+def report(runs_dir: Path, results_path: Path) -> list[Path] | None:
+    """Regenerates docs/TRAINING.md and its figures; the files written, or None if it failed."""
+    cmd = [
+        sys.executable,
+        str(Path(__file__).resolve().parent / "paper_report.py"),
+        "--runs-dir",
+        str(runs_dir),
+        "--results",
+        str(results_path),
+    ]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
+        print(f"[{_stamp()}] the report failed: {error}", flush=True)
+        return None
+    print(f"[{_stamp()}] report regenerated: {REPORT.relative_to(ROOT)}", flush=True)
+    return [REPORT, *sorted(FIGURES.glob("training_*.png"))]
 
 
 def status(runs_dir: Path, results: dict) -> None:
@@ -248,16 +273,23 @@ def main() -> int:
     with run_lock(args.runs_dir):  # one job at a time: a second would train the same runs
         for cell in args.only or list(CELLS):
             c = CELLS[cell]
+            finished_here = False  # a run of this cell evaluated in this job: report again
             for seed in c["seeds"]:
                 if args.seeds is not None and seed not in args.seeds:
                     continue
+                before = results.get(cell, {}).get("seeds", {}).get(str(seed))
                 entry = run_one(cell, seed, args.runs_dir, results)
+                finished_here |= "evaluate_best" in entry and entry != before
                 spec = {k: v for k, v in c.items() if k != "seeds"}
                 results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
                 results[cell]["seeds"][str(seed)] = entry
                 atomic_write_json(args.out, results)
                 if args.commit:
-                    commit(args.out, f"Paper study: {cell} seed {seed}")
+                    commit([args.out], f"Paper study: {cell} seed {seed}")
+            if finished_here:
+                written = report(args.runs_dir, args.out)
+                if written and args.commit:
+                    commit(written, f"TRAINING.md regenerated: {cell} through its seeds")
     return 0
 
 

@@ -27,7 +27,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from paper_experiments import CELLS, RESULTS, run_dir  # noqa: E402
+from paper_experiments import CELLS, FIGURES, REPORT, RESULTS, run_dir  # noqa: E402
 from pydrake.common.eigen_geometry import Quaternion  # noqa: E402
 from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
 from rliable import library as rly  # noqa: E402
@@ -40,7 +40,6 @@ from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
 from drake_tooluse.systems.tip_target import Workspace, apply_action  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-FIGURES = ROOT / "docs" / "figures"
 PAPER_CM = {"ppo_env1": 7.74, "trpo_env1": 11.9, "ddpg_env1": 35.1, "a2c_env1": 40.9}
 ALGORITHMS = {"ppo_env1": "PPO", "trpo_env1": "TRPO", "a2c_env1": "A2C", "ddpg_env1": "DDPG"}
 BOOTSTRAP_REPS = 2000
@@ -389,7 +388,7 @@ def main() -> None:
     )
     ap.add_argument("--runs-dir", type=Path, default=ROOT / "runs" / "paper")
     ap.add_argument("--results", type=Path, default=RESULTS)
-    ap.add_argument("--doc", type=Path, default=ROOT / "docs" / "TRAINING.md")
+    ap.add_argument("--doc", type=Path, default=REPORT)
     ap.add_argument("--figures", type=Path, default=FIGURES)
     ap.add_argument("--trajectories", type=int, default=10, help="episodes per 3-D panel")
     args = ap.parse_args()
