@@ -8,11 +8,11 @@ stopped), evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seed
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
 goes on. Results are written atomically to docs/results/paper_study.json after every run; with
-`--commit` each is also committed (that file only). When a cell has finished a run in this job,
-the report is regenerated once its seeds are through (`python benchmarks/paper_report.py`:
-docs/TRAINING.md's tables and figures, needs the `bench` extra's rliable; a report that fails
-is logged and the job goes on) and, with `--commit`, committed (the page and its figures), so
-the page is current whenever a session ends. `--status` prints what is done, what is missing
+`--commit` each is also committed (that file only). After each run that finished in this job
+the report is regenerated (`python benchmarks/paper_report.py`: docs/TRAINING.md's tables and
+figures, needs the `bench` extra's rliable; a report that fails is logged and the job goes on)
+and, with `--commit`, committed (the page and its figures), so the page is current whenever a
+session ends. `--status` prints what is done, what is missing
 and the measured time per run.
 
 Cells, cheapest evidence first (the order they run in):
@@ -273,23 +273,21 @@ def main() -> int:
     with run_lock(args.runs_dir):  # one job at a time: a second would train the same runs
         for cell in args.only or list(CELLS):
             c = CELLS[cell]
-            finished_here = False  # a run of this cell evaluated in this job: report again
             for seed in c["seeds"]:
                 if args.seeds is not None and seed not in args.seeds:
                     continue
                 before = results.get(cell, {}).get("seeds", {}).get(str(seed))
                 entry = run_one(cell, seed, args.runs_dir, results)
-                finished_here |= "evaluate_best" in entry and entry != before
                 spec = {k: v for k, v in c.items() if k != "seeds"}
                 results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
                 results[cell]["seeds"][str(seed)] = entry
                 atomic_write_json(args.out, results)
                 if args.commit:
                     commit([args.out], f"Paper study: {cell} seed {seed}")
-            if finished_here:
-                written = report(args.runs_dir, args.out)
-                if written and args.commit:
-                    commit(written, f"TRAINING.md regenerated: {cell} through its seeds")
+                if "evaluate_best" in entry and entry != before:  # a run finished in this job
+                    written = report(args.runs_dir, args.out)
+                    if written and args.commit:
+                        commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
     return 0
 
 

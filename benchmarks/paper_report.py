@@ -354,8 +354,8 @@ HEADER = """# Training: the paper's study at its scale, with statistics
 
 Made by `python benchmarks/paper_report.py` from `docs/results/paper_study.json`, which
 `python benchmarks/paper_experiments.py` writes run by run (a re-run picks up every run where it
-stopped; with `--commit` it also regenerates and commits this page each time a cell has
-finished a run, so it is current when a session ends). Every run is a `drake-tooluse train` command (its exact command is in the JSON), on
+stopped; with `--commit` it also regenerates and commits this page after each run it
+finishes, so the page is current when a session ends). Every run is a `drake-tooluse train` command (its exact command is in the JSON), on
 the exact tool-tip IK, with randomized starts (box ±2 cm, yaw ±0.2 rad, mass and friction
 ±30 %, the grasp ±1 cm along and ±0.5 cm across the tool), two env processes, observation and
 reward normalisation and the hyperparameters of `drake_tooluse/learning/hyperparams/`. Every

@@ -1,7 +1,7 @@
 """The paper study's runner (benchmarks/paper_experiments.py) survives the machine: a cell that
 fails is recorded and the job goes on; a job killed mid-run (its whole process group, SIGKILL)
 resumes that run from its checkpoint when re-run; a finished run is not trained again; the
-report is regenerated once per cell that finished a run in the job. Tiny cells stand in for the
+report is regenerated after each run that finished in the job. Tiny cells stand in for the
 study's (slow: ~1 min)."""
 
 import json
@@ -82,8 +82,8 @@ def test_the_study_runner_records_failures_resumes_after_a_kill_and_reports(tmp_
     assert "n_steps * n_envs` must be greater than 1" in error and "\n" not in error
     assert "a2c_tiny" not in results
 
-    # 2. Re-run: the killed run resumes from its checkpoint and is evaluated; one report for
-    # the cell that finished a run (none for the failed one).
+    # 2. Re-run: the killed run resumes from its checkpoint and is evaluated; one report, for
+    # that run (none for the failed one).
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.count("REPORT") == 1
