@@ -352,18 +352,19 @@ seeds within 1.25 M steps, on seeds it was not tuned on.
 
 HEADER = """# Training: the paper's study at its scale, with statistics
 
-Made by `python benchmarks/paper_report.py` from `docs/results/paper_study.json`, which
-`python benchmarks/paper_experiments.py` writes run by run (a re-run picks up every run where it
-stopped; with `--commit` it also regenerates and commits this page after each run it
-finishes, so the page is current when a session ends). Every run is a `drake-tooluse train`
-command (its exact command is in the JSON), on the exact tool-tip IK, with randomized starts
-(box ±2 cm, yaw ±0.2 rad, mass and friction ±30 %, the grasp ±1 cm along and ±0.5 cm across
-the tool), two env processes, observation and reward normalisation and the hyperparameters of
+Made by `python benchmarks/paper_report.py` from `docs/results/paper_study.json`, which `python
+benchmarks/paper_experiments.py` writes run by run (a re-run picks up every run where it
+stopped; with `--commit` it also regenerates and commits this page after each run it finishes,
+so the page is current when a session ends). Every run is a `drake-tooluse train` command (its
+exact command is in the JSON), on the exact tool-tip IK, with randomized starts (box ±2 cm, yaw
+±0.2 rad, mass and friction ±30 %, the grasp ±1 cm along and ±0.5 cm across the tool), two env
+processes, observation and reward normalisation and the hyperparameters of
 `drake_tooluse/learning/hyperparams/`. Every figure is `drake-tooluse evaluate` of the run's
-best policy (by periodic evaluation) over **100 episodes, seeds 1000–1099**. Statistics:
-rliable (Agarwal et al. 2021) over the seeds of a cell, each seed's score its mean over the 100 episodes: mean and interquartile mean (IQM) with 95 %
-bootstrap confidence intervals over the seeds ({reps} resamples; with 3 seeds wide, as they
-should be). The paper's figures are one run each.
+best policy (by periodic evaluation) over **100 episodes, seeds 1000–1099**. Statistics: rliable
+(Agarwal et al. 2021) over the seeds of a cell, each seed's score its mean over the 100
+episodes: mean and interquartile mean (IQM) with 95 % bootstrap confidence intervals over the
+seeds ({reps} resamples; with 3 seeds wide, as they should be). The paper's figures are one run
+each.
 
 ```bash
 python benchmarks/paper_experiments.py --status   # what is done and what is missing
