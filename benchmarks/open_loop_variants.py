@@ -1,0 +1,225 @@
+"""What makes the paper's open-loop transfer push the box to the goal, or not (issue 13, item 2):
+one recording of a policy's episodes, several ways of making one trajectory of them, each
+replayed open loop in the nominal simulation and in reality (diagrams/reality.yaml) with the
+paper's tools, as `drake-tooluse transfer --mode open-loop` replays its trajectory.
+
+    python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--out FILE]
+
+Variants, each changing one thing of the one above it:
+
+  paper        the paper's: where the tip got at each step, the per-step mean of the episodes
+               from their start (an episode that ends early holds its last pose), smoothed over
+               5 steps, the poses the IK reaches under the conservative limits kept
+  commanded    the tip poses each step commanded instead (Baxter's arm lags them by ~2 cm)
+  box-frame    each episode shifted by where its box started before averaging, and the replay
+               by where the run's box starts: the robot is told the box's start (a camera could
+               measure it; not built)
+  medoid       the one episode nearest all the others (mean tip distance, in the box frame)
+               instead of their mean
+  full-length  box-frame, with the episodes recorded past their success to the 100-step limit
+               (the paper's Fetch episodes had no early end)
+
+The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
+each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
+tool measured by the head camera. Prints a Markdown table and writes
+docs/results/open_loop_variants.json (or --out).
+"""
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+from drake_tooluse.diagrams.measurement import measure_belief
+from drake_tooluse.envs.registration import MAX_EPISODE_STEPS
+from drake_tooluse.experiments.trajectory import (
+    average_episodes,
+    filter_reachable,
+    pad_episodes,
+    smooth,
+)
+from drake_tooluse.experiments.transfer import run_open_loop, run_worlds
+from drake_tooluse.files import atomic_write_json
+from drake_tooluse.learning.evaluate import make_policy_env
+from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
+from drake_tooluse.world.scenario import load_scenario
+from drake_tooluse.world.scene import initial_box_pose
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
+POLICY = Path("models") / "policies" / "ppo_toolpush_tip"
+# variant -> (recorded columns, box frame, medoid, full length)
+ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
+VARIANTS = {
+    "paper": (ACHIEVED, False, False, False),
+    "commanded": (COMMANDED, False, False, False),
+    "box-frame": (COMMANDED, True, False, False),
+    "medoid": (COMMANDED, True, True, False),
+    "full-length": (COMMANDED, True, False, True),
+}
+
+
+def _pose(X) -> np.ndarray:
+    return np.concatenate([X.translation(), X.rotation().ToQuaternion().wxyz()])
+
+
+def record(policy_dir, episodes: int):
+    """Each episode to the step limit: rows [achieved tip pose (7), commanded tip pose (7)]
+    (row 0 the start), the row of its first success (None: none), its box's start (3), and
+    the control period."""
+    policy, env = make_policy_env(policy_dir)
+    u = env.unwrapped
+    recorded = []
+    for ep in range(episodes):
+        obs, _ = env.reset(seed=ep)
+        plant_context = u.world.plant.GetMyContextFromRoot(u.simulator.get_context())
+        box = u.world.box.EvalPoseInWorld(plant_context).translation().copy()
+        rows = [np.concatenate([_pose(u.believed_poses()[0]), _pose(u.commanded_tip_pose())])]
+        success = None
+        for _ in range(MAX_EPISODE_STEPS):  # on past the success the env reports
+            obs, _, _, truncated, info = env.step(policy.act(obs))
+            rows.append(
+                np.concatenate([_pose(u.believed_poses()[0]), _pose(u.commanded_tip_pose())])
+            )
+            if success is None and info["is_success"]:
+                success = len(rows) - 1
+            if truncated:
+                break
+        recorded.append((np.array(rows), success, box))
+    period = u.scenario.control.control_period
+    env.close()
+    return recorded, period
+
+
+def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -> TipTrajectory:
+    """One trajectory of the recorded episodes, in the nominal box start's frame if the
+    variant is in the box frame (see the module docstring)."""
+    columns, box_frame, medoid, full_length = VARIANTS[variant]
+    episodes = []
+    for rows, success, box in recorded:
+        ep = rows[: None if full_length or success is None else success + 1, columns].copy()
+        if box_frame:
+            ep[:, :2] -= (box - nominal_box)[:2]
+        episodes.append(ep)
+    stacked = pad_episodes(episodes)
+    if medoid:
+        tips = stacked[:, :, :3]
+        distance = np.linalg.norm(tips[:, None] - tips[None, :], axis=-1).mean(axis=-1)
+        best = stacked[int(np.argmin(distance.sum(axis=1)))]
+        traj = TipTrajectory(np.arange(len(best)) * period, best[:, :3], best[:, 3:])
+    else:
+        traj = average_episodes(stacked[:, :, :3], stacked[:, :, 3:], period)
+    return smooth(traj, 5)
+
+
+def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
+    return TipTrajectory(traj.times, traj.positions + [dxy[0], dxy[1], 0.0], traj.quaternions)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--policy", type=Path, default=ROOT / POLICY)
+    ap.add_argument("--episodes", type=int, default=100, help="recorded episodes")
+    ap.add_argument("--runs", type=int, default=10, help="replay runs per tool and world")
+    ap.add_argument("--seed", type=int, default=0, help="the first replay run's seed")
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args()
+    start = time.perf_counter()
+    recorded, period = record(args.policy, args.episodes)
+    nominal_s, reality_s = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)
+    nominal_box = initial_box_pose(nominal_s).translation()
+    successes = sum(success is not None for _, success, _ in recorded)
+    print(f"recorded {args.episodes} episodes ({successes} reached the goal)", flush=True)
+    worlds = {}  # (tool, run) -> (nominal scenario, reality scenario, measured belief)
+    for tool in PAPER_TOOL_LENGTHS:
+        for i in range(args.runs):
+            nominal, reality, _ = run_worlds(nominal_s, reality_s, tool, args.seed + i)
+            believed, _ = measure_belief(reality, seed=args.seed + i)
+            worlds[tool, i] = (nominal, reality, believed)
+    rows = []
+    for variant, (_, box_frame, _, _) in VARIANTS.items():
+        base = trajectory(recorded, period, variant, nominal_box)
+        for tool in PAPER_TOOL_LENGTHS:
+            kept = filter_reachable(base, tool).kept
+            runs = {"nominal": [], "reality": []}
+            for i in range(args.runs):
+                nominal, reality, believed = worlds[tool, i]
+                knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
+                for world, scenario, belief in (
+                    ("nominal", nominal, knows),
+                    ("reality", reality, believed),
+                ):
+                    dxy = initial_box_pose(scenario).translation() - nominal_box
+                    run = run_open_loop(scenario, shifted(kept, dxy) if box_frame else kept, belief)
+                    moved = run.box_path[-1] - run.box_path[0]
+                    runs[world].append(
+                        {
+                            "success": bool(run.success),
+                            "box_travel_m": float(run.box_travel),
+                            "final_box_to_goal_m": float(run.final_box_to_goal),
+                            "box_dx_m": float(moved[0]),  # across the push (+y)
+                            "sim_error": bool(run.sim_error),
+                        }
+                    )
+            row = {"variant": variant, "tool_length_m": tool, "poses": len(base)}
+            row["poses_kept"] = len(kept)
+            for world, rs in runs.items():
+                row[world] = {
+                    "at_goal": sum(r["success"] for r in rs),
+                    "runs": len(rs),
+                    "box_travel_mean_m": float(np.mean([r["box_travel_m"] for r in rs])),
+                    "final_box_to_goal_mean_m": float(
+                        np.mean([r["final_box_to_goal_m"] for r in rs])
+                    ),
+                    "box_across_mean_abs_m": float(np.mean([abs(r["box_dx_m"]) for r in rs])),
+                    "per_run": rs,
+                }
+            rows.append(row)
+            n, r = row["nominal"], row["reality"]
+            print(
+                f"{variant} {tool} m: at the goal {n['at_goal']}/{n['runs']} nominal, "
+                f"{r['at_goal']}/{r['runs']} reality; travel {n['box_travel_mean_m'] * 100:.1f}"
+                f" / {r['box_travel_mean_m'] * 100:.1f} cm",
+                flush=True,
+            )
+    print(
+        "\n| variant | tool (m) | at the goal nominal / reality | box travel nominal / reality "
+        "(cm) | reality / nominal | final box–goal reality (cm) | box off the push line, "
+        "reality (cm) | tools' reality travel differ (cm) |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for row in rows:
+        n, r = row["nominal"], row["reality"]
+        pair = [x for x in rows if x["variant"] == row["variant"]]
+        travels = [x["reality"]["box_travel_mean_m"] for x in pair]
+        differ = (max(travels) - min(travels)) * 100
+        print(
+            f"| {row['variant']} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
+            f"{r['runs']} | {n['box_travel_mean_m'] * 100:.1f} / {r['box_travel_mean_m'] * 100:.1f}"
+            f" | {r['box_travel_mean_m'] / n['box_travel_mean_m'] * 100:.0f} % | "
+            f"{r['final_box_to_goal_mean_m'] * 100:.1f} | {r['box_across_mean_abs_m'] * 100:.1f} | "
+            f"{differ:.2f} |"
+        )
+    atomic_write_json(
+        args.out,
+        {
+            "command": f"python benchmarks/open_loop_variants.py --episodes {args.episodes} "
+            f"--runs {args.runs} --seed {args.seed}",
+            "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
+            "episodes_recorded": args.episodes,
+            "episodes_at_goal": successes,
+            "rows": rows,
+            "wall_time_s": time.perf_counter() - start,
+        },
+    )
+    print(f"\nwrote {args.out} ({(time.perf_counter() - start) / 60:.1f} min)")
+
+
+if __name__ == "__main__":
+    main()
