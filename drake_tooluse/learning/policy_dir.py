@@ -489,6 +489,18 @@ class _Normalizer:
     ret_rms: object = None
 
 
+def check_policy_spaces(policy: LoadedPolicy, observation_shape, action_shape, name: str) -> None:
+    """`policy`'s observation and action shapes must be the env's (given as lists); else a
+    ValueError naming the policy (`name`) and both sets of shapes."""
+    obs, act = list(observation_shape), list(action_shape)
+    if policy.meta.observation_shape != obs or policy.meta.action_shape != act:
+        raise ValueError(
+            f"{name} was trained for observations {policy.meta.observation_shape} and "
+            f"actions {policy.meta.action_shape}, but this env has observations {obs} and "
+            f"actions {act} (check action_mode / observation_mode / include_tool_length)"
+        )
+
+
 def check_policy_env(policy: LoadedPolicy, env_id: str | None = None, env_kwargs=None):
     """The env a policy acts in, checked the same way by every command: `env_id` (default the
     policy's) must be a registered id, the policy's env kwargs updated with `env_kwargs` must be
@@ -497,22 +509,10 @@ def check_policy_env(policy: LoadedPolicy, env_id: str | None = None, env_kwargs
     kwargs = dict(policy.meta.env_kwargs)
     kwargs.update(check_env_kwargs(env_kwargs, "env kwargs"))
     kwargs = check_env_kwargs(kwargs, "env kwargs")
-    obs, act = env_spaces(kwargs)
-    if policy.meta.observation_shape != obs or policy.meta.action_shape != act:
-        raise ValueError(
-            f"the policy was trained for observations {policy.meta.observation_shape} and "
-            f"actions {policy.meta.action_shape}, but this env has observations {obs} and "
-            f"actions {act} (check action_mode / observation_mode / include_tool_length)"
-        )
+    check_policy_spaces(policy, *env_spaces(kwargs), "the policy")
     return env_id, kwargs
 
 
 def check_policy_matches(policy: LoadedPolicy, env) -> None:
     """The policy's spaces must be the (built) env's."""
-    obs, act = list(env.observation_space.shape), list(env.action_space.shape)
-    if policy.meta.observation_shape != obs or policy.meta.action_shape != act:
-        raise ValueError(
-            f"the policy was trained for observations {policy.meta.observation_shape} and "
-            f"actions {policy.meta.action_shape}, but this env has observations {obs} and "
-            f"actions {act} (check action_mode / include_tool_length)"
-        )
+    check_policy_spaces(policy, env.observation_space.shape, env.action_space.shape, "the policy")

@@ -88,6 +88,7 @@ from drake_tooluse.learning.config import (
 from drake_tooluse.learning.policy_dir import (
     PolicyMeta,
     algorithm_class,
+    check_policy_spaces,
     load_policy,
     save_policy,
 )
@@ -576,13 +577,9 @@ def train(
         init = None
         if config.init_from and checkpoint is None:
             init = load_policy(config.init_from, trust_pickle=trust_pickle)
-            obs, act = env_spaces(env_kwargs)
-            if init.meta.observation_shape != obs or init.meta.action_shape != act:
-                raise ValueError(
-                    f"init_from (--init-from) {config.init_from!r} observes "
-                    f"{init.meta.observation_shape} and acts {init.meta.action_shape}; this "
-                    f"run's env observes {obs} and acts {act} (check its env_kwargs)"
-                )
+            check_policy_spaces(
+                init, *env_spaces(env_kwargs), f"init_from (--init-from) {config.init_from!r}"
+            )
 
         venv = make_vec_env(config.env_id, config.n_envs, config.seed, env_kwargs)
         stack.callback(venv.close)

@@ -142,6 +142,19 @@ def test_mismatched_policy_is_a_clear_error(tiny_policy):
         evaluate(tiny_policy, episodes=1, env_kwargs={"action_mode": "paper"})
 
 
+def test_init_from_a_policy_of_other_spaces_is_refused_before_training(tiny_policy, tmp_path):
+    overrides = {**TINY, **PER_ALGO["ppo"], "env_kwargs": {"action_mode": "paper"}}
+    config = resolve_config(ENV, "ppo", 300, 1, 0, str(tiny_policy), overrides=overrides)
+    with pytest.raises(
+        ValueError,
+        match=r"init_from \(--init-from\) '.*final' was trained for "
+        r"observations \[30\] and actions \[3\], but this env has observations "
+        r"\[30\] and actions \[7\]",
+    ):
+        train(config, tmp_path / "run", progress_bar=False)
+    assert not (tmp_path / "run" / "checkpoints").exists()
+
+
 def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
     with pytest.raises(FileNotFoundError, match="not a policy directory"):
         load_policy(tmp_path / "missing")
