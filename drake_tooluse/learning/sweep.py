@@ -19,7 +19,9 @@ atomically (`files.atomic_dir`). No shared file system is needed.
 
 **Failures.** Tune retries a cell whose trial failed (a lost node, a crash) up to `max_failures`
 times, on any node, from its last checkpoint on the driver's disk; a cell that still fails is a
-`failed` row with its error, and the other cells go on.
+`failed` row with its error, and the other cells go on. A cell the library refuses (a
+`ValueError`: hyperparameters the algorithm rejects, a checkpoint it cannot read) would be
+refused again, so it is not retried: it ends at once as a `failed` row with the refusal.
 
 **Resume.** `sweep(resume=True)` (`drake-tooluse sweep --resume OUT`) reads
 `sweep_config.json`, keeps every finished cell and runs the others again, each continuing from its
@@ -69,6 +71,7 @@ MAX_EPISODES = 100_000
 MAX_FAILURES = 100
 CONFIG_FILE = "sweep_config.json"
 CELL_FILE = "cell.json"  # in a cell's run directory once it has finished
+REFUSED = "refused"  # the metric a refused cell reports to Tune instead of its evaluation
 
 
 def _run_name(algo: str, env_id: str, seed: int) -> str:
@@ -126,6 +129,7 @@ def _cell(config: dict, store) -> None:
         env_id, algo, spec["timesteps"], None, seed, overrides=spec["overrides"]
     )
     scratch = Path(tempfile.mkdtemp(prefix="drake_tooluse_cell_"))
+    refused = None
     try:
         run_dir = scratch / name
         saved = ray.get(store.get.remote(name))
@@ -160,8 +164,13 @@ def _cell(config: dict, store) -> None:
         }
         atomic_write_json(run_dir / CELL_FILE, row)
         send(run_dir)
+    except ValueError as e:  # deterministic: reported as the cell's end, so Tune retries nothing
+        refused = _one_line(f"{type(e).__name__}: {e}")
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+    if refused is not None:
+        tune.report({REFUSED: refused})
+        return
     tune.report(
         {
             "final_box_to_goal_mean_m": result["final_box_to_goal_mean_m"],
@@ -177,6 +186,9 @@ def _table_writer(out: Path, grid: list, errors: dict):
 
     class TableWriter(tune.Callback):
         def on_trial_complete(self, iteration, trials, trial, **info):
+            refused = (trial.last_result or {}).get(REFUSED)
+            if refused:
+                errors[_cell_name(trial.config)] = refused
             write_table(out, grid, errors)
 
         def on_trial_error(self, iteration, trials, trial, **info):
@@ -326,6 +338,8 @@ def sweep(
         for result in tuner.fit():
             if result.error is not None:
                 errors[_cell_name(result.config)] = _one_line(result.error)
+            elif (result.metrics or {}).get(REFUSED):
+                errors[_cell_name(result.config)] = result.metrics[REFUSED]
         write_table(out, grid, errors)
     return _rows(out, grid, errors)
 

@@ -24,6 +24,16 @@ def _rows(out):
     return {(r["algo"], r["seed"]): r for r in json.loads((out / "sweep.json").read_text())}
 
 
+def _trials(out, algo):
+    """Tune's trial directories of `algo`'s cells (their params.json names the cell)."""
+    return [
+        d
+        for d in out.glob("tune-*/*")
+        if (d / "params.json").is_file()
+        and json.loads((d / "params.json").read_text())["cell"]["algo"] == algo
+    ]
+
+
 def _wait_for(paths, timeout_s=240):
     deadline = time.monotonic() + timeout_s
     while not all(p.is_file() for p in paths):
@@ -32,10 +42,11 @@ def _wait_for(paths, timeout_s=240):
 
 
 def test_a_failed_cell_is_reported_and_the_others_finish(tmp_path, capsys):
-    # PPO refuses n_steps * n_envs = 1 when it is built (inside the cell); A2C takes it.
+    # PPO refuses n_steps * n_envs = 1 when it is built (inside the cell); A2C takes it. The
+    # refusal is deterministic: the cell ends with it (no trial error), and is not retried.
     hp = {**TINY, "n_steps": 1}
     argv = ["sweep", "--algos", "ppo", "a2c", "--timesteps", "256", "--out", str(tmp_path)]
-    argv += ["--num-cpus", "2", "--episodes", "1", "--max-failures", "0"]
+    argv += ["--num-cpus", "2", "--episodes", "1", "--max-failures", "2"]
     assert main([*argv, "--hyperparams", json.dumps(hp), "--json"]) == 3
     out = json.loads(capsys.readouterr().out)
     rows = {r["algo"]: r for r in out["runs"]}
@@ -48,6 +59,12 @@ def test_a_failed_cell_is_reported_and_the_others_finish(tmp_path, capsys):
     for name in ("cell.json", "summary.json", "best/policy.json", "final/policy.json"):
         assert (run / name).is_file(), name
     assert json.loads((tmp_path / "sweep.json").read_text()) == out["runs"]
+    # Tune saw the PPO cell end without an error (so it retried nothing): its one result is
+    # the refusal.
+    (trial,) = _trials(tmp_path, "ppo")
+    assert not list(trial.glob("error.*"))
+    results = [json.loads(line) for line in (trial / "result.json").read_text().splitlines()]
+    assert len(results) == 1 and "must be greater than 1" in results[0]["refused"]
     table = (tmp_path / "sweep.md").read_text().splitlines()
     assert len(table) == 4 and "| failed: ValueError" in table[2] and "| finished |" in table[3]
     # A new sweep into the same directory is refused; --resume names it.
@@ -75,7 +92,7 @@ def test_cells_too_large_for_the_cpus_are_refused_before_ray_starts(tmp_path, ca
 def test_on_two_nodes_a_killed_worker_s_cell_continues_and_a_failed_cell_is_reported(tmp_path):
     """Two 1-CPU nodes; A2C seeds 0 and 1 start one on each; the worker node is removed once
     both have a checkpoint on the driver's disk. PPO refuses the grid's n_steps · n_envs = 1
-    when it is built: its two cells fail (retried once each) while the A2C cells finish."""
+    when it is built: its two cells fail (refused, not retried) while the A2C cells finish."""
     from ray.cluster_utils import Cluster
 
     cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 1})
