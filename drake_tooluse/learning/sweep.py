@@ -111,6 +111,31 @@ class RunStore:
             _unpack(data, tmp)
 
 
+SCRATCH_PREFIX = "drake_tooluse_cell_"
+
+
+def scratch_dir() -> Path:
+    """A new scratch directory for a cell on this node, named by this process's pid. Those of
+    processes that are gone (a SIGKILLed sweep never ran its clean-up; a DDPG run's replay
+    buffer is hundreds of MB) are removed first."""
+    tmp = Path(tempfile.gettempdir())
+    for old in tmp.glob(f"{SCRATCH_PREFIX}*"):
+        pid = old.name[len(SCRATCH_PREFIX) :].split("_", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(old, ignore_errors=True)
+    return Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}_"))
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
 def _cell(config: dict, store) -> None:
     """One grid cell: a Tune trial on any node. Trains in a scratch directory, continuing the
     driver's copy of the run if there is one, sends the run to the store after each checkpoint
@@ -128,7 +153,7 @@ def _cell(config: dict, store) -> None:
     config = resolve_config(
         env_id, algo, spec["timesteps"], None, seed, overrides=spec["overrides"]
     )
-    scratch = Path(tempfile.mkdtemp(prefix="drake_tooluse_cell_"))
+    scratch = scratch_dir()
     refused = None
     try:
         run_dir = scratch / name

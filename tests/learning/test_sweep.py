@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -72,6 +73,21 @@ def test_a_failed_cell_is_reported_and_the_others_finish(tmp_path, capsys):
     assert f"--out '{tmp_path}' already holds a sweep; continue it with --resume" in (
         capsys.readouterr().err
     )
+
+
+def test_a_cell_s_scratch_left_by_a_killed_process_is_removed(tmp_path, monkeypatch):
+    from drake_tooluse.learning.sweep import SCRATCH_PREFIX, scratch_dir
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    stale = tmp_path / f"{SCRATCH_PREFIX}{gone.pid}_abc"
+    live = tmp_path / f"{SCRATCH_PREFIX}{os.getpid()}_def"
+    for d in (stale, live):
+        (d / "run").mkdir(parents=True)
+    new = scratch_dir()
+    assert not stale.exists() and live.is_dir()
+    assert new.parent == tmp_path and new.name.startswith(f"{SCRATCH_PREFIX}{os.getpid()}_")
 
 
 def test_resume_refuses_a_second_grid(tmp_path, capsys):
