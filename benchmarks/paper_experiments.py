@@ -1,6 +1,8 @@
 """The paper's study at its scale, several seeds per cell, as a job that survives the machine:
 each run is a `drake-tooluse train` command (continued with `train --resume` when a run was
-stopped), evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seeds 1000-1099).
+stopped), its best policy evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seeds
+1000-1099) twice: the episodes ending at their success (the env's), and run on to the 100-step
+limit (`--to-time-limit`: where the box ends, as a protocol without an early end judges it).
 
     python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only CELL ...]
                                            [--seeds N ...] [--commit] [--status]
@@ -95,7 +97,16 @@ def train_command(cell: str, seed: int, runs_dir: Path, resume: bool) -> list[st
     return cmd
 
 
-def evaluate_command(policy: Path, env_id: str) -> list[str]:
+# Each run's best policy is evaluated twice: episodes ending at their success (the env's), and
+# run on to the 100-step limit, judged where the box ends (a protocol without an early end).
+# result key -> (key of its command, extra arguments)
+EVALUATIONS = {
+    "evaluate_best": ("evaluate_command", []),
+    "evaluate_best_time_limit": ("evaluate_time_limit_command", ["--to-time-limit"]),
+}
+
+
+def evaluate_command(policy: Path, env_id: str, extra=()) -> list[str]:
     return [
         "drake-tooluse",
         "evaluate",
@@ -110,6 +121,7 @@ def evaluate_command(policy: Path, env_id: str) -> list[str]:
         "--no-progress",
         "--per-episode",
         "--json",
+        *extra,
     ]
 
 
@@ -173,28 +185,33 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
     summary = _summary(out)
-    if entry.get("train") == summary and "per_episode" in entry.get("evaluate_best", {}):
-        return entry  # evaluated already
-    cmd = evaluate_command(out / "best", c["env"])
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    if done.returncode != 0:
-        error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
-        return {"train": summary, "evaluate_command": shlex.join(cmd), "error": error}
-    e = json.loads(done.stdout)
-    episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
-    e["per_episode"] = {k: [r[k] for r in episodes] for k in ("final_box_to_goal_m", "success")}
-    print(
-        f"[{_stamp()}] {cell} seed {seed}: final box-goal mean "
-        f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f} %, "
-        f"{summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min",
-        flush=True,
-    )
-    return {
+    result = {
         "train_command": shlex.join(train_command(cell, seed, runs_dir, resume=False)),
         "train": summary,
-        "evaluate_command": shlex.join(cmd),
-        "evaluate_best": e,
     }
+    for key, (command_key, extra) in EVALUATIONS.items():
+        if entry.get("train") == summary and "per_episode" in entry.get(key, {}):
+            result[command_key], result[key] = (
+                entry.get(command_key),
+                entry[key],
+            )  # evaluated already
+            continue
+        cmd = evaluate_command(out / "best", c["env"], extra)
+        finished = subprocess.run(cmd, capture_output=True, text=True)
+        if finished.returncode != 0:
+            error = (finished.stderr.strip().splitlines() or [f"exit {finished.returncode}"])[-1]
+            return {**result, command_key: shlex.join(cmd), "error": error}  # done stays
+        e = json.loads(finished.stdout)
+        episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
+        e["per_episode"] = {k: [r[k] for r in episodes] for k in ("final_box_to_goal_m", "success")}
+        result[command_key], result[key] = shlex.join(cmd), e
+        print(
+            f"[{_stamp()}] {cell} seed {seed} ({key}): final box-goal mean "
+            f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f}"
+            f" %, {summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min",
+            flush=True,
+        )
+    return result
 
 
 def commit(paths: list[Path], message: str) -> None:

@@ -117,6 +117,7 @@ def cmd_evaluate(args) -> dict:
             env_kwargs,
             trust_pickle=args.trust_pickle,
             progress=not args.no_progress,
+            to_time_limit=args.to_time_limit,
         )
     )
     if not args.per_episode:
@@ -140,8 +141,9 @@ def format_convert_policy(out: dict) -> str:
 
 
 def format_evaluate(out: dict) -> str:
+    ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
     return (
-        f"{out['episodes']} episodes from seed {out['seed']}: final box-goal distance "
+        f"{out['episodes']} episodes from seed {out['seed']}{ends}: final box-goal distance "
         f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
         f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
         f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
@@ -248,6 +250,12 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then +1 each)")
     p.add_argument("--env-kwargs", metavar="JSON", help="override env kwargs")
     p.add_argument("--per-episode", action="store_true", help="include each episode")
+    p.add_argument(
+        "--to-time-limit",
+        action="store_true",
+        help="run each episode on past its success to the 100-step limit and judge it where it "
+        "ends (default: an episode ends at its success)",
+    )
     p.add_argument(
         "--no-progress",
         action="store_true",

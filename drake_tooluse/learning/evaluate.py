@@ -27,6 +27,8 @@ class EvalResult:
     gripper_touched_rate: float
     # Episodes the simulation failed in (truncated with finite values; counted as failures).
     sim_errors: int = 0
+    # Each episode ran on past its success to the step limit (see `run_episode`).
+    to_time_limit: bool = False
     per_episode: list = field(default_factory=list)
 
 
@@ -46,10 +48,12 @@ def make_policy_env(
     return policy, env
 
 
-def run_episode(env, policy, seed: int, on_step=None) -> tuple[dict, int]:
+def run_episode(env, policy, seed: int, on_step=None, to_time_limit: bool = False):
     """One deterministic episode of `policy` from `env.reset(seed=seed)` until it terminates
-    or is truncated. `on_step(step, info)` is called after the reset (step 0) and after each
-    step. Returns the last info and the number of steps."""
+    (the box at the goal) or is truncated — with `to_time_limit`, on past the success until it
+    is truncated (the step limit, or a simulation failure), as a protocol without an early end
+    measures where the box ends. `on_step(step, info)` is called after the reset (step 0) and
+    after each step. Returns the last info and the number of steps."""
     obs, info = env.reset(seed=seed)
     if on_step is not None:
         on_step(0, info)
@@ -59,7 +63,7 @@ def run_episode(env, policy, seed: int, on_step=None) -> tuple[dict, int]:
         steps += 1
         if on_step is not None:
             on_step(steps, info)
-        if terminated or truncated:
+        if truncated or (terminated and not to_time_limit):
             return info, steps
 
 
@@ -71,10 +75,13 @@ def evaluate(
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
     progress: bool = False,
+    to_time_limit: bool = False,
 ) -> EvalResult:
     """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …; an
-    episode the simulation failed in counts as a failure and in `sim_errors`. With `progress`, a
-    bar of the episodes (and the success so far) on stderr, when stderr is a terminal."""
+    episode the simulation failed in counts as a failure and in `sim_errors`. With
+    `to_time_limit` each episode runs on past its success to the step limit and is judged
+    where it ends (`run_episode`). With `progress`, a bar of the episodes (and the success so
+    far) on stderr, when stderr is a terminal."""
     check_int(episodes, 1, 1_000_000, "episodes")
     check_seed(seed, "seed", episodes)
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
@@ -89,7 +96,7 @@ def evaluate(
     )
     try:
         for ep in range(episodes):
-            info, steps = run_episode(env, policy, seed + ep)
+            info, steps = run_episode(env, policy, seed + ep, to_time_limit=to_time_limit)
             rows.append(
                 {
                     "seed": seed + ep,
@@ -120,5 +127,6 @@ def evaluate(
         tool_touched_rate=float(np.mean([r["tool_touched"] for r in rows])),
         gripper_touched_rate=float(np.mean([r["gripper_touched"] for r in rows])),
         sim_errors=sum(r["sim_error"] for r in rows),
+        to_time_limit=bool(to_time_limit),
         per_episode=rows,
     )

@@ -91,6 +91,9 @@ def test_the_study_runner_records_failures_resumes_after_a_kill_and_reports(tmp_
     assert entry["train"]["timesteps"] >= 4000 and entry["train"]["sessions"] == 2
     assert entry["train"]["resumes"][0]["from_timesteps"] >= checkpointed
     assert len(entry["evaluate_best"]["per_episode"]["success"]) == 2
+    assert entry["evaluate_best_time_limit"]["to_time_limit"]
+    assert entry["evaluate_best_time_limit"]["episode_length_mean"] == 100
+    assert "--to-time-limit" in entry["evaluate_time_limit_command"]
     assert "--resume" in done.stdout  # the log shows the command that continued it
 
     # 3. Re-run again: nothing trained, nothing evaluated, no report; the entry unchanged.

@@ -72,3 +72,16 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
     assert [e["final_box_to_goal_m"] for e in result.per_episode] == [
         e["final_box_to_goal_m"] for e in metrics["per_episode"]
     ]
+
+
+def test_to_the_time_limit_each_episode_runs_on_past_its_success():
+    tip = POLICIES / "ppo_toolpush_tip"
+    ended = evaluate(tip, episodes=2, seed=1000)
+    assert ended.success_rate == 1.0 and all(r["length"] < 100 for r in ended.per_episode)
+    assert not ended.to_time_limit
+    full = evaluate(tip, episodes=2, seed=1000, to_time_limit=True)
+    assert full.to_time_limit and [r["length"] for r in full.per_episode] == [100, 100]
+    # Judged where it ends: the box is wherever the policy left it at the limit.
+    assert [r["final_box_to_goal_m"] for r in full.per_episode] != [
+        r["final_box_to_goal_m"] for r in ended.per_episode
+    ]
