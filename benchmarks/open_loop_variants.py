@@ -1,9 +1,11 @@
 """What makes the paper's open-loop transfer push the box to the goal, or not (issue 13, item 2):
 one recording of a policy's episodes, several ways of making one trajectory of them, each
 replayed open loop in the nominal simulation and in reality (diagrams/reality.yaml) with the
-paper's tools, as `drake-tooluse transfer --mode open-loop` replays its trajectory.
+paper's tools and longer ones the policy never saw (it trained with 0.175 m), as `drake-tooluse
+transfer --mode open-loop` replays its trajectory.
 
-    python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--out FILE]
+    python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--tools M ...]
+                                            [--out FILE]
 
 Variants, each changing one thing of the one above it:
 
@@ -128,6 +130,9 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=100, help="recorded episodes")
     ap.add_argument("--runs", type=int, default=10, help="replay runs per tool and world")
     ap.add_argument("--seed", type=int, default=0, help="the first replay run's seed")
+    ap.add_argument(
+        "--tools", type=float, nargs="+", default=[*PAPER_TOOL_LENGTHS, 0.25, 0.3], help="m"
+    )
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     start = time.perf_counter()
@@ -137,7 +142,7 @@ def main() -> None:
     successes = sum(success is not None for _, success, _ in recorded)
     print(f"recorded {args.episodes} episodes ({successes} reached the goal)", flush=True)
     worlds = {}  # (tool, run) -> (nominal scenario, reality scenario, measured belief)
-    for tool in PAPER_TOOL_LENGTHS:
+    for tool in args.tools:
         for i in range(args.runs):
             nominal, reality, _ = run_worlds(nominal_s, reality_s, tool, args.seed + i)
             believed, _ = measure_belief(reality, seed=args.seed + i)
@@ -145,7 +150,7 @@ def main() -> None:
     rows = []
     for variant, (_, box_frame, _, _) in VARIANTS.items():
         base = trajectory(recorded, period, variant, nominal_box)
-        for tool in PAPER_TOOL_LENGTHS:
+        for tool in args.tools:
             kept = filter_reachable(base, tool).kept
             runs = {"nominal": [], "reality": []}
             for i in range(args.runs):
@@ -191,26 +196,30 @@ def main() -> None:
     print(
         "\n| variant | tool (m) | at the goal nominal / reality | box travel nominal / reality "
         "(cm) | reality / nominal | final box–goal reality (cm) | box off the push line, "
-        "reality (cm) | tools' reality travel differ (cm) |"
+        "reality (cm) | the paper's two tools' reality travel differ (cm) |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for row in rows:
         n, r = row["nominal"], row["reality"]
-        pair = [x for x in rows if x["variant"] == row["variant"]]
-        travels = [x["reality"]["box_travel_mean_m"] for x in pair]
-        differ = (max(travels) - min(travels)) * 100
+        pair = [
+            x["reality"]["box_travel_mean_m"]
+            for x in rows
+            if x["variant"] == row["variant"] and x["tool_length_m"] in PAPER_TOOL_LENGTHS
+        ]
+        differ = f"{(max(pair) - min(pair)) * 100:.2f}" if len(pair) == 2 else "—"
         print(
             f"| {row['variant']} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
             f"{r['runs']} | {n['box_travel_mean_m'] * 100:.1f} / {r['box_travel_mean_m'] * 100:.1f}"
             f" | {r['box_travel_mean_m'] / n['box_travel_mean_m'] * 100:.0f} % | "
             f"{r['final_box_to_goal_mean_m'] * 100:.1f} | {r['box_across_mean_abs_m'] * 100:.1f} | "
-            f"{differ:.2f} |"
+            f"{differ} |"
         )
     atomic_write_json(
         args.out,
         {
             "command": f"python benchmarks/open_loop_variants.py --episodes {args.episodes} "
-            f"--runs {args.runs} --seed {args.seed}",
+            f"--runs {args.runs} --seed {args.seed} --tools "
+            + " ".join(f"{t:g}" for t in args.tools),
             "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
