@@ -385,10 +385,11 @@ seeds within 1.25 M steps, on seeds it was not tuned on.
 distance is at most ~2.4 cm by construction (the tip touching the box is ~2.6 cm from its
 centre). The paper does not say whether its episodes ended there (Gym's Fetch envs, which
 its env followed, run to their step limit); its PPO moved the box 27.3 cm for a final distance
-of 7.74 cm, which reads as pushing on. Judged as a protocol
-without an early end would — each episode run on to the 100-step limit and measured where the
-box ends (the last column) — the same policies give {at_limit}: the policies, trained on
-episodes that stop at the goal, were never taught to stop there and push the box on past it.
+of 7.74 cm, which reads as pushing on. Judged as a protocol without an early end would — each
+episode run on to the 100-step limit and measured where the box ends (the column "run on to
+the 100-step limit") — the same policies give {at_limit} (the paper's PPO: 7.74 cm): trained on
+episodes that stop at the goal, they were never taught to stop there, and push the box on past
+it.
 Both columns are of the same 100 seeded episodes; the paper's figures are one run each at
 1.25 M steps in another simulator (MuJoCo, a Fetch-style env with mocap control), so neither
 column is a like-for-like comparison.
