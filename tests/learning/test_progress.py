@@ -35,7 +35,7 @@ INFO = {
 @pytest.mark.parametrize("tty", [True, False])
 def test_evaluate_shows_progress_only_on_a_terminal(monkeypatch, tty):
     monkeypatch.setattr(evaluate_mod, "make_policy_env", lambda *a: (None, Env()))
-    monkeypatch.setattr(evaluate_mod, "run_episode", lambda env, policy, seed: (INFO, 40))
+    monkeypatch.setattr(evaluate_mod, "run_episode", lambda env, policy, seed, **kw: (INFO, 40))
     err = Stderr(tty)
     monkeypatch.setattr(evaluate_mod.sys, "stderr", err)
     result = evaluate_mod.evaluate("policy", episodes=5, progress=True)
