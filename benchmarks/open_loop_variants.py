@@ -34,7 +34,6 @@ from pathlib import Path
 import numpy as np
 
 from drake_tooluse.diagrams.measurement import measure_belief
-from drake_tooluse.envs.registration import MAX_EPISODE_STEPS
 from drake_tooluse.experiments.trajectory import (
     average_episodes,
     filter_reachable,
@@ -43,7 +42,7 @@ from drake_tooluse.experiments.trajectory import (
 )
 from drake_tooluse.experiments.transfer import run_open_loop, run_worlds
 from drake_tooluse.files import atomic_write_json
-from drake_tooluse.learning.evaluate import make_policy_env
+from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -69,30 +68,35 @@ def _pose(X) -> np.ndarray:
     return np.concatenate([X.translation(), X.rotation().ToQuaternion().wxyz()])
 
 
+class _Recorder:
+    """`run_episode`'s on_step: rows [achieved tip pose (7), commanded tip pose (7)] (row 0 the
+    start), the row of the first success (None: none) and the box's start (3)."""
+
+    def __init__(self, env):
+        self.env, self.rows, self.success, self.box = env.unwrapped, [], None, None
+
+    def __call__(self, step: int, info: dict) -> None:
+        u = self.env
+        if step == 0:
+            plant_context = u.world.plant.GetMyContextFromRoot(u.simulator.get_context())
+            self.box = u.world.box.EvalPoseInWorld(plant_context).translation().copy()
+        self.rows.append(
+            np.concatenate([_pose(u.believed_poses()[0]), _pose(u.commanded_tip_pose())])
+        )
+        if step > 0 and self.success is None and info["is_success"]:
+            self.success = step
+
+
 def record(policy_dir, episodes: int):
-    """Each episode to the step limit: rows [achieved tip pose (7), commanded tip pose (7)]
-    (row 0 the start), the row of its first success (None: none), its box's start (3), and
-    the control period."""
+    """Each episode run on to the step limit (`_Recorder`'s rows, first success and box start),
+    and the control period."""
     policy, env = make_policy_env(policy_dir)
-    u = env.unwrapped
     recorded = []
     for ep in range(episodes):
-        obs, _ = env.reset(seed=ep)
-        plant_context = u.world.plant.GetMyContextFromRoot(u.simulator.get_context())
-        box = u.world.box.EvalPoseInWorld(plant_context).translation().copy()
-        rows = [np.concatenate([_pose(u.believed_poses()[0]), _pose(u.commanded_tip_pose())])]
-        success = None
-        for _ in range(MAX_EPISODE_STEPS):  # on past the success the env reports
-            obs, _, _, truncated, info = env.step(policy.act(obs))
-            rows.append(
-                np.concatenate([_pose(u.believed_poses()[0]), _pose(u.commanded_tip_pose())])
-            )
-            if success is None and info["is_success"]:
-                success = len(rows) - 1
-            if truncated:
-                break
-        recorded.append((np.array(rows), success, box))
-    period = u.scenario.control.control_period
+        recorder = _Recorder(env)
+        run_episode(env, policy, ep, on_step=recorder, to_time_limit=True)
+        recorded.append((np.array(recorder.rows), recorder.success, recorder.box))
+    period = env.unwrapped.scenario.control.control_period
     env.close()
     return recorded, period
 
