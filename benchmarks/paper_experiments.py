@@ -125,6 +125,16 @@ def evaluate_command(policy: Path, env_id: str, extra=()) -> list[str]:
     ]
 
 
+def _last_line(done: subprocess.CompletedProcess) -> str:
+    """A failed command's error: the last line of its stderr (or its exit code)."""
+    return (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
+
+
+def evaluated(entry: dict) -> bool:
+    """Whether a run's entry holds every evaluation and no error."""
+    return "error" not in entry and all(k in entry for k in EVALUATIONS)
+
+
 def _summary(out: Path) -> dict | None:
     path = out / "summary.json"
     return json.loads(path.read_text()) if path.is_file() else None
@@ -181,7 +191,7 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
         print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
         done = subprocess.run(cmd, capture_output=True, text=True)
         if done.returncode != 0:
-            error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
+            error = _last_line(done)
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
     summary = _summary(out)
@@ -199,7 +209,8 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
         cmd = evaluate_command(out / "best", c["env"], extra)
         finished = subprocess.run(cmd, capture_output=True, text=True)
         if finished.returncode != 0:
-            error = (finished.stderr.strip().splitlines() or [f"exit {finished.returncode}"])[-1]
+            error = _last_line(finished)
+            print(f"[{_stamp()}] {cell} seed {seed} ({key}) failed: {error}", flush=True)
             return {**result, command_key: shlex.join(cmd), "error": error}  # done stays
         e = json.loads(finished.stdout)
         episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
@@ -218,6 +229,7 @@ def commit(paths: list[Path], message: str) -> None:
     """Commits `paths` alone (whatever else is staged stays staged); retried on a busy index."""
     git = ["git", "-C", str(ROOT)]
     names = [str(p) for p in paths]
+    done = None
     for _ in range(10):
         if subprocess.run([*git, "add", "--", *names], capture_output=True).returncode != 0:
             time.sleep(3)  # the index is busy (another git command)
@@ -231,11 +243,16 @@ def commit(paths: list[Path], message: str) -> None:
         if done.returncode == 0:
             return
         time.sleep(3)
-    print(f"[{_stamp()}] could not commit {names}: {done.stderr.strip()}", flush=True)
+    why = done.stderr.strip() if done is not None else "git add failed (is the index locked?)"
+    print(f"[{_stamp()}] could not commit {names}: {why}", flush=True)
 
 
 def report(runs_dir: Path, results_path: Path) -> list[Path] | None:
-    """Regenerates docs/TRAINING.md and its figures; the files written, or None if it failed."""
+    """Regenerates docs/TRAINING.md and its figures; the files written, or None if it failed
+    or `results_path` is not the study's own results file (the page is of that file)."""
+    if Path(results_path).resolve() != RESULTS.resolve():
+        print(f"[{_stamp()}] no report: {results_path} is not {RESULTS}", flush=True)
+        return None
     cmd = [
         sys.executable,
         str(Path(__file__).resolve().parent / "paper_report.py"),
@@ -246,8 +263,7 @@ def report(runs_dir: Path, results_path: Path) -> list[Path] | None:
     ]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
-        error = (done.stderr.strip().splitlines() or [f"exit code {done.returncode}"])[-1]
-        print(f"[{_stamp()}] the report failed: {error}", flush=True)
+        print(f"[{_stamp()}] the report failed: {_last_line(done)}", flush=True)
         return None
     print(f"[{_stamp()}] report regenerated: {REPORT.relative_to(ROOT)}", flush=True)
     return [REPORT, *sorted(FIGURES.glob("training_*.png"))]
@@ -258,7 +274,7 @@ def status(runs_dir: Path, results: dict) -> None:
         for seed in c["seeds"]:
             out = run_dir(runs_dir, cell, seed)
             entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
-            if "evaluate_best" in entry and trained(out, c["timesteps"]):
+            if evaluated(entry) and trained(out, c["timesteps"]):
                 s = entry["train"]
                 state = f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
             elif "error" in entry:
@@ -301,7 +317,7 @@ def main() -> int:
                 atomic_write_json(args.out, results)
                 if args.commit:
                     commit([args.out], f"Paper study: {cell} seed {seed}")
-                if "evaluate_best" in entry and entry != before:  # a run finished in this job
+                if evaluated(entry) and entry != before:  # a run finished in this job
                     written = report(args.runs_dir, args.out)
                     if written and args.commit:
                         commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")

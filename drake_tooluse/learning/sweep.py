@@ -20,8 +20,9 @@ atomically (`files.atomic_dir`). No shared file system is needed.
 **Failures.** Tune retries a cell whose trial failed (a lost node, a crash) up to `max_failures`
 times, on any node, from its last checkpoint on the driver's disk; a cell that still fails is a
 `failed` row with its error, and the other cells go on. A cell the library refuses (a
-`ValueError`: hyperparameters the algorithm rejects, a checkpoint it cannot read) would be
-refused again, so it is not retried: it ends at once as a `failed` row with the refusal.
+`ValueError`: hyperparameters the algorithm rejects, a checkpoint it cannot read) is not
+retried — a retry starts from the same settings and the same checkpoint on the driver's disk,
+and would be refused again: it ends at once as a `failed` row with the refusal.
 
 **Resume.** `sweep(resume=True)` (`drake-tooluse sweep --resume OUT`) reads
 `sweep_config.json`, keeps every finished cell and runs the others again, each continuing from its
@@ -114,16 +115,23 @@ class RunStore:
 SCRATCH_PREFIX = "drake_tooluse_cell_"
 
 
+def _scratch_owner() -> str:
+    """This process's part of a scratch directory's name: host and pid (a /tmp may be shared
+    by hosts or pid namespaces; only this host's names are judged)."""
+    return f"{socket.gethostname()}_pid{os.getpid()}_"
+
+
 def scratch_dir() -> Path:
-    """A new scratch directory for a cell on this node, named by this process's pid. Those of
-    processes that are gone (a SIGKILLed sweep never ran its clean-up; a DDPG run's replay
-    buffer is hundreds of MB) are removed first."""
+    """A new scratch directory for a cell on this node, named by its host and pid. This host's
+    ones of processes that are gone (a SIGKILLed sweep never ran its clean-up; a DDPG run's
+    replay buffer is hundreds of MB) are removed first."""
     tmp = Path(tempfile.gettempdir())
+    host = f"{SCRATCH_PREFIX}{socket.gethostname()}_pid"
     for old in tmp.glob(f"{SCRATCH_PREFIX}*"):
-        pid = old.name[len(SCRATCH_PREFIX) :].split("_", 1)[0]
+        pid = old.name[len(host) :].split("_", 1)[0] if old.name.startswith(host) else ""
         if pid.isdigit() and not _alive(int(pid)):
             shutil.rmtree(old, ignore_errors=True)
-    return Path(tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}_"))
+    return Path(tempfile.mkdtemp(prefix=SCRATCH_PREFIX + _scratch_owner()))
 
 
 def _alive(pid: int) -> bool:
@@ -204,6 +212,11 @@ def _cell(config: dict, store) -> None:
     )
 
 
+def _refusal(metrics) -> str | None:
+    """The refusal a cell reported instead of its evaluation (see `_cell`), if any."""
+    return (metrics or {}).get(REFUSED)
+
+
 def _table_writer(out: Path, grid: list, errors: dict):
     """A Tune callback on the driver: the table rewritten from the disk whenever a cell
     finishes or fails."""
@@ -211,9 +224,8 @@ def _table_writer(out: Path, grid: list, errors: dict):
 
     class TableWriter(tune.Callback):
         def on_trial_complete(self, iteration, trials, trial, **info):
-            refused = (trial.last_result or {}).get(REFUSED)
-            if refused:
-                errors[_cell_name(trial.config)] = refused
+            if _refusal(trial.last_result):
+                errors[_cell_name(trial.config)] = _refusal(trial.last_result)
             write_table(out, grid, errors)
 
         def on_trial_error(self, iteration, trials, trial, **info):
@@ -363,8 +375,8 @@ def sweep(
         for result in tuner.fit():
             if result.error is not None:
                 errors[_cell_name(result.config)] = _one_line(result.error)
-            elif (result.metrics or {}).get(REFUSED):
-                errors[_cell_name(result.config)] = result.metrics[REFUSED]
+            elif _refusal(result.metrics):
+                errors[_cell_name(result.config)] = _refusal(result.metrics)
         write_table(out, grid, errors)
     return _rows(out, grid, errors)
 

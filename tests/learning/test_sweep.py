@@ -5,6 +5,7 @@ another node; a killed sweep resumes, keeping finished cells (the last two are s
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -81,13 +82,19 @@ def test_a_cell_s_scratch_left_by_a_killed_process_is_removed(tmp_path, monkeypa
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     gone = subprocess.Popen([sys.executable, "-c", "pass"])
     gone.wait()
-    stale = tmp_path / f"{SCRATCH_PREFIX}{gone.pid}_abc"
-    live = tmp_path / f"{SCRATCH_PREFIX}{os.getpid()}_def"
-    for d in (stale, live):
+    host = socket.gethostname()
+    stale = tmp_path / f"{SCRATCH_PREFIX}{host}_pid{gone.pid}_abc"
+    kept = [
+        tmp_path / f"{SCRATCH_PREFIX}{host}_pid{os.getpid()}_def",  # a live process's
+        tmp_path / f"{SCRATCH_PREFIX}otherhost_pid{gone.pid}_ghi",  # another host's
+        tmp_path / f"{SCRATCH_PREFIX}{gone.pid}_jk",  # an older name (mkdtemp's random part)
+    ]
+    for d in (stale, *kept):
         (d / "run").mkdir(parents=True)
     new = scratch_dir()
-    assert not stale.exists() and live.is_dir()
-    assert new.parent == tmp_path and new.name.startswith(f"{SCRATCH_PREFIX}{os.getpid()}_")
+    assert not stale.exists() and all(d.is_dir() for d in kept)
+    assert new.parent == tmp_path
+    assert new.name.startswith(f"{SCRATCH_PREFIX}{host}_pid{os.getpid()}_")
 
 
 def test_resume_refuses_a_second_grid(tmp_path, capsys):

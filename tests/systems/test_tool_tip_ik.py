@@ -50,10 +50,16 @@ def test_ik_system_holds_last_solution_on_unreachable_target():
     system = ToolTipIKSystem(ik, q0, 0.04)
     simulator = Simulator(system)
     context = simulator.get_mutable_context()
-    system.GetInputPort("tip_pose_desired").FixValue(
-        context, pose_to_vector(RigidTransform(DOWN, [3.0, 0.0, 0.0]))
-    )
-    simulator.AdvanceTo(0.01)  # one update, at t = 0
-    np.testing.assert_array_equal(system.GetOutputPort("q_desired").Eval(context), q0)
+    pose = system.GetInputPort("tip_pose_desired")
+    pose.FixValue(context, pose_to_vector(RigidTransform(DOWN, [0.68, -0.15, -0.13])))
+    simulator.AdvanceTo(0.01)  # one update, at t = 0: a reachable target
+    solved = system.GetOutputPort("q_desired").Eval(context).copy()
+    assert system.GetOutputPort("status").Eval(context)[0] == 1.0
+    assert np.abs(solved - q0).max() > 1e-3  # it moved: holding it is not holding q0
+    pose.FixValue(context, pose_to_vector(RigidTransform(DOWN, [3.0, 0.0, 0.0])))
+    simulator.AdvanceTo(0.09)  # two more updates (t = 0.04, 0.08), both unreachable
+    np.testing.assert_array_equal(system.GetOutputPort("q_desired").Eval(context), solved)
+    desired = system.GetOutputPort("desired_state").Eval(context)
+    np.testing.assert_array_equal(desired, np.concatenate([solved, np.zeros(7)]))
     status = system.GetOutputPort("status").Eval(context)
-    assert status[0] == 0.0 and status[1] > 1.0 and status[3] == 1.0
+    assert status[0] == 0.0 and status[1] > 1.0 and status[3] == 2.0  # failures counted
