@@ -45,7 +45,9 @@ from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import initial_box_pose
@@ -139,6 +141,14 @@ def main() -> None:
     )
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
+    try:  # bad input: one line naming the value, not a traceback
+        check_int(args.episodes, 1, 10_000, "--episodes")
+        check_int(args.runs, 1, 10_000, "--runs")
+        check_seed(args.seed, "--seed", args.runs)
+        for tool in args.tools:
+            check_tool_length(tool, "--tools")
+    except ValueError as e:
+        ap.error(str(e))
     start = time.perf_counter()
     recorded, period = record(args.policy, args.episodes)
     nominal_s, reality_s = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)
