@@ -5,7 +5,7 @@ paper's tools and longer ones the policy never saw (it trained with 0.175 m), as
 transfer --mode open-loop` replays its trajectory.
 
     python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--tools M ...]
-                                            [--out FILE]
+                                            [--variants NAME ...] [--out FILE]
 
 Variants, each changing one thing of the one above it:
 
@@ -20,6 +20,14 @@ Variants, each changing one thing of the one above it:
                instead of their mean
   full-length  box-frame, with the episodes recorded past their success to the 100-step limit
                (the paper's Fetch episodes had no early end)
+  line-contact box-frame, the tool tilted about the push direction (its tip leaning away from
+               the robot) about the point of its axis at the box's mid-height, so that its
+               shaft, not its point, meets the box's face: a line contact, which pushes stably
+               open loop where a point does not (Lynch & Mason 1996). The tilt is ramped in over
+               the first RAMP_STEPS steps (the approach, before the contact) and chosen per tool:
+               the steepest of TILTS_DEG at which the IK reaches every pose under the
+               conservative limits with no joint step over MAX_JOINT_STEP (else the one that
+               reaches the most poses, flagged `tilt_reachable: false`)
 
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
@@ -32,6 +40,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pydrake.common.eigen_geometry import AngleAxis, Quaternion
+from pydrake.math import RotationMatrix
 
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.experiments.trajectory import (
@@ -55,15 +65,19 @@ from drake_tooluse.world.scene import initial_box_pose
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
 POLICY = Path("models") / "policies" / "ppo_toolpush_tip"
-# variant -> (recorded columns, box frame, medoid, full length)
+# variant -> (recorded columns, box frame, medoid, full length, tool tilted for a line contact)
 ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
 VARIANTS = {
-    "paper": (ACHIEVED, False, False, False),
-    "commanded": (COMMANDED, False, False, False),
-    "box-frame": (COMMANDED, True, False, False),
-    "medoid": (COMMANDED, True, True, False),
-    "full-length": (COMMANDED, True, False, True),
+    "paper": (ACHIEVED, False, False, False, False),
+    "commanded": (COMMANDED, False, False, False, False),
+    "box-frame": (COMMANDED, True, False, False, False),
+    "medoid": (COMMANDED, True, True, False, False),
+    "full-length": (COMMANDED, True, False, True, False),
+    "line-contact": (COMMANDED, True, False, False, True),
 }
+TILTS_DEG = (60, 55, 50, 45, 40, 35)  # tried steepest first
+RAMP_STEPS = 10  # the recorded tip first meets the box ~12-16 steps in
+MAX_JOINT_STEP = 0.3  # rad per control step (7.5 rad/s): more is a jump between IK branches
 
 
 def _pose(X) -> np.ndarray:
@@ -106,7 +120,7 @@ def record(policy_dir, episodes: int):
 def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -> TipTrajectory:
     """One trajectory of the recorded episodes, in the nominal box start's frame if the
     variant is in the box frame (see the module docstring)."""
-    columns, box_frame, medoid, full_length = VARIANTS[variant]
+    columns, box_frame, medoid, full_length, _ = VARIANTS[variant]
     episodes = []
     for rows, success, box in recorded:
         ep = rows[: None if full_length or success is None else success + 1, columns].copy()
@@ -128,6 +142,45 @@ def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
     return TipTrajectory(traj.times, traj.positions + [dxy[0], dxy[1], 0.0], traj.quaternions)
 
 
+def tilted(traj: TipTrajectory, angle: float, push_direction, p_WBox) -> TipTrajectory:
+    """The trajectory with the tool turned by `angle` (rad, ramped in over RAMP_STEPS) about
+    the horizontal `push_direction`, about the point of the tool's axis at the height of the box
+    centre `p_WBox`, the tip leaning away from the robot (W's origin, Baxter's base)."""
+    u = np.array([push_direction[0], push_direction[1], 0.0])
+    u /= np.linalg.norm(u)
+    away = p_WBox[:2] / np.linalg.norm(p_WBox[:2])  # from the base towards the box
+    positions, quaternions = [], []
+    for k, (p_WT, q) in enumerate(zip(traj.positions, traj.quaternions)):
+        R_WT = RotationMatrix(Quaternion(q))
+        tool_axis = R_WT.matrix()[:, 2]  # T's z: along the tool, towards the tip
+        R_turn = RotationMatrix(AngleAxis(angle * min(1.0, k / RAMP_STEPS), u))
+        if (R_turn.matrix() @ tool_axis)[:2] @ away < 0 and angle != 0:
+            R_turn = RotationMatrix(AngleAxis(-angle * min(1.0, k / RAMP_STEPS), u))
+        p_WPivot = p_WT + (p_WBox[2] - p_WT[2]) / tool_axis[2] * tool_axis
+        positions.append(p_WPivot + R_turn.matrix() @ (p_WT - p_WPivot))
+        quaternions.append((R_turn @ R_WT).ToQuaternion().wxyz())
+    return TipTrajectory(traj.times, np.array(positions), np.array(quaternions))
+
+
+def line_contact(base: TipTrajectory, tool: float, push_direction, p_WBox):
+    """The steepest tilt of TILTS_DEG that the IK follows for `tool` (see the module
+    docstring): (kept trajectory, tilt in degrees, every pose reached with no jump)."""
+    best = None
+    for deg in TILTS_DEG:
+        try:
+            report = filter_reachable(tilted(base, np.radians(deg), push_direction, p_WBox), tool)
+        except ValueError:  # no pose reachable
+            continue
+        step = float(np.abs(np.diff(report.joint_positions, axis=0)).max(initial=0.0))
+        if report.reachable == report.poses and step <= MAX_JOINT_STEP:
+            return report.kept, deg, True
+        if best is None or report.reachable > best[0]:
+            best = (report.reachable, report.kept, deg)
+    if best is None:
+        raise ValueError(f"no tilt of {TILTS_DEG} degrees is reachable with the {tool} m tool")
+    return best[1], best[2], False
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -139,6 +192,7 @@ def main() -> None:
     ap.add_argument(
         "--tools", type=float, nargs="+", default=[*PAPER_TOOL_LENGTHS, 0.25, 0.3], help="m"
     )
+    ap.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     try:  # bad input: one line naming the value, not a traceback
@@ -161,11 +215,18 @@ def main() -> None:
             nominal, reality, _ = run_worlds(nominal_s, reality_s, tool, args.seed + i)
             believed, _ = measure_belief(reality, seed=args.seed + i)
             worlds[tool, i] = (nominal, reality, believed)
+    push_direction = np.asarray(nominal_s.goal_offset, float)
     rows = []
-    for variant, (_, box_frame, _, _) in VARIANTS.items():
+    for variant in args.variants:
+        box_frame, tilt = VARIANTS[variant][1], VARIANTS[variant][4]
         base = trajectory(recorded, period, variant, nominal_box)
         for tool in args.tools:
-            kept = filter_reachable(base, tool).kept
+            if tilt:
+                kept, tilt_deg, tilt_reachable = line_contact(
+                    base, tool, push_direction, nominal_box
+                )
+            else:
+                kept, tilt_deg, tilt_reachable = filter_reachable(base, tool).kept, 0, True
             runs = {"nominal": [], "reality": []}
             for i in range(args.runs):
                 nominal, reality, believed = worlds[tool, i]
@@ -188,6 +249,7 @@ def main() -> None:
                     )
             row = {"variant": variant, "tool_length_m": tool, "poses": len(base)}
             row["poses_kept"] = len(kept)
+            row["tilt_deg"], row["tilt_reachable"] = tilt_deg, tilt_reachable
             for world, rs in runs.items():
                 row[world] = {
                     "at_goal": sum(r["success"] for r in rs),
@@ -202,11 +264,25 @@ def main() -> None:
             rows.append(row)
             n, r = row["nominal"], row["reality"]
             print(
-                f"{variant} {tool} m: at the goal {n['at_goal']}/{n['runs']} nominal, "
+                f"{variant} {tool} m (tilt {tilt_deg}°): at the goal {n['at_goal']}/{n['runs']} nominal, "
                 f"{r['at_goal']}/{r['runs']} reality; travel {n['box_travel_mean_m'] * 100:.1f}"
                 f" / {r['box_travel_mean_m'] * 100:.1f} cm",
                 flush=True,
             )
+    atomic_write_json(
+        args.out,
+        {
+            "command": f"python benchmarks/open_loop_variants.py --episodes {args.episodes} "
+            f"--runs {args.runs} --seed {args.seed} --tools "
+            + " ".join(f"{t:g}" for t in args.tools)
+            + ("" if args.variants == list(VARIANTS) else " --variants " + " ".join(args.variants)),
+            "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
+            "episodes_recorded": args.episodes,
+            "episodes_at_goal": successes,
+            "rows": rows,
+            "wall_time_s": time.perf_counter() - start,
+        },
+    )
     print(
         "\n| variant | tool (m) | at the goal nominal / reality | box travel nominal / reality "
         "(cm) | reality / nominal | final box–goal reality (cm) | box off the push line, "
@@ -221,26 +297,18 @@ def main() -> None:
             if x["variant"] == row["variant"] and x["tool_length_m"] in PAPER_TOOL_LENGTHS
         ]
         differ = f"{(max(pair) - min(pair)) * 100:.2f}" if len(pair) == 2 else "—"
+        nominal_travel = n["box_travel_mean_m"]
+        ratio = f"{r['box_travel_mean_m'] / nominal_travel * 100:.0f} %" if nominal_travel else "—"
+        label = row["variant"]
+        if row["tilt_deg"]:
+            label += f" ({row['tilt_deg']}°{'' if row['tilt_reachable'] else ', not reached'})"
         print(
-            f"| {row['variant']} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
+            f"| {label} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
             f"{r['runs']} | {n['box_travel_mean_m'] * 100:.1f} / {r['box_travel_mean_m'] * 100:.1f}"
-            f" | {r['box_travel_mean_m'] / n['box_travel_mean_m'] * 100:.0f} % | "
+            f" | {ratio} | "
             f"{r['final_box_to_goal_mean_m'] * 100:.1f} | {r['box_across_mean_abs_m'] * 100:.1f} | "
             f"{differ} |"
         )
-    atomic_write_json(
-        args.out,
-        {
-            "command": f"python benchmarks/open_loop_variants.py --episodes {args.episodes} "
-            f"--runs {args.runs} --seed {args.seed} --tools "
-            + " ".join(f"{t:g}" for t in args.tools),
-            "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
-            "episodes_recorded": args.episodes,
-            "episodes_at_goal": successes,
-            "rows": rows,
-            "wall_time_s": time.perf_counter() - start,
-        },
-    )
     print(f"\nwrote {args.out} ({(time.perf_counter() - start) / 60:.1f} min)")
 
 
