@@ -54,6 +54,11 @@ from drake_tooluse.experiments.transfer import run_open_loop, run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.robot.baxter_model import (
+    Q_LOWER_CONSERVATIVE,
+    Q_UPPER_CONSERVATIVE,
+    RIGHT_ARM_JOINTS,
+)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -162,9 +167,17 @@ def tilted(traj: TipTrajectory, angle: float, push_direction, p_WBox) -> TipTraj
     return TipTrajectory(traj.times, np.array(positions), np.array(quaternions))
 
 
+def joints_at_limit(q: np.ndarray) -> list[str]:
+    """The arm joints that reach a conservative limit (within 1 mrad) anywhere on the path."""
+    lower = np.any(q <= Q_LOWER_CONSERVATIVE + 1e-3, axis=0)
+    upper = np.any(q >= Q_UPPER_CONSERVATIVE - 1e-3, axis=0)
+    return [name for name, hit in zip(RIGHT_ARM_JOINTS, lower | upper) if hit]
+
+
 def line_contact(base: TipTrajectory, tool: float, push_direction, p_WBox):
     """The steepest tilt of TILTS_DEG that the IK follows for `tool` (see the module
-    docstring): (kept trajectory, tilt in degrees, every pose reached with no jump)."""
+    docstring): (the IK's `ReachabilityReport` of it, tilt in degrees, every pose reached with
+    no jump)."""
     best = None
     for deg in TILTS_DEG:
         try:
@@ -173,9 +186,9 @@ def line_contact(base: TipTrajectory, tool: float, push_direction, p_WBox):
             continue
         step = float(np.abs(np.diff(report.joint_positions, axis=0)).max(initial=0.0))
         if report.reachable == report.poses and step <= MAX_JOINT_STEP:
-            return report.kept, deg, True
+            return report, deg, True
         if best is None or report.reachable > best[0]:
-            best = (report.reachable, report.kept, deg)
+            best = (report.reachable, report, deg)
     if best is None:
         raise ValueError(f"no tilt of {TILTS_DEG} degrees is reachable with the {tool} m tool")
     return best[1], best[2], False
@@ -222,11 +235,12 @@ def main() -> None:
         base = trajectory(recorded, period, variant, nominal_box)
         for tool in args.tools:
             if tilt:
-                kept, tilt_deg, tilt_reachable = line_contact(
+                report, tilt_deg, tilt_reachable = line_contact(
                     base, tool, push_direction, nominal_box
                 )
             else:
-                kept, tilt_deg, tilt_reachable = filter_reachable(base, tool).kept, 0, True
+                report, tilt_deg, tilt_reachable = filter_reachable(base, tool), 0, True
+            kept = report.kept
             runs = {"nominal": [], "reality": []}
             for i in range(args.runs):
                 nominal, reality, believed = worlds[tool, i]
@@ -250,6 +264,7 @@ def main() -> None:
             row = {"variant": variant, "tool_length_m": tool, "poses": len(base)}
             row["poses_kept"] = len(kept)
             row["tilt_deg"], row["tilt_reachable"] = tilt_deg, tilt_reachable
+            row["joints_at_limit"] = joints_at_limit(report.joint_positions)
             for world, rs in runs.items():
                 row[world] = {
                     "at_goal": sum(r["success"] for r in rs),
@@ -264,7 +279,8 @@ def main() -> None:
             rows.append(row)
             n, r = row["nominal"], row["reality"]
             print(
-                f"{variant} {tool} m (tilt {tilt_deg}°): at the goal {n['at_goal']}/{n['runs']} nominal, "
+                f"{variant} {tool} m (tilt {tilt_deg}°, joints at a limit: "
+                f"{', '.join(row['joints_at_limit']) or 'none'}): at the goal {n['at_goal']}/{n['runs']} nominal, "
                 f"{r['at_goal']}/{r['runs']} reality; travel {n['box_travel_mean_m'] * 100:.1f}"
                 f" / {r['box_travel_mean_m'] * 100:.1f} cm",
                 flush=True,
