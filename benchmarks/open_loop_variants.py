@@ -14,8 +14,8 @@ Variants, each changing one thing of the one above it:
                5 steps, the poses the IK reaches under the conservative limits kept
   commanded    the tip poses each step commanded instead (Baxter's arm lags them by ~2 cm)
   box-frame    each episode shifted by where its box started before averaging, and the replay
-               by where the run's box starts: the robot is told the box's start (a camera could
-               measure it; not built)
+               by where the run's box starts: in reality as the robot's hand camera measures it
+               at home (`diagrams.box_measurement`), in the nominal world the truth
   medoid       the one episode nearest all the others (mean tip distance, in the box frame)
                instead of their mean
   full-length  box-frame, with the episodes recorded past their success to the 100-step limit
@@ -31,7 +31,7 @@ Variants, each changing one thing of the one above it:
 
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
-tool measured by the head camera. Prints a Markdown table and writes
+tool measured by the head camera and the box's start by the hand camera. Prints a Markdown table and writes
 docs/results/open_loop_variants.json (or --out).
 """
 
@@ -43,6 +43,7 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.math import RotationMatrix
 
+from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.experiments.trajectory import (
     average_episodes,
@@ -222,12 +223,16 @@ def main() -> None:
     nominal_box = initial_box_pose(nominal_s).translation()
     successes = sum(success is not None for _, success, _ in recorded)
     print(f"recorded {args.episodes} episodes ({successes} reached the goal)", flush=True)
-    worlds = {}  # (tool, run) -> (nominal scenario, reality scenario, measured belief)
+    # (tool, run) -> (nominal scenario, reality scenario, measured belief, measured box start)
+    worlds, box_errors = {}, []
     for tool in args.tools:
         for i in range(args.runs):
             nominal, reality, _ = run_worlds(nominal_s, reality_s, tool, args.seed + i)
             believed, _ = measure_belief(reality, seed=args.seed + i)
-            worlds[tool, i] = (nominal, reality, believed)
+            box_xy = measure_box_start(reality, believed).p_WB_xy
+            box_errors.append(np.linalg.norm(box_xy - initial_box_pose(reality).translation()[:2]))
+            worlds[tool, i] = (nominal, reality, believed, box_xy)
+    print(f"box start measured within {max(box_errors) * 1000:.1f} mm", flush=True)
     push_direction = np.asarray(nominal_s.goal_offset, float)
     rows = []
     for variant in args.variants:
@@ -243,13 +248,13 @@ def main() -> None:
             kept = report.kept
             runs = {"nominal": [], "reality": []}
             for i in range(args.runs):
-                nominal, reality, believed = worlds[tool, i]
+                nominal, reality, believed, box_xy = worlds[tool, i]
                 knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
-                for world, scenario, belief in (
-                    ("nominal", nominal, knows),
-                    ("reality", reality, believed),
+                for world, scenario, belief, p_WBox_xy in (
+                    ("nominal", nominal, knows, initial_box_pose(nominal).translation()[:2]),
+                    ("reality", reality, believed, box_xy),
                 ):
-                    dxy = initial_box_pose(scenario).translation() - nominal_box
+                    dxy = p_WBox_xy - nominal_box[:2]
                     run = run_open_loop(scenario, shifted(kept, dxy) if box_frame else kept, belief)
                     moved = run.box_path[-1] - run.box_path[0]
                     runs[world].append(
@@ -295,6 +300,7 @@ def main() -> None:
             "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
+            "box_start_error_max_m": float(max(box_errors)),
             "rows": rows,
             "wall_time_s": time.perf_counter() - start,
         },

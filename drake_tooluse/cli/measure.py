@@ -1,4 +1,5 @@
-"""`measure`: the tool measured with the head camera."""
+"""`measure`: the tool measured with the head camera; `measure-box`: where the box starts, with
+the hand camera."""
 
 from __future__ import annotations
 
@@ -23,6 +24,33 @@ def cmd_measure(args) -> dict:
         lighting=args.lighting,
     )
     return {"scenario": str(args.scenario), **result.as_dict()}
+
+
+def cmd_measure_box(args) -> dict:
+    """The box's start as the hand camera measures it, beside the scenario's truth."""
+    from drake_tooluse.diagrams.box_measurement import measure_box_start
+    from drake_tooluse.world.scene import initial_box_pose
+
+    scenario = scenario_from_args(args)
+    measured = measure_box_start(scenario)
+    truth = initial_box_pose(scenario).translation()
+    return {
+        "scenario": str(args.scenario),
+        "box_xy_m": measured.p_WB_xy.tolist(),
+        "top_z_m": measured.top_z,
+        "top_face_points": measured.points,
+        "truth_xy_m": truth[:2].tolist(),
+        "error_m": float(((measured.p_WB_xy - truth[:2]) ** 2).sum() ** 0.5),
+    }
+
+
+def format_box_measurement(out: dict) -> str:
+    """Human-readable line of `cmd_measure_box`'s dict."""
+    x, y = out["box_xy_m"]
+    return (
+        f"box centre at x {x:.4f} m, y {y:.4f} m, top face {out['top_z_m']:.4f} m "
+        f"({out['top_face_points']} points); the scenario's {out['error_m'] * 1e3:.2f} mm away"
+    )
 
 
 def format_measurement(out: dict) -> str:
@@ -75,3 +103,9 @@ def add_parsers(sub) -> None:
         "--lighting", default="default", choices=list(LIGHTINGS), help="renderer lighting"
     )
     p.set_defaults(run=cmd_measure, show=format_measurement)
+    p = sub.add_parser(
+        "measure-box",
+        help="measure where the box starts with the camera on the robot's hand (depth, OpenCV)",
+    )
+    add_scenario_args(p)
+    p.set_defaults(run=cmd_measure_box, show=format_box_measurement)

@@ -142,3 +142,11 @@ def test_bad_input_exits_2_with_a_clear_message(capsys, argv, message):
     code, _, err = run(capsys, *argv)
     assert code == 2
     assert message in err
+
+
+def test_measure_box_json(capsys):
+    code, out, _ = run(capsys, "measure-box", "--json")
+    assert code == 0
+    data = json.loads(out)
+    assert data["error_m"] < 0.002
+    assert data["top_face_points"] > 100
