@@ -148,21 +148,33 @@ def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
     return TipTrajectory(traj.times, traj.positions + [dxy[0], dxy[1], 0.0], traj.quaternions)
 
 
-def tilted(traj: TipTrajectory, angle: float, push_direction, p_WBox) -> TipTrajectory:
+def tilted(traj: TipTrajectory, angle: float, push_direction, p_WB) -> TipTrajectory:
     """The trajectory with the tool turned by `angle` (rad, ramped in over RAMP_STEPS) about
     the horizontal `push_direction`, about the point of the tool's axis at the height of the box
-    centre `p_WBox`, the tip leaning away from the robot (W's origin, Baxter's base)."""
+    centre `p_WB`, the tip leaning away from the robot (W's origin, Baxter's base): to the side
+    of the push line that points away from the base, chosen once for the whole trajectory."""
     u = np.array([push_direction[0], push_direction[1], 0.0])
     u /= np.linalg.norm(u)
-    away = p_WBox[:2] / np.linalg.norm(p_WBox[:2])  # from the base towards the box
+    # A turn by +angle about u swings a downward tool's tip along side = z × u (for small
+    # angles, d' = d + angle u × d with d = -z); lean to whichever of ±side points away from
+    # the base.
+    side = np.cross([0.0, 0.0, 1.0], u)[:2]
+    away = float(side @ p_WB[:2]) / np.linalg.norm(p_WB[:2])
+    if abs(away) < 0.1:
+        raise ValueError(
+            f"push direction {list(np.round(push_direction, 3))} runs (nearly) towards or away "
+            "from the robot: no side of it leans away from the robot (need its angle to the "
+            "line from the base to the box over ~6 deg)"
+        )
+    sign = 1.0 if away > 0 else -1.0
     positions, quaternions = [], []
     for k, (p_WT, q) in enumerate(zip(traj.positions, traj.quaternions)):
         R_WT = RotationMatrix(Quaternion(q))
         tool_axis = R_WT.matrix()[:, 2]  # T's z: along the tool, towards the tip
-        R_turn = RotationMatrix(AngleAxis(angle * min(1.0, k / RAMP_STEPS), u))
-        if (R_turn.matrix() @ tool_axis)[:2] @ away < 0 and angle != 0:
-            R_turn = RotationMatrix(AngleAxis(-angle * min(1.0, k / RAMP_STEPS), u))
-        p_WPivot = p_WT + (p_WBox[2] - p_WT[2]) / tool_axis[2] * tool_axis
+        if tool_axis[2] > -0.1:
+            raise ValueError(f"pose {k}: the tool does not point down (axis {tool_axis.round(3)})")
+        R_turn = RotationMatrix(AngleAxis(sign * angle * min(1.0, k / RAMP_STEPS), u))
+        p_WPivot = p_WT + (p_WB[2] - p_WT[2]) / tool_axis[2] * tool_axis
         positions.append(p_WPivot + R_turn.matrix() @ (p_WT - p_WPivot))
         quaternions.append((R_turn @ R_WT).ToQuaternion().wxyz())
     return TipTrajectory(traj.times, np.array(positions), np.array(quaternions))
@@ -175,14 +187,15 @@ def joints_at_limit(q: np.ndarray) -> list[str]:
     return [name for name, hit in zip(RIGHT_ARM_JOINTS, lower | upper) if hit]
 
 
-def line_contact(base: TipTrajectory, tool: float, push_direction, p_WBox):
+def line_contact(base: TipTrajectory, tool: float, push_direction, p_WB):
     """The steepest tilt of TILTS_DEG that the IK follows for `tool` (see the module
-    docstring): (the IK's `ReachabilityReport` of it, tilt in degrees, every pose reached with
-    no jump)."""
+    docstring), checked on the trajectory for the nominal box start `p_WB` (the replays shifted
+    by a run's box start are not checked again): (the IK's `ReachabilityReport` of it, tilt in
+    degrees, every pose reached with no jump)."""
     best = None
     for deg in TILTS_DEG:
         try:
-            report = filter_reachable(tilted(base, np.radians(deg), push_direction, p_WBox), tool)
+            report = filter_reachable(tilted(base, np.radians(deg), push_direction, p_WB), tool)
         except ValueError:  # no pose reachable
             continue
         step = float(np.abs(np.diff(report.joint_positions, axis=0)).max(initial=0.0))
@@ -217,6 +230,14 @@ def main() -> None:
             check_tool_length(tool, "--tools")
     except ValueError as e:
         ap.error(str(e))
+    try:  # a tool the study cannot use (no pose reachable, no box in view): one line too
+        study(args)
+    except ValueError as e:
+        ap.exit(1, f"{ap.prog}: {e}\n")
+
+
+def study(args) -> None:
+    """Records, builds every variant's trajectory, replays them, prints and writes the table."""
     start = time.perf_counter()
     recorded, period = record(args.policy, args.episodes)
     nominal_s, reality_s = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)

@@ -26,10 +26,12 @@ from drake_tooluse.systems.camera import add_rgbd_sensor
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.world.scenario import Scenario
 
-# X_GC: the hand camera in the gripper frame G, chosen once with `look_at` so that at the home
-# pose it looks from 3 cm beside and 2 cm above the gripper at the nominal box start.
+# X_GC: the hand camera in the gripper frame G, fixed; found once (rounded) from `look_at` with
+# the eye 3 cm beside and 2 cm above the gripper at the nominal home pose (0.175 m tool), the
+# target 3 cm past the nominal box start along the push: the table ahead of the tip in view.
 X_GC = RigidTransform(RollPitchYaw(0.33, 0.0, 2.129), [0.0, 0.03, -0.02])
 HAND_CAMERA = CameraInfo(640, 480, 1.2)  # width, height (pixels), vertical field of view (rad)
+TIP_CLEARANCE = 0.02  # m: points this close under the tool's tip may be the tool
 
 
 def measure_box_start(scenario: Scenario, belief: RobotBelief | None = None) -> BoxMeasurement:
@@ -55,6 +57,10 @@ def measure_box_start(scenario: Scenario, belief: RobotBelief | None = None) -> 
         depth = sensor.depth_image_32F_output_port().Eval(sensor.GetMyContextFromRoot(context))
         plant_context = world.plant.GetMyContextFromRoot(context)
         X_WC = gripper.EvalPoseInWorld(plant_context) @ X_GC
-        return measure_box(depth.data, HAND_CAMERA, X_WC, scenario.table.top_z)
+        # Look below the tool's tip at home (the tool itself is higher up).
+        max_height = scenario.robot.home_tip_height - TIP_CLEARANCE
+        return measure_box(
+            depth.data, HAND_CAMERA, X_WC, scenario.table.top_z, max_height, scenario.box.size[:2]
+        )
     finally:
         release_diagram(diagram)

@@ -238,6 +238,13 @@ def _outer_end(blob: Blob, d: np.ndarray, sign: float):
     return end, corners
 
 
+def back_project_pixels(u, v, z, info: CameraIntrinsics) -> np.ndarray:
+    """p_CP (N, 3) of pixels (u, v) at depths z (m), by the pinhole model of `info`."""
+    return np.column_stack(
+        [(u - info.center_x()) * z / info.focal_x(), (v - info.center_y()) * z / info.focal_y(), z]
+    )
+
+
 def _marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
     """p_CP of each of the marker's pixels with a valid depth, back-projected (m), (N, 3), and
     those pixels (u, v), (N, 2).
@@ -251,10 +258,7 @@ def _marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
     z_median = np.median(z[valid])
     keep = valid & (np.abs(z - z_median) <= MARKER_DEPTH_TOLERANCE)
     v, u, z = blob.pixels[keep, 0], blob.pixels[keep, 1], z[keep]
-    points = np.column_stack(
-        [(u - info.center_x()) * z / info.focal_x(), (v - info.center_y()) * z / info.focal_y(), z]
-    )
-    return points, np.column_stack([u, v])
+    return back_project_pixels(u, v, z, info), np.column_stack([u, v])
 
 
 def _end_correction(

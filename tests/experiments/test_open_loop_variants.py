@@ -6,6 +6,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
@@ -24,7 +25,8 @@ def _axis(q) -> np.ndarray:
     return RotationMatrix(Quaternion(q)).matrix()[:, 2]
 
 
-def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_the_robot():
+@pytest.mark.parametrize("push", [(0.0, 0.2), (0.0, -0.2), (1.0, 1.0), (-1.0, 0.5)])
+def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_the_robot(push):
     T = variants.RAMP_STEPS + 5
     p_WBox = np.array([0.7, -0.25, -0.18])
     positions = np.column_stack(
@@ -33,7 +35,8 @@ def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_
     q_down = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
     traj = TipTrajectory(np.arange(T) * 0.04, positions, np.tile(q_down, (T, 1)))
     angle = np.radians(45)
-    out = variants.tilted(traj, angle, [0.0, 0.2, 0.0], p_WBox)
+    u = np.array([*push, 0.0]) / np.linalg.norm(push)
+    out = variants.tilted(traj, angle, [*push, 0.0], p_WBox)
 
     np.testing.assert_allclose(out.positions[0], positions[0])  # the start is the recorded one
     np.testing.assert_allclose(out.quaternions[0], q_down, atol=1e-12)
@@ -41,7 +44,7 @@ def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_
         axis_before, axis_after = _axis(q_down), _axis(out.quaternions[k])
         expected = angle * min(1.0, k / variants.RAMP_STEPS)
         assert np.isclose(np.arccos(np.clip(axis_before @ axis_after, -1, 1)), expected)
-        assert abs(axis_after[1]) < 1e-12  # turned about the push direction (W's y) only
+        assert abs(axis_after @ u) < 1e-12  # turned about the push direction only
         if k:
             assert axis_after[:2] @ p_WBox[:2] > 0  # the tip leans away from the base
         # the point of the tool's axis at the box's mid-height stays where it was
@@ -50,3 +53,11 @@ def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_
             out.positions[k] + (p_WBox[2] - out.positions[k][2]) / axis_after[2] * axis_after
         )
         np.testing.assert_allclose(pivot_after, pivot_before, atol=1e-12)
+
+
+def test_a_push_towards_the_robot_has_no_side_to_lean_to():
+    traj = TipTrajectory(
+        [0.0], [[0.7, -0.25, -0.1]], [RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()]
+    )
+    with pytest.raises(ValueError, match="towards or away from the robot"):
+        variants.tilted(traj, 0.7, [-0.7, 0.25, 0.0], np.array([0.7, -0.25, -0.18]))
