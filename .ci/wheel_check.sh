@@ -92,6 +92,7 @@ check drake-tooluse demo --out demo --no-progress
 check drake-tooluse ik --tool-length 0.175 --position 0.65 -0.25 -0.10 --json
 check drake-tooluse evaluate --policy "$TRANSFER_POLICY" --episodes 2 --json
 check drake-tooluse measure --tool-length 0.15 --json
+check drake-tooluse measure-box --json
 check drake-tooluse transfer --tools 0.15 --runs 1 --out transfer
 
 echo "== wheel check"
