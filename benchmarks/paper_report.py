@@ -173,7 +173,8 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
                 stopped.append(f"s{s} at {json.loads(latest.read_text())['timesteps']} steps")
         where = f" (stopped, resumes: {', '.join(stopped)})" if stopped else ""
         lines.append(
-            f"- `{cell}`: seeds {', '.join(map(str, todo))} of {c['timesteps']} steps{rate}{where}"
+            f"- `{cell}`: seed{'s' if len(todo) > 1 else ''} {', '.join(map(str, todo))} of "
+            f"{c['timesteps']} steps{rate}{where}"
         )
     return "\n".join(lines) + "\n" if lines else "Every cell has all its seeds.\n"
 
