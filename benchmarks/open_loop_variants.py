@@ -38,6 +38,7 @@ docs/results/open_loop_variants.json (or --out).
 import argparse
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
@@ -71,15 +72,26 @@ from drake_tooluse.world.scene import initial_box_pose
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
 POLICY = Path("models") / "policies" / "ppo_toolpush_tip"
-# variant -> (recorded columns, box frame, medoid, full length, tool tilted for a line contact)
 ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
+
+
+class Variant(NamedTuple):
+    """How one variant makes its trajectory (see the module docstring)."""
+
+    columns: slice  # the recorded tip poses: ACHIEVED or COMMANDED
+    box_frame: bool = False
+    medoid: bool = False
+    full_length: bool = False
+    line_contact: bool = False
+
+
 VARIANTS = {
-    "paper": (ACHIEVED, False, False, False, False),
-    "commanded": (COMMANDED, False, False, False, False),
-    "box-frame": (COMMANDED, True, False, False, False),
-    "medoid": (COMMANDED, True, True, False, False),
-    "full-length": (COMMANDED, True, False, True, False),
-    "line-contact": (COMMANDED, True, False, False, True),
+    "paper": Variant(ACHIEVED),
+    "commanded": Variant(COMMANDED),
+    "box-frame": Variant(COMMANDED, box_frame=True),
+    "medoid": Variant(COMMANDED, box_frame=True, medoid=True),
+    "full-length": Variant(COMMANDED, box_frame=True, full_length=True),
+    "line-contact": Variant(COMMANDED, box_frame=True, line_contact=True),
 }
 TILTS_DEG = (60, 55, 50, 45, 40, 35)  # tried steepest first
 RAMP_STEPS = 10  # the recorded tip first meets the box ~12-16 steps in
@@ -257,7 +269,7 @@ def study(args) -> None:
     push_direction = np.asarray(nominal_s.goal_offset, float)
     rows = []
     for variant in args.variants:
-        box_frame, tilt = VARIANTS[variant][1], VARIANTS[variant][4]
+        box_frame, tilt = VARIANTS[variant].box_frame, VARIANTS[variant].line_contact
         base = trajectory(recorded, period, variant, nominal_box)
         for tool in args.tools:
             if tilt:
