@@ -9,12 +9,20 @@ limit (`--to-time-limit`: where the box ends, as a protocol without an early end
 
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
-goes on. Results are written atomically to docs/results/paper_study.json after every run; with
-`--commit` each is also committed (that file only). After each run that finished in this job
-the report is regenerated (`python benchmarks/paper_report.py`: docs/TRAINING.md's tables and
-figures, needs the `bench` extra's rliable; a report that fails is logged and the job goes on)
-and, with `--commit`, committed (the page and its figures), so the page is current whenever a
-session ends. `--status` prints what is done, what is missing
+goes on. The run directories (runs/paper, not in git) do not outlive the machine, so each run's
+small files are archived in the repo, docs/results/paper_study/CELL/sSEED/ (`archive_run`:
+config, summary, best policy, progress.csv, evaluations; while it trains, every ARCHIVE_EVERY
+its latest checkpoint too, unless a replay buffer makes it over ARCHIVE_MAX_CHECKPOINT: DDPG's
+starts over on a new machine) and, with `--commit`, committed; a new checkout restores them
+into the run directories before anything runs. A run evaluated in the results whose files are
+in neither place (trained before the archive existed) is trained again after every run still
+missing, so that its curve and policy exist for the figures and the runs that start from it.
+Results are written atomically to docs/results/paper_study.json after every run; with
+`--commit` each is also committed (that file, and the run's archive). After each run that
+finished in this job the report is regenerated (`python benchmarks/paper_report.py`:
+docs/TRAINING.md's tables and figures, needs the `bench` extra's rliable; a report that fails is
+logged and the job goes on) and, with `--commit`, committed (the page and its figures), so the
+page is current whenever a session ends. `--status` prints what is done, what is missing
 and the measured time per run.
 
 Cells, cheapest evidence first (the order they run in):
@@ -34,15 +42,22 @@ Cells, cheapest evidence first (the order they run in):
 import argparse
 import json
 import shlex
+import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-from drake_tooluse.files import atomic_write_json, run_lock
+from drake_tooluse.files import atomic_dir, atomic_write_json, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results" / "paper_study.json"
+ARCHIVE = ROOT / "docs" / "results" / "paper_study"  # each run's small files: CELL/sSEED/
+# What of a run directory is archived (TensorBoard's events and `final/` are not: the report
+# needs none of them, and a resume rewrites the events).
+ARCHIVED = ("config.json", "summary.json", "best", "logs/progress.csv", "eval/evaluations.npz")
+ARCHIVE_EVERY = 20 * 60  # s between two archives of a run that is training
+ARCHIVE_MAX_CHECKPOINT = 4 << 20  # bytes: PPO's, TRPO's and A2C's are ~1 MB, DDPG's ~100 MB
 REPORT = ROOT / "docs" / "TRAINING.md"
 FIGURES = ROOT / "docs" / "figures"  # the report's figures: training_*.png
 ENV1, ENV2, ENV3 = (
@@ -149,6 +164,69 @@ def _stamp() -> str:
     return time.strftime("%H:%M:%S")
 
 
+def _tree_size(path: Path) -> int:
+    return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
+
+
+def archive_run(out: Path, archived: Path) -> bool:
+    """Copies the run's ARCHIVED files and, unless it has finished, its latest checkpoint
+    (when no larger than ARCHIVE_MAX_CHECKPOINT) to `archived`, which is replaced whole or not
+    at all. False (and `archived` as it was) if the run changed under the copy, as a training
+    process moving on to its next checkpoint does: the next archive catches it."""
+    try:
+        with atomic_dir(archived, replace=True) as work:
+            for name in ARCHIVED:
+                if (out / name).is_dir():
+                    shutil.copytree(out / name, work / name)
+                elif (out / name).is_file():
+                    (work / name).parent.mkdir(parents=True, exist_ok=True)
+                    shutil.copy2(out / name, work / name)
+            latest = out / "checkpoints" / "latest.json"
+            summary = _summary(out)
+            if latest.is_file() and (summary is None or summary["timesteps"] < _target(out)):
+                checkpoint = out / "checkpoints" / json.loads(latest.read_text())["checkpoint"]
+                if _tree_size(checkpoint) <= ARCHIVE_MAX_CHECKPOINT:
+                    shutil.copytree(checkpoint, work / "checkpoints" / checkpoint.name)
+                    shutil.copy2(latest, work / "checkpoints" / "latest.json")
+        return True
+    except (OSError, json.JSONDecodeError, KeyError):
+        return False
+
+
+def _target(out: Path) -> int:
+    """The steps the run in `out` was asked for (its config.json)."""
+    return int(json.loads((out / "config.json").read_text())["timesteps"])
+
+
+def restore_runs(runs_dir: Path, archive: Path) -> list[Path]:
+    """Copies each archived run that `runs_dir` does not hold into it (a new checkout's runs
+    continue from the repo); the runs restored."""
+    restored = []
+    for archived in sorted(archive.glob("*/s*")):
+        out = run_dir(runs_dir, archived.parent.name, int(archived.name[1:]))
+        if archived.is_dir() and (archived / "config.json").is_file() and not out.exists():
+            with atomic_dir(out) as work:
+                shutil.copytree(archived, work, dirs_exist_ok=True)
+            restored.append(out)
+    return restored
+
+
+def train_and_archive(cmd: list[str], out: Path, archived: Path, on_archive) -> tuple:
+    """Runs the training command, archiving the run every ARCHIVE_EVERY while it trains
+    (`on_archive()` after each) and once when it ends: (exit code, stderr)."""
+    job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    while True:
+        try:
+            _, stderr = job.communicate(timeout=ARCHIVE_EVERY)
+            break
+        except subprocess.TimeoutExpired:  # still training: no output is lost by waiting again
+            if archive_run(out, archived):
+                on_archive()
+    if (out / "config.json").is_file() and archive_run(out, archived):
+        on_archive()
+    return job.returncode, stderr
+
+
 def settings_differ(out: Path, cell: str, seed: int) -> str | None:
     """How the run in `out` (its config.json) was trained other than the cell asks, or None:
     a cell redefined in this file must not reuse (or resume) runs of its old definition."""
@@ -172,8 +250,11 @@ def settings_differ(out: Path, cell: str, seed: int) -> str | None:
     return "; ".join(differences) or None
 
 
-def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
-    """Trains (or resumes) one run and evaluates its best policy; a failure is recorded."""
+def run_one(
+    cell: str, seed: int, runs_dir: Path, results: dict, archive: Path, on_archive=lambda: None
+) -> dict:
+    """Trains (or resumes) one run, archiving it (`archive_run`, then `on_archive()`), and
+    evaluates its best policy; a failure is recorded."""
     c = CELLS[cell]
     out = run_dir(runs_dir, cell, seed)
     entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
@@ -189,11 +270,15 @@ def run_one(cell: str, seed: int, runs_dir: Path, results: dict) -> dict:
     if not trained(out, c["timesteps"]):
         cmd = train_command(cell, seed, runs_dir, resume=(out / "config.json").is_file())
         print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
-        done = subprocess.run(cmd, capture_output=True, text=True)
-        if done.returncode != 0:
-            error = _last_line(done)
+        code, stderr = train_and_archive(cmd, out, run_dir(archive, cell, seed), on_archive)
+        if code != 0:
+            error = (stderr.strip().splitlines() or [f"exit code {code}"])[-1]
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
+    elif not run_dir(archive, cell, seed).is_dir() and archive_run(
+        out, run_dir(archive, cell, seed)
+    ):
+        on_archive()  # a run trained before the archive existed
     summary = _summary(out)
     result = {
         "train_command": shlex.join(train_command(cell, seed, runs_dir, resume=False)),
@@ -269,20 +354,30 @@ def report(runs_dir: Path, results_path: Path) -> list[Path] | None:
     return [REPORT, *sorted(FIGURES.glob("training_*.png"))]
 
 
-def status(runs_dir: Path, results: dict) -> None:
+def lost(runs_dir: Path, results: dict, cell: str, seed: int) -> bool:
+    """Whether the run was evaluated but its files are gone (trained before the archive)."""
+    entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+    return evaluated(entry) and not (run_dir(runs_dir, cell, seed) / "config.json").is_file()
+
+
+def status(runs_dir: Path, archive: Path, results: dict) -> None:
     for cell, c in CELLS.items():
         for seed in c["seeds"]:
             out = run_dir(runs_dir, cell, seed)
+            if not (out / "config.json").is_file():
+                out = run_dir(archive, cell, seed)  # not restored yet: the archive tells
             entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
             if evaluated(entry) and trained(out, c["timesteps"]):
                 s = entry["train"]
                 state = f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
-            elif "error" in entry:
-                state = f"failed: {entry['error']}"
-            elif (out / "config.json").is_file():
+            elif (out / "config.json").is_file() and not trained(out, c["timesteps"]):
                 ckpt = out / "checkpoints" / "latest.json"
                 steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
                 state = f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+            elif evaluated(entry):
+                state = "evaluated, but its files were lost: trains again after the missing runs"
+            elif "error" in entry:
+                state = f"failed: {entry['error']}"
             else:
                 state = "missing"
             print(f"{cell:18s} seed {seed}: {state}")
@@ -296,31 +391,51 @@ def main() -> int:
     ap.add_argument("--only", nargs="+", choices=list(CELLS), help="these cells (default: all)")
     ap.add_argument("--seeds", type=int, nargs="+", help="only these seeds of each cell")
     ap.add_argument("--out", type=Path, default=RESULTS, help="results JSON, updated run by run")
+    ap.add_argument("--archive", type=Path, default=ARCHIVE, help="each run's files, in the repo")
     ap.add_argument("--commit", action="store_true", help="git-commit the results after each run")
     ap.add_argument("--status", action="store_true", help="print what is done and missing")
     args = ap.parse_args()
     results = json.loads(args.out.read_text()) if args.out.is_file() else {}
     if args.status:
-        status(args.runs_dir, results)
+        status(args.runs_dir, args.archive, results)
         return 0
     with run_lock(args.runs_dir):  # one job at a time: a second would train the same runs
-        for cell in args.only or list(CELLS):
+        for out in restore_runs(args.runs_dir, args.archive):
+            print(f"[{_stamp()}] restored {out} from {args.archive}", flush=True)
+        queue = [
+            (cell, seed)
+            for cell in args.only or list(CELLS)
+            for seed in CELLS[cell]["seeds"]
+            if args.seeds is None or seed in args.seeds
+        ]
+        # Runs whose evaluation survived but whose files did not go last: what is missing first.
+        queue.sort(key=lambda run: lost(args.runs_dir, results, *run))
+        for position, (cell, seed) in enumerate(queue):
             c = CELLS[cell]
-            for seed in c["seeds"]:
-                if args.seeds is not None and seed not in args.seeds:
-                    continue
-                before = results.get(cell, {}).get("seeds", {}).get(str(seed))
-                entry = run_one(cell, seed, args.runs_dir, results)
-                spec = {k: v for k, v in c.items() if k != "seeds"}
-                results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
-                results[cell]["seeds"][str(seed)] = entry
-                atomic_write_json(args.out, results)
+            before = results.get(cell, {}).get("seeds", {}).get(str(seed))
+            archived = run_dir(args.archive, cell, seed)
+
+            def on_archive(cell=cell, seed=seed, archived=archived):
                 if args.commit:
-                    commit([args.out], f"Paper study: {cell} seed {seed}")
-                if evaluated(entry) and entry != before:  # a run finished in this job
-                    written = report(args.runs_dir, args.out)
-                    if written and args.commit:
-                        commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
+                    commit([archived], f"Paper study: {cell} seed {seed} archived")
+
+            if lost(args.runs_dir, results, cell, seed):
+                print(f"[{_stamp()}] {cell} seed {seed}: its files were lost; trains again")
+                before = None  # its evaluation is replaced by the new run's
+            entry = run_one(cell, seed, args.runs_dir, results, args.archive, on_archive)
+            source = (c.get("init_from"), seed)
+            if "waits for" in entry.get("error", "") and source in queue[position + 1 :]:
+                queue.append((cell, seed))  # again once the run it starts from has trained
+            spec = {k: v for k, v in c.items() if k != "seeds"}
+            results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
+            results[cell]["seeds"][str(seed)] = entry
+            atomic_write_json(args.out, results)
+            if args.commit:
+                commit([args.out], f"Paper study: {cell} seed {seed}")
+            if evaluated(entry) and entry != before:  # a run finished in this job
+                written = report(args.archive, args.out)
+                if written and args.commit:
+                    commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
     return 0
 
 

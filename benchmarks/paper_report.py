@@ -1,7 +1,8 @@
 """docs/TRAINING.md and its figures, made from `benchmarks/paper_experiments.py`'s results
-(docs/results/paper_study.json) and its run directories.
+(docs/results/paper_study.json) and its runs' archived files (docs/results/paper_study/: the
+training curves and best policies, in the repo).
 
-    python benchmarks/paper_report.py [--runs-dir runs/paper] [--results FILE]
+    python benchmarks/paper_report.py [--runs-dir docs/results/paper_study] [--results FILE]
                                       [--doc docs/TRAINING.md] [--figures docs/figures]
                                       [--trajectories N]
 
@@ -13,7 +14,8 @@ every time it is made; with three seeds the interval is wide, as it should be).
 Figures: Env1's reward curves of the four algorithms with seed bands (the paper's four-panel
 figure), PPO with the paper's action beside the position action, Env3 fine-tuned against from
 scratch, and N generated tool-tip trajectories per algorithm with their mean (the paper's 3-D
-figure; a cell with no finished seed is left out).
+figure; a cell with no finished seed is left out). A figure draws the seeds whose files it has;
+its legend counts them.
 """
 
 import argparse
@@ -27,7 +29,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from paper_experiments import CELLS, FIGURES, REPORT, RESULTS, run_dir  # noqa: E402
+from paper_experiments import ARCHIVE, CELLS, FIGURES, REPORT, RESULTS, run_dir  # noqa: E402
 from pydrake.common.eigen_geometry import Quaternion  # noqa: E402
 from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
 from rliable import library as rly  # noqa: E402
@@ -162,6 +164,14 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
     for cell, c in CELLS.items():
         done = finished(results, cell)
         todo = [s for s in c["seeds"] if s not in done]
+        gone = [s for s in done if not (run_dir(runs_dir, cell, s) / "config.json").is_file()]
+        if gone:
+            lines.append(
+                f"- `{cell}`: seed{'s' if len(gone) > 1 else ''} {', '.join(map(str, gone))} "
+                "evaluated (in the table), but their curves and policies were lost with the "
+                "machine they trained on, before runs were archived in the repo: they train "
+                "again after the missing runs"
+            )
         if not todo:
             continue
         rates = [e["train"]["steps_per_s"] for e in done.values()]
@@ -278,13 +288,24 @@ def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str,
 
 def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) -> Path | None:
     """N tool-tip paths per algorithm (its first finished seed's best policy) and their mean."""
-    cells = [c for c in ALGORITHMS if finished(results, c)]
+    seeds = {  # each algorithm's first finished seed whose best policy is here
+        cell: min(have)
+        for cell in ALGORITHMS
+        if (
+            have := [
+                s
+                for s in finished(results, cell)
+                if (run_dir(runs_dir, cell, s) / "best" / "policy.json").is_file()
+            ]
+        )
+    }
+    cells = list(seeds)
     if not cells:
         (figures / "training_env1_trajectories.png").unlink(missing_ok=True)
         return None
     fig = plt.figure(figsize=(5 * len(cells), 4.5))
     for i, cell in enumerate(cells):
-        seed = min(finished(results, cell))
+        seed = seeds[cell]
         tips = record_episodes(run_dir(runs_dir, cell, seed) / "best", n, seed=1000)[0]
         ax = fig.add_subplot(1, len(cells), i + 1, projection="3d")
         for p in tips:
@@ -433,7 +454,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--runs-dir", type=Path, default=ROOT / "runs" / "paper")
+    ap.add_argument("--runs-dir", type=Path, default=ARCHIVE, help="the runs' files")
     ap.add_argument("--results", type=Path, default=RESULTS)
     ap.add_argument("--doc", type=Path, default=REPORT)
     ap.add_argument("--figures", type=Path, default=FIGURES)
