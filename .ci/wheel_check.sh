@@ -94,6 +94,7 @@ check drake-tooluse evaluate --policy "$TRANSFER_POLICY" --episodes 2 --json
 check drake-tooluse measure --tool-length 0.15 --json
 check drake-tooluse measure-box --json
 check drake-tooluse transfer --tools 0.15 --runs 1 --out transfer
+check drake-tooluse transfer --mode open-loop --tools 0.15 --runs 1 --episodes 2 --out transfer-open
 
 echo "== wheel check"
 printf '%s\n' "${SUMMARY[@]}"

@@ -5,7 +5,8 @@ paper's tools and longer ones the policy never saw (it trained with 0.175 m), as
 transfer --mode open-loop` replays its trajectory.
 
     python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--tools M ...]
-                                            [--variants NAME ...] [--out FILE]
+                                            [--variants NAME ...] [--tilts DEG ...]
+                                            [--offsets CM ...] [--out FILE]
 
 Variants, each changing one thing of the one above it:
 
@@ -20,14 +21,20 @@ Variants, each changing one thing of the one above it:
                instead of their mean
   full-length  box-frame, with the episodes recorded past their success to the 100-step limit
                (the paper's Fetch episodes had no early end)
-  line-contact box-frame, the tool tilted about the push direction (its tip leaning away from
+  centred      box-frame, moved across the push so that the tool runs through the box's centre
+               line while it pushes (the mean pushes ~0.4 cm to one side)
+  line-contact centred, the tool tilted about the push direction (its tip leaning away from
                the robot) about the point of its axis at the box's mid-height, so that its
                shaft, not its point, meets the box's face: a line contact, which pushes stably
-               open loop where a point does not (Lynch & Mason 1996). The tilt is ramped in over
-               the first RAMP_STEPS steps (the approach, before the contact) and chosen per tool:
-               the steepest of TILTS_DEG at which the IK reaches every pose under the
-               conservative limits with no joint step over MAX_JOINT_STEP (else the one that
-               reaches the most poses, flagged `tilt_reachable: false`)
+               open loop where a point does not (Lynch & Mason 1996); ramped in over the
+               approach, 30 degrees or the steepest shallower tilt the IK follows without a
+               jump for every box start (`drake_tooluse.experiments.line_contact`: what
+               `drake-tooluse transfer --mode open-loop` replays by default)
+
+`--tilts DEG ...` adds a line-contact row per tilt (that tilt, whether the IK follows it or
+not): how steep is best. `--offsets CM ...` adds a line-contact row per offset: the centred,
+tilted trajectory moved that far across the push (+: to the left of the push direction): how
+far off the box's centre line an open-loop push may run.
 
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
@@ -41,30 +48,30 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from pydrake.common.eigen_geometry import AngleAxis, Quaternion
-from pydrake.math import RotationMatrix
 
 from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
+from drake_tooluse.experiments.line_contact import (
+    TILTS_DEG,
+    centred,
+    joints_at_limit,
+    line_contact,
+)
 from drake_tooluse.experiments.trajectory import (
     average_episodes,
     filter_reachable,
     pad_episodes,
+    shifted,
     smooth,
 )
 from drake_tooluse.experiments.transfer import run_open_loop, run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
-from drake_tooluse.robot.baxter_model import (
-    Q_LOWER_CONSERVATIVE,
-    Q_UPPER_CONSERVATIVE,
-    RIGHT_ARM_JOINTS,
-)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.validation import check_int, check_seed
+from drake_tooluse.validation import check_in_range, check_int, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import initial_box_pose
@@ -82,6 +89,7 @@ class Variant(NamedTuple):
     box_frame: bool = False
     medoid: bool = False
     full_length: bool = False
+    centred: bool = False
     line_contact: bool = False
 
 
@@ -91,11 +99,9 @@ VARIANTS = {
     "box-frame": Variant(COMMANDED, box_frame=True),
     "medoid": Variant(COMMANDED, box_frame=True, medoid=True),
     "full-length": Variant(COMMANDED, box_frame=True, full_length=True),
+    "centred": Variant(COMMANDED, box_frame=True, centred=True),
     "line-contact": Variant(COMMANDED, box_frame=True, line_contact=True),
 }
-TILTS_DEG = (60, 55, 50, 45, 40, 35)  # tried steepest first
-RAMP_STEPS = 10  # the recorded tip first meets the box ~12-16 steps in
-MAX_JOINT_STEP = 0.3  # rad per control step (7.5 rad/s): more is a jump between IK branches
 
 
 def _pose(X) -> np.ndarray:
@@ -138,7 +144,7 @@ def record(policy_dir, episodes: int):
 def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -> TipTrajectory:
     """One trajectory of the recorded episodes, in the nominal box start's frame if the
     variant is in the box frame (see the module docstring)."""
-    columns, box_frame, medoid, full_length, _ = VARIANTS[variant]
+    columns, box_frame, medoid, full_length, _, _ = VARIANTS[variant]
     episodes = []
     for rows, success, box in recorded:
         ep = rows[: None if full_length or success is None else success + 1, columns].copy()
@@ -156,70 +162,6 @@ def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -
     return smooth(traj, 5)
 
 
-def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
-    return TipTrajectory(traj.times, traj.positions + [dxy[0], dxy[1], 0.0], traj.quaternions)
-
-
-def tilted(traj: TipTrajectory, angle: float, push_direction, p_WB) -> TipTrajectory:
-    """The trajectory with the tool turned by `angle` (rad, ramped in over RAMP_STEPS) about
-    the horizontal `push_direction`, about the point of the tool's axis at the height of the box
-    centre `p_WB`, the tip leaning away from the robot (W's origin, Baxter's base): to the side
-    of the push line that points away from the base, chosen once for the whole trajectory."""
-    u = np.array([push_direction[0], push_direction[1], 0.0])
-    u /= np.linalg.norm(u)
-    # A turn by +angle about u swings a downward tool's tip along side = z × u (for small
-    # angles, d' = d + angle u × d with d = -z); lean to whichever of ±side points away from
-    # the base.
-    side = np.cross([0.0, 0.0, 1.0], u)[:2]
-    away = float(side @ p_WB[:2]) / np.linalg.norm(p_WB[:2])
-    if abs(away) < 0.1:
-        raise ValueError(
-            f"push direction {list(np.round(push_direction, 3))} runs (nearly) towards or away "
-            "from the robot: no side of it leans away from the robot (need its angle to the "
-            "line from the base to the box over ~6 deg)"
-        )
-    sign = 1.0 if away > 0 else -1.0
-    positions, quaternions = [], []
-    for k, (p_WT, q) in enumerate(zip(traj.positions, traj.quaternions)):
-        R_WT = RotationMatrix(Quaternion(q))
-        tool_axis = R_WT.matrix()[:, 2]  # T's z: along the tool, towards the tip
-        if tool_axis[2] > -0.1:
-            raise ValueError(f"pose {k}: the tool does not point down (axis {tool_axis.round(3)})")
-        R_turn = RotationMatrix(AngleAxis(sign * angle * min(1.0, k / RAMP_STEPS), u))
-        p_WPivot = p_WT + (p_WB[2] - p_WT[2]) / tool_axis[2] * tool_axis
-        positions.append(p_WPivot + R_turn.matrix() @ (p_WT - p_WPivot))
-        quaternions.append((R_turn @ R_WT).ToQuaternion().wxyz())
-    return TipTrajectory(traj.times, np.array(positions), np.array(quaternions))
-
-
-def joints_at_limit(q: np.ndarray) -> list[str]:
-    """The arm joints that reach a conservative limit (within 1 mrad) anywhere on the path."""
-    lower = np.any(q <= Q_LOWER_CONSERVATIVE + 1e-3, axis=0)
-    upper = np.any(q >= Q_UPPER_CONSERVATIVE - 1e-3, axis=0)
-    return [name for name, hit in zip(RIGHT_ARM_JOINTS, lower | upper) if hit]
-
-
-def line_contact(base: TipTrajectory, tool: float, push_direction, p_WB):
-    """The steepest tilt of TILTS_DEG that the IK follows for `tool` (see the module
-    docstring), checked on the trajectory for the nominal box start `p_WB` (the replays shifted
-    by a run's box start are not checked again): (the IK's `ReachabilityReport` of it, tilt in
-    degrees, every pose reached with no jump)."""
-    best = None
-    for deg in TILTS_DEG:
-        try:
-            report = filter_reachable(tilted(base, np.radians(deg), push_direction, p_WB), tool)
-        except ValueError:  # no pose reachable
-            continue
-        step = float(np.abs(np.diff(report.joint_positions, axis=0)).max(initial=0.0))
-        if report.reachable == report.poses and step <= MAX_JOINT_STEP:
-            return report, deg, True
-        if best is None or report.reachable > best[0]:
-            best = (report.reachable, report, deg)
-    if best is None:
-        raise ValueError(f"no tilt of {TILTS_DEG} degrees is reachable with the {tool} m tool")
-    return best[1], best[2], False
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -232,6 +174,12 @@ def main() -> None:
         "--tools", type=float, nargs="+", default=[*PAPER_TOOL_LENGTHS, 0.25, 0.3], help="m"
     )
     ap.add_argument("--variants", nargs="+", choices=list(VARIANTS), default=list(VARIANTS))
+    ap.add_argument(
+        "--tilts", type=int, nargs="+", default=[], help="a line-contact row at each (deg)"
+    )
+    ap.add_argument(
+        "--offsets", type=float, nargs="+", default=[], help="a line-contact row at each (cm)"
+    )
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     try:  # bad input: one line naming the value, not a traceback
@@ -240,6 +188,10 @@ def main() -> None:
         check_seed(args.seed, "--seed", args.runs)
         for tool in args.tools:
             check_tool_length(tool, "--tools")
+        for tilt in args.tilts:
+            check_int(tilt, 0, 80, "--tilts")
+        for offset in args.offsets:
+            check_in_range(offset, -5.0, 5.0, "--offsets", unit="cm")
     except ValueError as e:
         ap.error(str(e))
     try:  # a tool the study cannot use (no pose reachable, no box in view): one line too
@@ -267,18 +219,37 @@ def study(args) -> None:
             worlds[tool, i] = (nominal, reality, believed, box_xy)
     print(f"box start measured within {max(box_errors) * 1000:.1f} mm", flush=True)
     push_direction = np.asarray(nominal_s.goal_offset, float)
+    box_range, half_size = nominal_s.randomization.box_xy, nominal_s.box.size[1] / 2
+    # (variant, the tilts its line contact may take: None for the variant's own, an offset
+    # across the push in m)
+    specs = [(v, None, 0.0) for v in args.variants]
+    specs += [("line-contact", (t,), 0.0) for t in args.tilts]
+    specs += [("line-contact", None, o / 100) for o in args.offsets]
+    left = np.cross([0.0, 0.0, 1.0], push_direction / np.linalg.norm(push_direction))[:2]
     rows = []
-    for variant in args.variants:
-        box_frame, tilt = VARIANTS[variant].box_frame, VARIANTS[variant].line_contact
+    for variant, tilts, offset in specs:
+        v = VARIANTS[variant]
         base = trajectory(recorded, period, variant, nominal_box)
+        if v.centred:
+            base = centred(base, push_direction, nominal_box, half_size)
         for tool in args.tools:
-            if tilt:
-                report, tilt_deg, tilt_reachable = line_contact(
-                    base, tool, push_direction, nominal_box
+            if v.line_contact:
+                contact = line_contact(
+                    base,
+                    tool,
+                    push_direction,
+                    nominal_box,
+                    box_range,
+                    half_size,
+                    tilts or TILTS_DEG,
                 )
+                kept, tilt_deg, followed = contact.trajectory, contact.tilt_deg, contact.followed
+                kept = shifted(kept, offset * left) if offset else kept
+                at_limit = contact.joints_at_limit
             else:
-                report, tilt_deg, tilt_reachable = filter_reachable(base, tool), 0, True
-            kept = report.kept
+                report = filter_reachable(base, tool)
+                kept, tilt_deg, followed = report.kept, 0, True
+                at_limit = joints_at_limit(report.joint_positions)
             runs = {"nominal": [], "reality": []}
             for i in range(args.runs):
                 nominal, reality, believed, box_xy = worlds[tool, i]
@@ -288,7 +259,8 @@ def study(args) -> None:
                     ("reality", reality, believed, box_xy),
                 ):
                     dxy = p_WBox_xy - nominal_box[:2]
-                    run = run_open_loop(scenario, shifted(kept, dxy) if box_frame else kept, belief)
+                    replay = shifted(kept, dxy) if v.box_frame else kept
+                    run = run_open_loop(scenario, replay, belief)
                     moved = run.box_path[-1] - run.box_path[0]
                     runs[world].append(
                         {
@@ -300,9 +272,14 @@ def study(args) -> None:
                         }
                     )
             row = {"variant": variant, "tool_length_m": tool, "poses": len(base)}
+            row["row"] = variant if tilts is None else f"{variant} at {tilts[0]} deg"
+            if offset:
+                row["row"] += f" {offset * 100:+g} cm across"
+            row["offset_m"] = offset
             row["poses_kept"] = len(kept)
-            row["tilt_deg"], row["tilt_reachable"] = tilt_deg, tilt_reachable
-            row["joints_at_limit"] = joints_at_limit(report.joint_positions)
+            row["tilts_tried_deg"] = list(tilts or TILTS_DEG) if v.line_contact else []
+            row["tilt_deg"], row["tilt_followed"] = tilt_deg, followed
+            row["joints_at_limit"] = at_limit
             for world, rs in runs.items():
                 row[world] = {
                     "at_goal": sum(r["success"] for r in rs),
@@ -317,7 +294,7 @@ def study(args) -> None:
             rows.append(row)
             n, r = row["nominal"], row["reality"]
             print(
-                f"{variant} {tool} m (tilt {tilt_deg}°, joints at a limit: "
+                f"{row['row']} {tool} m (tilt {tilt_deg}°, joints at a limit: "
                 f"{', '.join(row['joints_at_limit']) or 'none'}): at the goal {n['at_goal']}/{n['runs']} nominal, "
                 f"{r['at_goal']}/{r['runs']} reality; travel {n['box_travel_mean_m'] * 100:.1f}"
                 f" / {r['box_travel_mean_m'] * 100:.1f} cm",
@@ -329,7 +306,9 @@ def study(args) -> None:
             "command": f"python benchmarks/open_loop_variants.py --episodes {args.episodes} "
             f"--runs {args.runs} --seed {args.seed} --tools "
             + " ".join(f"{t:g}" for t in args.tools)
-            + ("" if args.variants == list(VARIANTS) else " --variants " + " ".join(args.variants)),
+            + ("" if args.variants == list(VARIANTS) else " --variants " + " ".join(args.variants))
+            + (" --tilts " + " ".join(map(str, args.tilts)) if args.tilts else "")
+            + (" --offsets " + " ".join(f"{o:g}" for o in args.offsets) if args.offsets else ""),
             "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
@@ -349,14 +328,16 @@ def study(args) -> None:
         pair = [
             x["reality"]["box_travel_mean_m"]
             for x in rows
-            if x["variant"] == row["variant"] and x["tool_length_m"] in PAPER_TOOL_LENGTHS
+            if x["row"] == row["row"] and x["tool_length_m"] in PAPER_TOOL_LENGTHS
         ]
         differ = f"{(max(pair) - min(pair)) * 100:.2f}" if len(pair) == 2 else "—"
         nominal_travel = n["box_travel_mean_m"]
         ratio = f"{r['box_travel_mean_m'] / nominal_travel * 100:.0f} %" if nominal_travel else "—"
-        label = row["variant"]
-        if row["tilt_deg"]:
-            label += f" ({row['tilt_deg']}°{'' if row['tilt_reachable'] else ', not reached'})"
+        label = row["row"]
+        if row["tilt_deg"] and not label.startswith(f"{row['variant']} at"):  # the tilt it chose
+            label += f" ({row['tilt_deg']}°)"
+        if row["tilts_tried_deg"] and not row["tilt_followed"]:
+            label += " (the IK jumps)"
         print(
             f"| {label} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
             f"{r['runs']} | {n['box_travel_mean_m'] * 100:.1f} / {r['box_travel_mean_m'] * 100:.1f}"

@@ -166,11 +166,13 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
         todo = [s for s in c["seeds"] if s not in done]
         gone = [s for s in done if not (run_dir(runs_dir, cell, s) / "config.json").is_file()]
         if gone:
+            many = len(gone) > 1
             lines.append(
-                f"- `{cell}`: seed{'s' if len(gone) > 1 else ''} {', '.join(map(str, gone))} "
-                "evaluated (in the table), but their curves and policies were lost with the "
-                "machine they trained on, before runs were archived in the repo: they train "
-                "again after the missing runs"
+                f"- `{cell}`: seed{'s' if many else ''} {', '.join(map(str, gone))} evaluated (in "
+                f"the table), but {'their curves and policies' if many else 'its curve and policy'}"
+                " were lost with the machine they trained on, before runs were archived in the "
+                f"repo (not in the figures): {'they train' if many else 'it trains'} again after "
+                "the missing runs"
             )
         if not todo:
             continue

@@ -1,7 +1,7 @@
 """The transfer experiment for each policy and mode, and the table quoted in docs/TRANSFER.md.
 
     python benchmarks/transfer_experiments.py [--runs 10] [--episodes 100] [--seed 0]
-        [--only NAME ...] [--out DIR]
+        [--only NAME ...] [--modes MODE ...] [--out DIR]
 
 Runs `drake-tooluse transfer` (tools 0.125 and 0.175 m, the perturbed reality of
 diagrams/reality.yaml against the nominal simulation) for
@@ -11,9 +11,11 @@ diagrams/reality.yaml against the nominal simulation) for
 - `tip-length-only`: `tip` with the robot's model taking only the measured length, not the
   camera's estimate of the grasp along the tool (the paper's measurement);
 
-each closed-loop and open-loop (the paper's: the policy's averaged trajectory replayed), writing
-docs/results/transfer/<name>_<mode>/ (or --out DIR/<name>_<mode>/: transfer.json,
-transfer_boxplot.png, and for open loop trajectory.npz/.png), then prints the Markdown table.
+each closed-loop, open-loop (the policy's episodes averaged into a trajectory and replayed: the
+command's default, the line-contact trajectory) and open-loop-paper (the paper's own averaged
+trajectory, `--extraction paper`: the baseline), writing docs/results/transfer/<name>_<mode>/
+(or --out DIR/<name>_<mode>/: transfer.json, transfer_boxplot.png, and open loop the
+trajectories and trajectory.png), then prints the Markdown table.
 """
 
 import argparse
@@ -29,7 +31,12 @@ TIP = Path("models") / "policies" / "ppo_toolpush_tip"
 PAPER = Path("models") / "policies" / "ppo_toolpush"
 # name -> (policy, extra `transfer` arguments)
 POLICIES = {"tip": (TIP, []), "paper": (PAPER, []), "tip-length-only": (TIP, ["--length-only"])}
-MODES = ("closed-loop", "open-loop")
+# mode -> (`transfer --mode`, extra `transfer` arguments)
+MODES = {
+    "closed-loop": ("closed-loop", []),
+    "open-loop": ("open-loop", []),
+    "open-loop-paper": ("open-loop", ["--extraction", "paper"]),
+}
 
 
 def run(name: str, mode: str, runs: int, episodes: int, seed: int, out_dir: Path = OUT) -> dict:
@@ -37,12 +44,13 @@ def run(name: str, mode: str, runs: int, episodes: int, seed: int, out_dir: Path
 
     out = out_dir / f"{name}_{mode}"
     policy, extra = POLICIES[name]
+    transfer_mode, mode_extra = MODES[mode]
     argv = [
         "transfer",
         "--policy",
         str(policy),
         "--mode",
-        mode,
+        transfer_mode,
         "--runs",
         str(runs),
         "--episodes",
@@ -52,6 +60,7 @@ def run(name: str, mode: str, runs: int, episodes: int, seed: int, out_dir: Path
         "--out",
         str(out),
         *extra,
+        *mode_extra,
     ]
     print("drake-tooluse " + " ".join(argv), file=sys.stderr, flush=True)
     if main(argv) != 0:
@@ -89,6 +98,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", nargs="+", choices=list(POLICIES), default=list(POLICIES))
+    parser.add_argument("--modes", nargs="+", choices=list(MODES), default=list(MODES))
     parser.add_argument(
         "--report", action="store_true", help="only print the table of the results already written"
     )
@@ -102,7 +112,7 @@ def main() -> None:
     os.chdir(ROOT)
     results = {}
     for name in args.only:
-        for mode in MODES:
+        for mode in args.modes:
             if args.report:
                 results[name, mode] = json.loads(
                     (args.out / f"{name}_{mode}" / "transfer.json").read_text()

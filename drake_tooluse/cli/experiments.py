@@ -14,7 +14,7 @@ from drake_tooluse.cli.common import (
     seed_arg,
     tool_length_arg,
 )
-from drake_tooluse.experiments.choices import ALIGNMENTS, MODES, RECORDS
+from drake_tooluse.experiments.choices import ALIGNMENTS, EXTRACTIONS, MODES, RECORDS
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
 
@@ -120,7 +120,9 @@ def cmd_transfer(args) -> dict:
 
     choice_arg(args.mode, MODES, "--mode", "mode")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.record is not None:
+        choice_arg(args.record, RECORDS, "--record", "recording")
+    choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     for tool in args.tools:
         tool_length_arg(tool, "--tools")
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
@@ -144,6 +146,7 @@ def cmd_transfer(args) -> dict:
         use_grasp_estimate=not args.length_only,
         trust_pickle=args.trust_pickle,
         record=args.record,
+        extraction=args.extraction,
     )
 
 
@@ -280,10 +283,17 @@ def add_parsers(sub) -> None:
         "('contact')",
     )
     p.add_argument(
+        "--extraction",
+        default="line-contact",
+        help="open loop: how the trajectory is made of the episodes: 'line-contact' (the "
+        "commanded tip poses in each box's frame, the tool tilted per tool so that its shaft "
+        "pushes, replayed at each run's box start, measured by the hand camera) or 'paper' "
+        "(the per-step mean of where the tip got, replayed as it is)",
+    )
+    p.add_argument(
         "--record",
-        default="achieved",
         help="open loop: 'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm)",
+        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
     )
     p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")

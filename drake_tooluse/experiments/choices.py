@@ -8,3 +8,10 @@ ALIGNMENTS = ("start", "contact")  # averaging episodes from their start or the 
 # targets). Baxter's arm lags its command by ~2 cm at full speed, so a replay of where the tip
 # got commands a slower push that trails the recorded one.
 RECORDS = ("achieved", "commanded")
+# How the open-loop transfer makes its trajectory of the policy's episodes: the paper's per-step
+# mean of where the tip got, replayed as it is; or that of the commanded poses, of each episode
+# in its box's frame, the tool tilted into a line contact, and replayed at the box start the
+# hand camera measures (`experiments.line_contact`).
+EXTRACTIONS = ("line-contact", "paper")
+# What each takes by default for the recording (RECORDS).
+EXTRACTION_RECORDS = {"line-contact": "commanded", "paper": "achieved"}

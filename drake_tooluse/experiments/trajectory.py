@@ -25,6 +25,7 @@ from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.scenario import RobotConfig
+from drake_tooluse.world.scene import initial_box_pose
 
 
 def average_quaternions(quaternions: np.ndarray, weights=None) -> np.ndarray:
@@ -47,6 +48,13 @@ def average_episodes(
     T = positions.shape[1]
     mean_q = np.array([average_quaternions(quaternions[:, t]) for t in range(T)])
     return TipTrajectory(np.arange(T) * period, positions.mean(axis=0), mean_q)
+
+
+def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
+    """The trajectory moved by `dxy` (m) across the table: to where a box starts `dxy` from
+    the start the trajectory was made for."""
+    offset = np.array([dxy[0], dxy[1], 0.0])
+    return TipTrajectory(traj.times, traj.positions + offset, traj.quaternions)
 
 
 def pad_episodes(episodes: list[np.ndarray]) -> np.ndarray:
@@ -133,14 +141,19 @@ def _pose_row(env) -> np.ndarray:
 
 @dataclass
 class _PoseRecorder:
-    """Collects `_pose_row` after the reset and each step of an episode, and the row at which
-    the tool first touched the box (None: never)."""
+    """Collects `_pose_row` after the reset and each step of an episode, the row at which
+    the tool first touched the box (None: never) and where the box started (p_WB, m)."""
 
     env: object
     rows: list = field(default_factory=list)
     contact: int | None = None
+    p_WB: np.ndarray | None = None
 
     def __call__(self, step: int, info: dict) -> None:
+        if step == 0:
+            u = self.env.unwrapped
+            plant_context = u.world.plant.GetMyContextFromRoot(u.simulator.get_context())
+            self.p_WB = u.world.box.EvalPoseInWorld(plant_context).translation().copy()
         self.rows.append(_pose_row(self.env))
         if step > 0 and self.contact is None and info["tool_touches_box"]:
             self.contact = len(self.rows) - 1
@@ -166,6 +179,7 @@ def record_episodes(
     align: str = "start",
     trust_pickle: bool = False,
     record: str = "achieved",
+    box_frame: bool = False,
 ):
     """Runs the policy; returns per-episode arrays of the tool tip's poses (`record`: the
     commanded ones, or where the tip got, see RECORDS) and the gripper's positions at each
@@ -173,18 +187,27 @@ def record_episodes(
     successes and the control period (s) between the rows. Row k + 1 is what step k commanded
     (or reached); row 0 is the start. `align="start"` (the paper's) stacks the episodes from
     their first step; `"contact"` delays each so that the tool first touches the box at the
-    same step (an episode that never touches it stays as it is)."""
+    same step (an episode that never touches it stays as it is). With `box_frame` each
+    episode is moved across the table by where its box started from the scenario's nominal
+    box start (the paper's average mixes pushes of boxes up to ±2 cm apart): the average is of
+    pushes of the nominal box, and a replay moves it to its own box (`shifted`)."""
     check_int(episodes, 1, 100_000, "episodes")
     check_seed(seed, "seed", episodes)
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(record, RECORDS, "record")
     policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs, trust_pickle=trust_pickle)
+    p_WB_nominal = initial_box_pose(env.unwrapped.scenario).translation()
     recorded, contacts, successes = [], [], 0
     for ep in range(episodes):
         recorder = _PoseRecorder(env)
         info, _ = run_episode(env, policy, seed + ep, on_step=recorder)
         successes += bool(info["is_success"])
-        recorded.append(np.array(recorder.rows, float))
+        rows = np.array(recorder.rows, float)
+        if box_frame:  # the tip and the gripper positions, where the nominal box is pushed
+            dxy = (recorder.p_WB - p_WB_nominal)[:2]
+            for columns in (slice(0, 2), slice(7, 9), slice(10, 12)):
+                rows[:, columns] -= dxy
+        recorded.append(rows)
         contacts.append(recorder.contact)
     period = env.unwrapped.scenario.control.control_period
     env.close()
@@ -207,14 +230,16 @@ def extract(
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
     record: str = "achieved",
+    box_frame: bool = False,
 ) -> Extraction:
     """The paper's trajectory for transfer: N episodes (aligned by `align`, the commanded or
-    the reached tip poses by `record`, see `record_episodes`), averaged, smoothed, and filtered to the poses reachable under the
-    conservative real-robot limits with `tool_length`. The trajectory's time step is the
+    the reached tip poses by `record`, see `record_episodes`), averaged, smoothed, and
+    filtered to the poses reachable under the conservative real-robot limits with
+    `tool_length`. The trajectory's time step is the
     control period of the env the policy acts in (its scenario's `control.control_period`);
-    `env_kwargs` override the policy's own."""
+    `env_kwargs` override the policy's own; `box_frame`: see `record_episodes`."""
     tips, quats, grippers, successes, period = record_episodes(
-        policy_dir, episodes, seed, env_kwargs, align, trust_pickle, record
+        policy_dir, episodes, seed, env_kwargs, align, trust_pickle, record, box_frame
     )
     mean = average_episodes(tips, quats, period)
     smoothed = smooth(mean, window)

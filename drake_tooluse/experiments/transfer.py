@@ -18,6 +18,12 @@ Both run in one of two modes:
 - `open-loop` (the paper's): a tool-tip trajectory averaged from the policy's episodes in the
   nominal simulation (`experiments.trajectory.extract`), replayed through a TrajectorySource
   and the IK with the measured length (`diagrams.trajectory`), in full, then 1 s to settle.
+  How the trajectory is made (`extraction`): by default `line-contact` — the commanded tip
+  poses of each episode in its box's frame, averaged, the tool tilted per tool so that its
+  shaft pushes (`experiments.line_contact`), and each run's replay moved to its box's start,
+  which the robot measures in reality with its hand camera (`diagrams.box_measurement`; the
+  nominal world's robot knows it); or `paper`, the paper's own: the per-step mean of where the
+  tip got, one trajectory for every tool and run, replayed as it is.
 
 The result has per tool and world the box travel (mean, std, each run) and the final box–goal
 distance, the reality/nominal travel ratio and the two tools' travel difference (the
@@ -40,15 +46,24 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy, run_push
 from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
-from drake_tooluse.experiments.choices import ALIGNMENTS, MODES, RECORDS
+from drake_tooluse.experiments.choices import (
+    ALIGNMENTS,
+    EXTRACTION_RECORDS,
+    EXTRACTIONS,
+    MODES,
+    RECORDS,
+)
+from drake_tooluse.experiments.line_contact import line_contact
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.experiments.trajectory import (
     extract,
     filter_reachable,
     plot_extraction,
+    shifted,
 )
 from drake_tooluse.files import (
     atomic_dir,
@@ -66,6 +81,7 @@ from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
+from drake_tooluse.world.scene import initial_box_pose
 
 WORLDS = ("nominal", "reality")
 MAX_STEPS = 100  # control steps of a closed-loop run (the env's episode)
@@ -84,6 +100,8 @@ class TransferRun:
     push: PushRun | None  # None: the run failed before its push (see `error`)
     draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
     error: str | None = None
+    believed_box_xy: tuple | None = None  # where the replay took the box to start (box frame)
+    box_xy_error: float | None = None  # m, from where it started
 
     @property
     def failed(self) -> bool:
@@ -98,6 +116,14 @@ class TransferRun:
             "tool_length_m": self.tool_length,
             "believed_length_m": self.believed_length,
             "believed_grasp_along_m": self.believed_grasp_along,
+            **(
+                {
+                    "believed_box_xy_m": list(self.believed_box_xy),
+                    "box_xy_error_m": self.box_xy_error,
+                }
+                if self.believed_box_xy is not None
+                else {}
+            ),
             **push,
             "failed": self.failed,
             **({"error": error} if error else {}),
@@ -227,15 +253,19 @@ def run_transfer(
     seed: int = 0,
     nominal_scenario: Scenario | None = None,
     reality_scenario: Scenario | None = None,
-    trajectory: TipTrajectory | None = None,
+    trajectory: TipTrajectory | dict | None = None,
     log=stderr_log,
     use_grasp_estimate: bool = True,
     trust_pickle: bool = False,
+    box_frame: bool = False,
 ) -> dict:
     """The experiment (see the module docstring). `trajectory` is the open-loop one (required
-    in open-loop mode). With `use_grasp_estimate` the robot's model holds the camera's
-    estimate of where the hand holds the tool along it as well as the length; without, the
-    length only (the paper's measurement). `log(text)` receives a line per run.
+    in open-loop mode), or one per tool length ({length: trajectory}); with `box_frame` it is
+    for the nominal box start, and each run's replay is moved to where that run's box starts
+    (in reality as the hand camera measures it). With `use_grasp_estimate` the robot's model
+    holds the camera's estimate of where the hand holds the tool along it as well as the
+    length; without, the length only (the paper's measurement). `log(text)` receives a line
+    per run.
     `trust_pickle` lets `policy_dir` be of the older pickle format."""
     tools = check_transfer_args(tools, runs, mode, seed)
     policy = load_policy(policy_dir, trust_pickle=trust_pickle)
@@ -248,11 +278,16 @@ def run_transfer(
     nominal_scenario = nominal_scenario or load_scenario(DEFAULT_SCENARIO)
     reality_scenario = reality_scenario or load_scenario(REALITY_SCENARIO)
     check_same_task(nominal_scenario, reality_scenario)
+    if isinstance(trajectory, dict) and not set(tools) <= set(trajectory):
+        missing = sorted(set(tools) - set(trajectory))
+        raise ValueError(f"no trajectory for the tool length(s) {missing} m")
+    p_WB_nominal = initial_box_pose(nominal_scenario).translation()
     start = time.perf_counter()
     per_tool = []
     for tool in tools:
         results = {w: [] for w in WORLDS}
         measured, grasp_errors = [], []
+        tool_trajectory = trajectory.get(tool) if isinstance(trajectory, dict) else trajectory
         for i in range(runs):
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
@@ -265,24 +300,36 @@ def run_transfer(
                 believed, measurement = measurement
                 measured.append(measurement.length)
                 grasp_errors.append(believed.grasp_offset[1] - reality.tool.grasp_offset_along)
-            # The nominal world's robot knows its true tool, grasp included.
+            # The nominal world's robot knows its true tool, grasp included, and its box.
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
+            box_xy = {"nominal": initial_box_pose(nominal).translation()[:2]}
+            if mode == "open-loop" and box_frame and believed is not None:
+                box, box_error = _attempt(measure_box_start, reality, believed)
+                if box is None:
+                    believed, measure_error = None, f"box: {box_error}"
+                else:
+                    box_xy["reality"] = box.p_WB_xy
             for world, scenario, belief in (
                 ("nominal", nominal, knows),
                 ("reality", reality, believed),
             ):
+                replay = tool_trajectory
+                if mode == "open-loop" and box_frame and belief is not None:
+                    replay = shifted(tool_trajectory, box_xy[world] - p_WB_nominal[:2])
                 if belief is None:
                     push, error = None, f"measurement failed: {measure_error}"
                 elif mode == "closed-loop":
                     push, error = _attempt(run_closed_loop, scenario, policy, belief)
                 else:
-                    push, error = _attempt(run_open_loop, scenario, trajectory, belief)
+                    push, error = _attempt(run_open_loop, scenario, replay, belief)
                 # The nominal world takes only the box's start from the draw.
                 perturbation = (
                     dc.asdict(draw)
                     if world == "reality"
                     else {"box_dxy": draw.box_dxy, "box_dyaw": draw.box_dyaw}
                 )
+                believed_box = box_xy.get(world) if box_frame and belief is not None else None
+                truth = initial_box_pose(scenario).translation()[:2]
                 results[world].append(
                     TransferRun(
                         world,
@@ -293,6 +340,10 @@ def run_transfer(
                         push,
                         perturbation,
                         error,
+                        None if believed_box is None else tuple(map(float, believed_box)),
+                        None
+                        if believed_box is None
+                        else float(np.linalg.norm(believed_box - truth)),
                     )
                 )
             n, r = results["nominal"][-1], results["reality"][-1]
@@ -345,6 +396,7 @@ def run_transfer(
         "runs": runs,
         "seed": seed,
         "use_grasp_estimate": use_grasp_estimate,
+        "box_frame": box_frame,
         "tools": per_tool,
         "goals": goals,
         "failed_runs": sum(t[w]["failed_runs"] for t in per_tool for w in WORLDS),
@@ -444,29 +496,35 @@ def transfer_experiment(
     use_grasp_estimate: bool = True,
     log=stderr_log,
     trust_pickle: bool = False,
-    record: str = "achieved",
+    record: str | None = None,
+    extraction: str = "line-contact",
 ) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
-    loop, the trajectory (`trajectory_path`, or extracted from the policy's `episodes`
-    episodes in the nominal simulation, aligned by `align`, of the tip poses each step
-    commanded or reached (`record`), and kept to the poses every tool
-    reaches under the conservative limits). Everything is written into a staging directory
-    that becomes `out` only when complete. Every path in the result is absolute (as the demo's
-    metrics.json). Returns the result."""
+    loop, the trajectory: `trajectory_path`, replayed as it is, or made of the policy's
+    `episodes` episodes in the nominal simulation, aligned by `align`, of the tip poses each
+    step commanded or reached (`record`; default the extraction's own, EXTRACTION_RECORDS),
+    the way `extraction` says (see the module docstring): `line-contact`, one trajectory per
+    tool (`trajectory-<mm>mm.npz`), or `paper`, one kept to the poses every tool reaches
+    under the conservative limits (`trajectory.npz`). Everything is written into a staging
+    directory that becomes `out` only when complete. Every path in the result is absolute (as
+    the demo's metrics.json). Returns the result."""
     tools = check_transfer_args(tools, runs, mode, seed)
     check_one_of(align, ALIGNMENTS, "align")
+    check_one_of(extraction, EXTRACTIONS, "extraction")
+    record = EXTRACTION_RECORDS[extraction] if record is None else record
     check_one_of(record, RECORDS, "record")
     out = check_output_dir(out, "the transfer's directory")
     check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))  # before any work
     nominal = load_scenario(nominal_path)
     reality = load_scenario(reality_path)
+    box_frame = mode == "open-loop" and trajectory_path is None and extraction == "line-contact"
     with atomic_dir(out) as work:
-        trajectory, extraction = None, None
+        trajectory, made = None, None
         if mode == "open-loop" and trajectory_path is not None:
             trajectory = TipTrajectory.load(trajectory_path)
-            extraction = {"file": str(Path(trajectory_path).absolute()), "poses": len(trajectory)}
+            made = {"file": str(Path(trajectory_path).absolute()), "poses": len(trajectory)}
         elif mode == "open-loop":
-            log(f"extracting the trajectory from {episodes} episodes …")
+            log(f"extracting the {extraction} trajectory from {episodes} episodes …")
             ex = extract(
                 policy_dir,
                 episodes=episodes,
@@ -475,23 +533,31 @@ def transfer_experiment(
                 align=align,
                 trust_pickle=trust_pickle,
                 record=record,
+                box_frame=box_frame,
             )
-            trajectory, reachable = ex.reachability.kept, {tools[0]: ex.reachability.reachable}
-            for tool in tools[1:]:
-                report = filter_reachable(trajectory, tool)
-                trajectory, reachable[tool] = report.kept, report.reachable
-            trajectory.save(work / "trajectory.npz")
             plot_extraction(ex, work / "trajectory.png")
-            extraction = {
+            made = {
+                "extraction": extraction,
                 "episodes": episodes,
                 "align": align,
                 "record": record,
                 "successes": ex.successes,
                 "poses": ex.reachability.poses,
-                "reachable_by_tool": {f"{t:g}": n for t, n in reachable.items()},
-                "kept": len(trajectory),
-                "file": str(out.absolute() / "trajectory.npz"),
             }
+            if box_frame:
+                trajectory, made["by_tool"] = _line_contact_trajectories(
+                    ex.smoothed, tools, nominal, work, out, log
+                )
+            else:
+                trajectory = ex.reachability.kept
+                reachable = {tools[0]: ex.reachability.reachable}
+                for tool in tools[1:]:
+                    report = filter_reachable(trajectory, tool)
+                    trajectory, reachable[tool] = report.kept, report.reachable
+                trajectory.save(work / "trajectory.npz")
+                made["reachable_by_tool"] = {f"{t:g}": n for t, n in reachable.items()}
+                made["kept"] = len(trajectory)
+                made["file"] = str(out.absolute() / "trajectory.npz")
         result = run_transfer(
             policy_dir,
             tools,
@@ -504,16 +570,50 @@ def transfer_experiment(
             log=log,
             use_grasp_estimate=use_grasp_estimate,
             trust_pickle=trust_pickle,
+            box_frame=box_frame,
         )
         result["nominal_scenario"] = str(Path(nominal_path).absolute())
         result["reality_scenario"] = str(Path(reality_path).absolute())
-        if extraction is not None:
-            result["trajectory"] = extraction
+        if made is not None:
+            result["trajectory"] = made
         plot_transfer(result, work / "transfer_boxplot.png")
         result["figure"] = str(out.absolute() / "transfer_boxplot.png")
         result["json"] = str(out.absolute() / "transfer.json")
         atomic_write_json(work / "transfer.json", result)
     return result
+
+
+def trajectory_file_name(tool: float) -> str:
+    return f"trajectory-{tool * 1000:g}mm.npz"
+
+
+def _line_contact_trajectories(base: TipTrajectory, tools, nominal: Scenario, work, out, log):
+    """Each tool's line-contact trajectory of `base` (for the nominal box start), written to
+    `work`: ({length: trajectory}, {"<length>": how it was chosen, its file})."""
+    p_WB = initial_box_pose(nominal).translation()
+    trajectories, chosen = {}, {}
+    for tool in tools:
+        contact = line_contact(
+            base,
+            tool,
+            nominal.goal_offset,
+            p_WB,
+            nominal.randomization.box_xy,
+            nominal.box.size[1] / 2,
+        )
+        trajectories[tool] = contact.trajectory
+        contact.trajectory.save(work / trajectory_file_name(tool))
+        chosen[f"{tool:g}"] = {
+            **contact.as_dict(),
+            "kept": len(contact.trajectory),
+            "file": str(out.absolute() / trajectory_file_name(tool)),
+        }
+        log(
+            f"tool {tool:.3f} m: tilt {contact.tilt_deg} deg, "
+            + ("followed" if contact.followed else "NOT followed")
+            + f" for every box start (worst joint step {contact.worst_joint_step:.2f} rad)"
+        )
+    return trajectories, chosen
 
 
 def format_transfer(out: dict) -> str:
@@ -534,9 +634,29 @@ def format_transfer(out: dict) -> str:
             return cm(mean)
         return f"{mean * 100:.1f} ± {std * 100:.1f} cm"
 
+    by_tool = out.get("trajectory", {}).get("by_tool")
+    if by_tool:
+        errors = [
+            x["box_xy_error_m"]
+            for t in out["tools"]
+            for x in t["reality"]["per_run"]
+            if x.get("box_xy_error_m") is not None
+        ]
+        lines.append(
+            "  the trajectory: line contact (the commanded tip poses in each box's frame, "
+            "replayed at each run's box start"
+            + (f"; the hand camera's within {max(errors) * 1000:.1f} mm)" if errors else ")")
+        )
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
         done = {w: sum(not x["failed"] for x in t[w]["per_run"]) for w in ("nominal", "reality")}
+        contact = (by_tool or {}).get(f"{t['tool_length_m']:g}")
+        tilt = (
+            f", tool tilted {contact['tilt_deg']} deg"
+            + ("" if contact["followed"] else " (the IK jumps on it: no tilt is followed)")
+            if contact
+            else ""
+        )
         if t["measured_length_mean_m"] is None:
             measured = "not measured"
         else:
@@ -549,7 +669,7 @@ def format_transfer(out: dict) -> str:
             f"  tool {t['tool_length_m'] * 1000:.0f} mm (camera {measured}): box travel nominal "
             f"{spread(n['box_travel_mean_m'], n['box_travel_std_m'], done['nominal'])}, reality "
             f"{spread(r['box_travel_mean_m'], r['box_travel_std_m'], done['reality'])} "
-            f"({ratio} of nominal)"
+            f"({ratio} of nominal){tilt}"
             + (f"; {failed} run(s) failed (see per_run errors)" if failed else "")
         )
         lines.append(

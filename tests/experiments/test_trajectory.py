@@ -238,3 +238,24 @@ def test_the_commanded_trajectory_replays_the_push_the_achieved_one_lags():
         n = len(tip_path)
         errors[name] = np.linalg.norm(run.tip_path[:n] - tip_path, axis=1).max()
     assert errors["commanded"] < 0.008 < 0.015 < errors["achieved"], errors
+
+
+def test_box_frame_recording_moves_each_episode_by_where_its_box_started():
+    """With `box_frame` each episode is the push of the nominal box: every row of an episode is
+    moved across the table by one offset, its box's from the nominal start (within the
+    scenario's randomization), and nothing else changes."""
+    from drake_tooluse.experiments.trajectory import record_episodes
+    from drake_tooluse.paths import DEFAULT_SCENARIO, TRANSFER_POLICY
+    from drake_tooluse.world.scenario import load_scenario
+
+    world = record_episodes(TRANSFER_POLICY, 2, 5)
+    box = record_episodes(TRANSFER_POLICY, 2, 5, box_frame=True)
+    np.testing.assert_array_equal(world[1], box[1])  # orientations are not moved
+    np.testing.assert_array_equal(world[0][:, :, 2], box[0][:, :, 2])  # nor heights
+    moved = (world[0] - box[0])[:, :, :2]
+    np.testing.assert_allclose(moved, np.broadcast_to(moved[:, :1], moved.shape), atol=1e-12)
+    np.testing.assert_allclose((world[2] - box[2])[:, :, :2], moved, atol=1e-12)  # gripper too
+    offsets = moved[:, 0]
+    assert not np.allclose(offsets[0], offsets[1])  # each episode its own box
+    box_xy = load_scenario(DEFAULT_SCENARIO).randomization.box_xy
+    assert 1e-3 < np.abs(offsets).max() <= box_xy + 1e-9

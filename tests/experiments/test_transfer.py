@@ -10,7 +10,7 @@ import pytest
 
 from drake_tooluse.cli import main
 from drake_tooluse.experiments.transfer import run_transfer, run_worlds
-from drake_tooluse.paths import SCENARIOS_DIR, SHIPPED_POLICY
+from drake_tooluse.paths import SCENARIOS_DIR, SHIPPED_POLICY, TRANSFER_POLICY
 from drake_tooluse.systems.tip_trajectory import TipTrajectory, tip_trajectory_source
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
@@ -151,6 +151,10 @@ def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
         (["--mode", "sideways"], r"--mode: unknown mode 'sideways'; choose one of \['closed-loop'"),
         (["--tools", "0.7"], r"0.7.*\(0, 0.6\]"),
         (["--runs", "0"], r"--runs=0 is outside the allowed range \[1, 10000\]"),
+        (
+            ["--mode", "open-loop", "--extraction", "median"],
+            r"--extraction: unknown extraction 'median'; choose one of \['line-contact', 'paper'\]",
+        ),
     ],
 )
 def test_transfer_bad_input(argv, match, capsys, tmp_path):
@@ -327,3 +331,38 @@ def test_transfer_plot_draws_points_for_few_runs_and_tells_the_tools_apart(runs)
     assert labels == ["tool 15.0 cm ●", "tool 30.0 cm ■"]
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["nominal simulation", "reality"]
     assert ("1 run per tool" if runs == 1 else f"{runs} runs per tool") in ax.get_title()
+
+
+def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_tool(tmp_path):
+    """The default open-loop transfer: the trajectory made of the episodes in their boxes'
+    frame, one per tool (tilted as `experiments.line_contact` chose), each run's replay moved
+    to its box's start: in reality as the hand camera measured it, in the nominal world the
+    truth. Two episodes and one run per tool stand in for the experiment."""
+    from drake_tooluse.experiments.transfer import format_transfer, transfer_experiment
+
+    out = tmp_path / "t"
+    result = transfer_experiment(
+        out, TRANSFER_POLICY, tools=[0.15], runs=1,
+        mode="open-loop", episodes=2, log=lambda text: None,
+    )  # fmt: skip
+    assert result["box_frame"]
+    made = result["trajectory"]
+    assert made["extraction"] == "line-contact" and made["record"] == "commanded"
+    for tool in result["tools"]:
+        chosen = made["by_tool"][f"{tool['tool_length_m']:g}"]
+        assert chosen["followed"] and chosen["tilt_deg"] > 0
+        replayed = TipTrajectory.load(chosen["file"])
+        assert len(replayed) == chosen["kept"] == chosen["poses"]
+        reality, nominal = tool["reality"]["per_run"][0], tool["nominal"]["per_run"][0]
+        assert reality["box_xy_error_m"] < 0.002  # the hand camera's estimate
+        assert nominal["box_xy_error_m"] == 0.0  # the nominal robot knows its box
+        assert not reality["failed"] and not nominal["failed"]
+    assert "line contact" in format_transfer(result) and "tool tilted" in format_transfer(result)
+    # The paper's own: one trajectory for every tool, replayed as it is, of where the tip got.
+    paper = transfer_experiment(
+        tmp_path / "p", TRANSFER_POLICY, tools=[0.15], runs=1, mode="open-loop", episodes=1,
+        extraction="paper", log=lambda text: None,
+    )  # fmt: skip
+    assert not paper["box_frame"] and paper["trajectory"]["record"] == "achieved"
+    assert "box_xy_error_m" not in paper["tools"][0]["reality"]["per_run"][0]
+    assert (tmp_path / "p" / "trajectory.npz").is_file()

@@ -1,0 +1,103 @@
+"""The line-contact trajectory (`experiments.line_contact`): the tool is turned about the push
+direction, about the point of its axis at the box's mid-height, the tip leaning away from the
+robot, ramped in from the recorded start; the push is centred on the box; the tilt is the first
+that the IK follows from every box start."""
+
+import numpy as np
+import pytest
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RollPitchYaw, RotationMatrix
+
+from drake_tooluse.experiments import line_contact as variants
+from drake_tooluse.robot.model import TOOL_DOWN_RPY
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
+
+Q_DOWN = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
+P_WBOX = np.array([0.7, -0.25, -0.18])  # the nominal box centre (push.yaml)
+
+
+def _axis(q) -> np.ndarray:
+    return RotationMatrix(Quaternion(q)).matrix()[:, 2]
+
+
+@pytest.mark.parametrize("push", [(0.0, 0.2), (0.0, -0.2), (1.0, 1.0), (-1.0, 0.5)])
+def test_the_tool_turns_about_its_point_at_the_box_mid_height_leaning_away_from_the_robot(push):
+    T = variants.RAMP_STEPS + 5
+    p_WBox = np.array([0.7, -0.25, -0.18])
+    positions = np.column_stack(
+        [np.full(T, 0.7), np.linspace(-0.3, -0.1, T), np.linspace(-0.1, -0.195, T)]
+    )
+    q_down = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
+    traj = TipTrajectory(np.arange(T) * 0.04, positions, np.tile(q_down, (T, 1)))
+    angle = np.radians(45)
+    u = np.array([*push, 0.0]) / np.linalg.norm(push)
+    out = variants.tilted(traj, angle, [*push, 0.0], p_WBox)
+
+    np.testing.assert_allclose(out.positions[0], positions[0])  # the start is the recorded one
+    np.testing.assert_allclose(out.quaternions[0], q_down, atol=1e-12)
+    for k in range(T):
+        axis_before, axis_after = _axis(q_down), _axis(out.quaternions[k])
+        expected = angle * min(1.0, k / variants.RAMP_STEPS)
+        assert np.isclose(np.arccos(np.clip(axis_before @ axis_after, -1, 1)), expected)
+        assert abs(axis_after @ u) < 1e-12  # turned about the push direction only
+        if k:
+            assert axis_after[:2] @ p_WBox[:2] > 0  # the tip leans away from the base
+        # the point of the tool's axis at the box's mid-height stays where it was
+        pivot_before = positions[k] + (p_WBox[2] - positions[k][2]) / axis_before[2] * axis_before
+        pivot_after = (
+            out.positions[k] + (p_WBox[2] - out.positions[k][2]) / axis_after[2] * axis_after
+        )
+        np.testing.assert_allclose(pivot_after, pivot_before, atol=1e-12)
+
+
+def test_a_push_towards_the_robot_has_no_side_to_lean_to():
+    traj = TipTrajectory(
+        [0.0], [[0.7, -0.25, -0.1]], [RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()]
+    )
+    with pytest.raises(ValueError, match="towards or away from the robot"):
+        variants.tilted(traj, 0.7, [-0.7, 0.25, 0.0], np.array([0.7, -0.25, -0.18]))
+
+
+def _push(across: float = 0.0, T: int = 40) -> TipTrajectory:
+    """A push along +y like a policy's: down in front of the box, then 17 cm through it,
+    `across` (m) to the +x side of its centre line."""
+    approach = np.linspace([-0.06, -0.07, 0.06], [across, -0.03, -0.013], 12)
+    push = np.linspace([across, -0.03, -0.013], [across, 0.17, -0.013], T - 12)
+    positions = P_WBOX + np.vstack([approach, push])
+    return TipTrajectory(np.arange(T) * 0.04, positions, np.tile(Q_DOWN, (T, 1)))
+
+
+def test_centring_puts_the_push_on_the_box_centre_line():
+    out = variants.centred(_push(across=0.005), [0.0, 0.2, 0.0], P_WBOX, 0.02)
+    np.testing.assert_allclose(out.positions[12:, 0], P_WBOX[0], atol=1e-12)
+    np.testing.assert_allclose(out.positions[:, 1:], _push().positions[:, 1:])  # across only
+    never = TipTrajectory([0.0, 0.04], P_WBOX + [[0, -0.2, 0.1]] * 2, [Q_DOWN] * 2)
+    with pytest.raises(ValueError, match="never pushes the box"):
+        variants.centred(never, [0.0, 0.2, 0.0], P_WBOX, 0.02)
+
+
+def test_the_box_starts_checked_are_the_nominal_then_the_square_around_it():
+    shifts = variants.box_start_shifts(0.02)
+    assert shifts[0] == (0.0, 0.0) and len(set(shifts)) == 9
+    assert {abs(v) for s in shifts for v in s} == {0.0, 0.02}
+    assert variants.box_start_shifts(0.0) == [(0.0, 0.0)]
+
+
+def test_line_contact_takes_the_first_tilt_the_ik_follows_from_every_box_start():
+    contact = variants.line_contact(_push(0.004), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, 0.02)
+    assert contact.followed and contact.tilt_deg == variants.TILTS_DEG[0]
+    assert contact.reachable == contact.poses == len(contact.trajectory) == 40
+    assert contact.worst_joint_step <= variants.MAX_JOINT_STEP
+    tilt = np.degrees(np.arccos(-_axis(contact.trajectory.quaternions[-1])[2]))
+    assert tilt == pytest.approx(contact.tilt_deg)
+    # Centred, then tilted about the axis point at the box's mid-height: that point of every
+    # pushing pose is on the box's centre line.
+    for p_WT, q in zip(contact.trajectory.positions[12:], contact.trajectory.quaternions[12:]):
+        axis = _axis(q)
+        pivot = p_WT + (P_WBOX[2] - p_WT[2]) / axis[2] * axis
+        assert pivot[0] == pytest.approx(P_WBOX[0], abs=1e-9)
+    # A tilt the IK cannot follow (the tool lying flat) is reported, not hidden.
+    flat = variants.line_contact(
+        _push(), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, 0.02, tilts_deg=(85,)
+    )
+    assert not flat.followed and flat.tilt_deg == 85
