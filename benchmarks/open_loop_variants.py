@@ -55,7 +55,7 @@ from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
     centred,
     joints_at_limit,
-    line_contact,
+    line_contact_for_task,
 )
 from drake_tooluse.experiments.trajectory import (
     average_episodes,
@@ -219,7 +219,7 @@ def study(args) -> None:
             worlds[tool, i] = (nominal, reality, believed, box_xy)
     print(f"box start measured within {max(box_errors) * 1000:.1f} mm", flush=True)
     push_direction = np.asarray(nominal_s.goal_offset, float)
-    box_range, half_size = nominal_s.randomization.box_xy, nominal_s.box.size[1] / 2
+    half_size = nominal_s.box.size[1] / 2
     # (variant, the tilts its line contact may take: None for the variant's own, an offset
     # across the push in m)
     specs = [(v, None, 0.0) for v in args.variants]
@@ -234,15 +234,7 @@ def study(args) -> None:
             base = centred(base, push_direction, nominal_box, half_size)
         for tool in args.tools:
             if v.line_contact:
-                contact = line_contact(
-                    base,
-                    tool,
-                    push_direction,
-                    nominal_box,
-                    box_range,
-                    half_size,
-                    tilts or TILTS_DEG,
-                )
+                contact = line_contact_for_task(base, tool, nominal_s, tilts or TILTS_DEG)
                 kept, tilt_deg, followed = contact.trajectory, contact.tilt_deg, contact.followed
                 kept = shifted(kept, offset * left) if offset else kept
                 at_limit = contact.joints_at_limit

@@ -23,15 +23,21 @@ MAX_EPISODES = 100_000
 
 def cmd_trajectory(args) -> dict:
     length = tool_length_arg(args.tool_length)
+    choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.record is not None:
+        choice_arg(args.record, RECORDS, "--record", "recording")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
+    from drake_tooluse.experiments.choices import EXTRACTION_RECORDS
+    from drake_tooluse.experiments.line_contact import line_contact_for_task
     from drake_tooluse.experiments.trajectory import extract, save_extraction
+    from drake_tooluse.world.scenario import load_scenario
 
     start = time.perf_counter()
+    line = args.extraction == "line-contact"
     ex = extract(
         args.policy,
         args.episodes,
@@ -40,17 +46,23 @@ def cmd_trajectory(args) -> dict:
         length,
         align=args.align,
         trust_pickle=args.trust_pickle,
-        record=args.record,
+        record=args.record or EXTRACTION_RECORDS[args.extraction],
+        box_frame=line,
     )
-    path, figure = save_extraction(ex, args.out)
+    contact = (
+        line_contact_for_task(ex.smoothed, length, load_scenario(args.scenario)) if line else None
+    )
+    path, figure = save_extraction(ex, args.out, None if contact is None else contact.trajectory)
     r = ex.reachability
     return {
+        "extraction": args.extraction,
         "episodes": args.episodes,
         "successes": ex.successes,
         "steps": r.poses,
         "reachable_before_filter": r.poses,
-        "reachable_after_filter": r.reachable,
-        "dropped_steps": r.dropped_indices,
+        "reachable_after_filter": r.reachable if contact is None else contact.reachable,
+        "dropped_steps": r.dropped_indices if contact is None else [],
+        **({} if contact is None else {"line_contact": contact.as_dict()}),
         "trajectory": str(path),
         "figure": str(figure),
         "wall_time_s": time.perf_counter() - start,
@@ -59,10 +71,19 @@ def cmd_trajectory(args) -> dict:
 
 def format_trajectory(out: dict) -> str:
     dropped = len(out["dropped_steps"])
+    contact = out.get("line_contact")
+    how = (
+        f"; line contact, the tool tilted {contact['tilt_deg']} deg"
+        + ("" if contact["followed"] else " (the IK jumps on it from some box starts)")
+        + ", for the nominal box start"
+        if contact
+        else ""
+    )
     return (
         f"{out['episodes']} episodes ({out['successes']} reached the goal) averaged into "
         f"{out['steps']} tip poses, {out['reachable_after_filter']} kept"
         + (f" ({dropped} unreachable dropped)" if dropped else "")
+        + how
         + f": {out['trajectory']}, {out['figure']} ({out['wall_time_s']:.0f} s)"
     )
 
@@ -192,6 +213,14 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the first episode (then +1 each)")
     p.add_argument("--window", type=int, default=5, help="smoothing window (odd, steps)")
     p.add_argument(
+        "--extraction",
+        default="line-contact",
+        help="'line-contact' (the episodes in their boxes' frame, the push centred on the box, "
+        "the tool tilted so that its shaft pushes: for the scenario's nominal box start, as "
+        "`transfer --mode open-loop` replays it) or 'paper' (the per-step mean of where the "
+        "tip got)",
+    )
+    p.add_argument(
         "--align",
         default="start",
         help="'start' (the paper's: step by step from the start) or 'contact' "
@@ -199,9 +228,15 @@ def add_parsers(sub) -> None:
     )
     p.add_argument(
         "--record",
-        default="achieved",
         help="'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm)",
+        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
+    )
+    p.add_argument(
+        "--scenario",
+        type=Path,
+        default=DEFAULT_SCENARIO,
+        help="line contact: the scenario whose push (box, goal) the trajectory is made for "
+        "(default: %(default)s, the policy's)",
     )
     p.add_argument(
         "--tool-length",

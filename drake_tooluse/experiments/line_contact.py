@@ -40,6 +40,8 @@ from drake_tooluse.robot.baxter_model import (
     RIGHT_ARM_JOINTS,
 )
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.world.scene import initial_box_pose
 
 TILTS_DEG = (30, 25, 20, 15, 10)  # tried in this order
 RAMP_STEPS = 10  # the recorded tip first meets the box ~12-16 steps in
@@ -193,3 +195,19 @@ def line_contact(
             f"no tilt of {tuple(tilts_deg)} degrees is reachable with the {tool} m tool"
         )
     return best[1]
+
+
+def line_contact_for_task(
+    base: TipTrajectory, tool: float, scenario: Scenario, tilts_deg=TILTS_DEG
+) -> LineContact:
+    """`line_contact` for the push task of `scenario`: its push direction (the goal's offset),
+    nominal box start, the randomization of that start and the box's size along the push."""
+    return line_contact(
+        base,
+        tool,
+        scenario.goal_offset,
+        initial_box_pose(scenario).translation(),
+        scenario.randomization.box_xy,
+        scenario.box.size[1] / 2,
+        tilts_deg,
+    )

@@ -247,13 +247,16 @@ def extract(
     return Extraction(tips, quats, grippers, mean, smoothed, report, successes)
 
 
-def save_extraction(extraction: Extraction, out) -> tuple[Path, Path]:
-    """The kept trajectory (`trajectory.npz`) and its figure (`trajectory.png`) written to the
-    new directory `out` (absent or empty: a result directory is never overwritten), which
-    appears complete or not at all. Returns the two paths."""
+def save_extraction(extraction: Extraction, out, trajectory=None) -> tuple[Path, Path]:
+    """The kept trajectory (or `trajectory`, one made of it) as `trajectory.npz` and the
+    extraction's figure (`trajectory.png`) written to the new directory `out` (absent or empty:
+    a result directory is never overwritten), which appears complete or not at all. Returns the
+    two paths."""
     out = Path(out)
     with atomic_dir(out) as work:
-        extraction.reachability.kept.save(work / "trajectory.npz")
+        (extraction.reachability.kept if trajectory is None else trajectory).save(
+            work / "trajectory.npz"
+        )
         plot_extraction(extraction, work / "trajectory.png")
     return out / "trajectory.npz", out / "trajectory.png"
 

@@ -57,7 +57,7 @@ from drake_tooluse.experiments.choices import (
     MODES,
     RECORDS,
 )
-from drake_tooluse.experiments.line_contact import line_contact
+from drake_tooluse.experiments.line_contact import line_contact_for_task
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.experiments.trajectory import (
     extract,
@@ -590,17 +590,9 @@ def trajectory_file_name(tool: float) -> str:
 def _line_contact_trajectories(base: TipTrajectory, tools, nominal: Scenario, work, out, log):
     """Each tool's line-contact trajectory of `base` (for the nominal box start), written to
     `work`: ({length: trajectory}, {"<length>": how it was chosen, its file})."""
-    p_WB = initial_box_pose(nominal).translation()
     trajectories, chosen = {}, {}
     for tool in tools:
-        contact = line_contact(
-            base,
-            tool,
-            nominal.goal_offset,
-            p_WB,
-            nominal.randomization.box_xy,
-            nominal.box.size[1] / 2,
-        )
+        contact = line_contact_for_task(base, tool, nominal)
         trajectories[tool] = contact.trajectory
         contact.trajectory.save(work / trajectory_file_name(tool))
         chosen[f"{tool:g}"] = {

@@ -150,3 +150,34 @@ def test_measure_box_json(capsys):
     data = json.loads(out)
     assert data["error_m"] < 0.002
     assert data["top_face_points"] > 100
+
+
+def test_trajectory_line_contact_and_paper(capsys, tmp_path):
+    """`trajectory` makes what `transfer --mode open-loop` replays: by default the line-contact
+    trajectory for the nominal box start (the tool tilted: its axis leaves the vertical), or
+    with `--extraction paper` the paper's (the tool as recorded, pointing down)."""
+    import numpy as np
+    from pydrake.common.eigen_geometry import Quaternion
+    from pydrake.math import RotationMatrix
+
+    from drake_tooluse.paths import TRANSFER_POLICY
+    from drake_tooluse.systems.tip_trajectory import TipTrajectory
+
+    tilts, made = {}, {}
+    for extraction in ("line-contact", "paper"):
+        out = tmp_path / extraction
+        code, text, err = run(
+            capsys, "trajectory", "--policy", str(TRANSFER_POLICY), "--episodes", "2",
+            "--tool-length", "0.15", "--extraction", extraction, "--out", str(out), "--json",
+        )  # fmt: skip
+        assert code == 0, err
+        made[extraction] = data = json.loads(text)
+        assert data["extraction"] == extraction
+        last = TipTrajectory.load(out / "trajectory.npz").quaternions[-1]
+        axis = RotationMatrix(Quaternion(last / np.linalg.norm(last))).matrix()[:, 2]
+        tilts[extraction] = np.degrees(np.arccos(-axis[2]))
+    assert (
+        made["line-contact"]["line_contact"]["tilt_deg"] == 30
+        and "line_contact" not in made["paper"]
+    )
+    assert abs(tilts["line-contact"] - 30) < 1 and tilts["paper"] < 5, tilts
