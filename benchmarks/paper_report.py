@@ -234,17 +234,26 @@ def _curve(run: Path):
 
 def plot_band(ax, runs_dir: Path, cell: str, seeds, label: str, color: str, offset: float = 0.0):
     """The finished seeds' mean training reward and their range (the band), on a common
-    grid."""
+    grid; whether there was a curve to draw."""
     curves = [_curve(run_dir(runs_dir, cell, s)) for s in seeds]
     curves = [c for c in curves if c is not None and len(c[0]) > 1]
     if not curves:
-        return
+        return False
     end = min(c[0][-1] for c in curves)
     grid = np.linspace(max(c[0][0] for c in curves), end, 200)
     ys = np.array([np.interp(grid, t, r) for t, r in curves])
     x = (grid + offset) / 1e6
-    ax.plot(x, ys.mean(axis=0), color=color, label=f"{label} ({len(curves)} seeds)")
+    seeds = f"{len(curves)} seed{'s' if len(curves) > 1 else ''}"
+    ax.plot(x, ys.mean(axis=0), color=color, label=f"{label} ({seeds})")
     ax.fill_between(x, ys.min(axis=0), ys.max(axis=0), color=color, alpha=0.2)
+    return True
+
+
+def _no_curve(results: dict, cell: str) -> str:
+    """Why a panel is empty: the cell has not run, or its runs' curves were lost."""
+    if not finished(results, cell):
+        return "not run yet"
+    return "evaluated (see the table), but the\ncurves were lost; they train again"
 
 
 def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | None:
@@ -264,7 +273,7 @@ def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | No
         if ax.lines:
             ax.legend(fontsize=8, loc="lower right")
         else:
-            ax.text(0.5, 0.5, "not run yet", ha="center", transform=ax.transAxes)
+            ax.text(0.5, 0.5, _no_curve(results, cell), ha="center", transform=ax.transAxes)
     fig.suptitle("Env1 (ToolPush-v0): mean over seeds, band = the seeds' range", fontsize=10)
     fig.tight_layout()
     return atomic_write_figure(path, fig)
@@ -276,11 +285,15 @@ def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str,
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
     fig, ax = plt.subplots(figsize=(6.5, 4))
+    missing = []
     for cell, label, color, offset in pairs:
-        plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset)
+        if not plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset):
+            missing.append(f"{label}: {_no_curve(results, cell)}".replace("\n", " "))
     ax.set_xlabel("env steps (millions)")
     ax.set_ylabel("training episode reward")
     ax.grid(alpha=0.3)
+    if missing:
+        ax.text(0.5, 0.5, "\n".join(missing), ha="center", fontsize=8, transform=ax.transAxes)
     if ax.lines:
         ax.legend(fontsize=8, loc="lower right")
     ax.set_title(title, fontsize=9)
