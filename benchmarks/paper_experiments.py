@@ -211,20 +211,22 @@ def restore_runs(runs_dir: Path, archive: Path) -> list[Path]:
     return restored
 
 
-def train_and_archive(cmd: list[str], out: Path, archived: Path, on_archive) -> tuple:
+def train_and_archive(
+    cmd: list[str], out: Path, archived: Path, on_archive
+) -> subprocess.CompletedProcess:
     """Runs the training command, archiving the run every ARCHIVE_EVERY while it trains
-    (`on_archive()` after each) and once when it ends: (exit code, stderr)."""
+    (`on_archive()` after each) and once when it ends; what it printed and its exit code."""
     job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     while True:
         try:
-            _, stderr = job.communicate(timeout=ARCHIVE_EVERY)
+            stdout, stderr = job.communicate(timeout=ARCHIVE_EVERY)
             break
         except subprocess.TimeoutExpired:  # still training: no output is lost by waiting again
             if archive_run(out, archived):
                 on_archive()
     if (out / "config.json").is_file() and archive_run(out, archived):
         on_archive()
-    return job.returncode, stderr
+    return subprocess.CompletedProcess(cmd, job.returncode, stdout, stderr)
 
 
 def settings_differ(out: Path, cell: str, seed: int) -> str | None:
@@ -270,9 +272,9 @@ def run_one(
     if not trained(out, c["timesteps"]):
         cmd = train_command(cell, seed, runs_dir, resume=(out / "config.json").is_file())
         print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
-        code, stderr = train_and_archive(cmd, out, run_dir(archive, cell, seed), on_archive)
-        if code != 0:
-            error = (stderr.strip().splitlines() or [f"exit code {code}"])[-1]
+        done = train_and_archive(cmd, out, run_dir(archive, cell, seed), on_archive)
+        if done.returncode != 0:
+            error = _last_line(done)
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
     elif not run_dir(archive, cell, seed).is_dir() and archive_run(
