@@ -16,7 +16,9 @@ its latest checkpoint too, unless a replay buffer makes it over ARCHIVE_MAX_CHEC
 starts over on a new machine) and, with `--commit`, committed; a new checkout restores them
 into the run directories before anything runs. A run evaluated in the results whose files are
 in neither place (trained before the archive existed) is trained again after every run still
-missing, so that its curve and policy exist for the figures and the runs that start from it.
+missing (but right before a missing fine-tuning that starts from it), so that its curve and
+policy exist for the figures and the runs that start from it; if that retraining fails, its
+evaluation stays (with the error) and the next job tries again.
 Results are written atomically to docs/results/paper_study.json after every run; with
 `--commit` each is also committed (that file, and the run's archive). After each run that
 finished in this job the report is regenerated (`python benchmarks/paper_report.py`:
@@ -41,6 +43,7 @@ Cells, cheapest evidence first (the order they run in):
 
 import argparse
 import json
+import re
 import shlex
 import shutil
 import subprocess
@@ -169,25 +172,27 @@ def _tree_size(path: Path) -> int:
 
 
 def archive_run(out: Path, archived: Path) -> bool:
-    """Copies the run's ARCHIVED files and, unless it has finished, its latest checkpoint
-    (when no larger than ARCHIVE_MAX_CHECKPOINT) to `archived`, which is replaced whole or not
-    at all. False (and `archived` as it was) if the run changed under the copy, as a training
-    process moving on to its next checkpoint does: the next archive catches it."""
+    """Copies the run's latest checkpoint (unless it has finished, and when no larger than
+    ARCHIVE_MAX_CHECKPOINT) and then its ARCHIVED files to `archived`, which is replaced whole
+    or not at all. The checkpoint goes first so that the logs are never older than it (a resume
+    cuts them back to it). False (and `archived` as it was) if the run changed under the copy,
+    as a training process moving on to its next checkpoint does: the next archive catches it."""
     try:
         with atomic_dir(archived, replace=True) as work:
+            latest = out / "checkpoints" / "latest.json"
+            summary = _summary(out)
+            if latest.is_file() and (summary is None or summary["timesteps"] < _target(out)):
+                pointer = latest.read_text()
+                checkpoint = out / "checkpoints" / json.loads(pointer)["checkpoint"]
+                if _tree_size(checkpoint) <= ARCHIVE_MAX_CHECKPOINT:
+                    shutil.copytree(checkpoint, work / "checkpoints" / checkpoint.name)
+                    (work / "checkpoints" / "latest.json").write_text(pointer)
             for name in ARCHIVED:
                 if (out / name).is_dir():
                     shutil.copytree(out / name, work / name)
                 elif (out / name).is_file():
                     (work / name).parent.mkdir(parents=True, exist_ok=True)
                     shutil.copy2(out / name, work / name)
-            latest = out / "checkpoints" / "latest.json"
-            summary = _summary(out)
-            if latest.is_file() and (summary is None or summary["timesteps"] < _target(out)):
-                checkpoint = out / "checkpoints" / json.loads(latest.read_text())["checkpoint"]
-                if _tree_size(checkpoint) <= ARCHIVE_MAX_CHECKPOINT:
-                    shutil.copytree(checkpoint, work / "checkpoints" / checkpoint.name)
-                    shutil.copy2(latest, work / "checkpoints" / "latest.json")
         return True
     except (OSError, json.JSONDecodeError, KeyError):
         return False
@@ -203,6 +208,8 @@ def restore_runs(runs_dir: Path, archive: Path) -> list[Path]:
     continue from the repo); the runs restored."""
     restored = []
     for archived in sorted(archive.glob("*/s*")):
+        if not re.fullmatch(r"s\d+", archived.name):  # not a run's folder: nothing to restore
+            continue
         out = run_dir(runs_dir, archived.parent.name, int(archived.name[1:]))
         if archived.is_dir() and (archived / "config.json").is_file() and not out.exists():
             with atomic_dir(out) as work:
@@ -217,13 +224,18 @@ def train_and_archive(
     """Runs the training command, archiving the run every ARCHIVE_EVERY while it trains
     (`on_archive()` after each) and once when it ends; what it printed and its exit code."""
     job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    while True:
-        try:
-            stdout, stderr = job.communicate(timeout=ARCHIVE_EVERY)
-            break
-        except subprocess.TimeoutExpired:  # still training: no output is lost by waiting again
-            if archive_run(out, archived):
-                on_archive()
+    try:
+        while True:
+            try:
+                stdout, stderr = job.communicate(timeout=ARCHIVE_EVERY)
+                break
+            except subprocess.TimeoutExpired:  # still training: no output is lost by waiting
+                if archive_run(out, archived):
+                    on_archive()
+    finally:  # the job stopped (a signal, an error): no training goes on without it
+        if job.poll() is None:
+            job.kill()
+            job.wait()
     if (out / "config.json").is_file() and archive_run(out, archived):
         on_archive()
     return subprocess.CompletedProcess(cmd, job.returncode, stdout, stderr)
@@ -266,10 +278,13 @@ def run_one(
         print(f"[{_stamp()}] {cell} seed {seed} skipped: {error}", flush=True)
         return {"error": error}
     source = c.get("init_from")
-    if source and not trained(run_dir(runs_dir, source, seed), CELLS[source]["timesteps"]):
-        print(f"[{_stamp()}] {cell} seed {seed} waits for {source} seed {seed}", flush=True)
-        return {"error": f"waits for {source} seed {seed} to finish (it starts from its policy)"}
     if not trained(out, c["timesteps"]):
+        # Only a run still to train needs its source: a finished one keeps its results.
+        if source and not trained(run_dir(runs_dir, source, seed), CELLS[source]["timesteps"]):
+            print(f"[{_stamp()}] {cell} seed {seed} waits for {source} seed {seed}", flush=True)
+            return {
+                "error": f"waits for {source} seed {seed} to finish (it starts from its policy)"
+            }
         cmd = train_command(cell, seed, runs_dir, resume=(out / "config.json").is_file())
         print(f"[{_stamp()}] {cell} seed {seed}: {shlex.join(cmd)}", flush=True)
         done = train_and_archive(cmd, out, run_dir(archive, cell, seed), on_archive)
@@ -277,10 +292,10 @@ def run_one(
             error = _last_line(done)
             print(f"[{_stamp()}] {cell} seed {seed} failed: {error}", flush=True)
             return {"train_command": shlex.join(cmd), "error": error}
-    elif not run_dir(archive, cell, seed).is_dir() and archive_run(
+    elif _summary(run_dir(archive, cell, seed)) != _summary(out) and archive_run(
         out, run_dir(archive, cell, seed)
     ):
-        on_archive()  # a run trained before the archive existed
+        on_archive()  # not archived since it finished (trained before the archive, or killed)
     summary = _summary(out)
     result = {
         "train_command": shlex.join(train_command(cell, seed, runs_dir, resume=False)),
@@ -362,6 +377,22 @@ def lost(runs_dir: Path, results: dict, cell: str, seed: int) -> bool:
     return evaluated(entry) and not (run_dir(runs_dir, cell, seed) / "config.json").is_file()
 
 
+def order(queue: list[tuple[str, int]], runs_dir: Path, results: dict) -> list[tuple[str, int]]:
+    """The runs in the order they train: the missing ones first, each preceded by the lost run
+    it starts from (a fine-tuning needs its source's policy); then the other lost runs."""
+    ordered = []
+    for cell, seed in queue:
+        if lost(runs_dir, results, cell, seed):
+            continue
+        source = (CELLS[cell].get("init_from"), seed)
+        entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+        needs_source = not evaluated(entry) and source in queue and source not in ordered
+        if needs_source and lost(runs_dir, results, *source):
+            ordered.append(source)
+        ordered.append((cell, seed))
+    return ordered + [run for run in queue if run not in ordered]
+
+
 def status(runs_dir: Path, archive: Path, results: dict) -> None:
     for cell, c in CELLS.items():
         for seed in c["seeds"]:
@@ -376,8 +407,13 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
                 ckpt = out / "checkpoints" / "latest.json"
                 steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
                 state = f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+            elif trained(out, c["timesteps"]):
+                why = f" (last try: {entry['error']})" if "error" in entry else ""
+                state = f"trained, not evaluated yet: the job evaluates it{why}"
             elif evaluated(entry):
                 state = "evaluated, but its files were lost: trains again after the missing runs"
+                if "retrain_error" in entry:
+                    state += f" (last try: {entry['retrain_error']})"
             elif "error" in entry:
                 state = f"failed: {entry['error']}"
             else:
@@ -410,8 +446,10 @@ def main() -> int:
             for seed in CELLS[cell]["seeds"]
             if args.seeds is None or seed in args.seeds
         ]
-        # Runs whose evaluation survived but whose files did not go last: what is missing first.
-        queue.sort(key=lambda run: lost(args.runs_dir, results, *run))
+        if args.commit:  # what a job killed between an archive and its commit left
+            commit([args.archive, args.out], "Paper study: the archive as the last job left it")
+        # What is missing first; runs whose evaluation survived but whose files did not last.
+        queue = order(queue, args.runs_dir, results)
         for position, (cell, seed) in enumerate(queue):
             c = CELLS[cell]
             before = results.get(cell, {}).get("seeds", {}).get(str(seed))
@@ -421,20 +459,23 @@ def main() -> int:
                 if args.commit:
                     commit([archived], f"Paper study: {cell} seed {seed} archived")
 
-            if lost(args.runs_dir, results, cell, seed):
+            was_lost = lost(args.runs_dir, results, cell, seed)
+            if was_lost:
                 print(f"[{_stamp()}] {cell} seed {seed}: its files were lost; trains again")
-                before = None  # its evaluation is replaced by the new run's
             entry = run_one(cell, seed, args.runs_dir, results, args.archive, on_archive)
             source = (c.get("init_from"), seed)
             if "waits for" in entry.get("error", "") and source in queue[position + 1 :]:
                 queue.append((cell, seed))  # again once the run it starts from has trained
+            if was_lost and "error" in entry:  # the evaluation stays; the next job tries again
+                entry = {**before, "retrain_error": entry["error"]}
             spec = {k: v for k, v in c.items() if k != "seeds"}
             results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
             results[cell]["seeds"][str(seed)] = entry
             atomic_write_json(args.out, results)
             if args.commit:
                 commit([args.out], f"Paper study: {cell} seed {seed}")
-            if evaluated(entry) and entry != before:  # a run finished in this job
+            if evaluated(entry) and entry != before and "retrain_error" not in entry:
+                # a run finished in this job
                 written = report(args.archive, args.out)
                 if written and args.commit:
                     commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
