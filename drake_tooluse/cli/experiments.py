@@ -38,6 +38,7 @@ def cmd_trajectory(args) -> dict:
 
     start = time.perf_counter()
     line = args.extraction == "line-contact"
+    scenario = load_scenario(args.scenario) if line else None  # a bad file fails before work
     ex = extract(
         args.policy,
         args.episodes,
@@ -49,9 +50,7 @@ def cmd_trajectory(args) -> dict:
         record=args.record or EXTRACTION_RECORDS[args.extraction],
         box_frame=line,
     )
-    contact = (
-        line_contact_for_task(ex.smoothed, length, load_scenario(args.scenario)) if line else None
-    )
+    contact = line_contact_for_task(ex.smoothed, length, scenario) if line else None
     path, figure = save_extraction(ex, args.out, None if contact is None else contact.trajectory)
     r = ex.reachability
     return {
@@ -235,8 +234,9 @@ def add_parsers(sub) -> None:
         "--scenario",
         type=Path,
         default=DEFAULT_SCENARIO,
-        help="line contact: the scenario whose push (box, goal) the trajectory is made for "
-        "(default: %(default)s, the policy's)",
+        help="line contact: the scenario whose box start the trajectory is placed at and "
+        "whose box it is centred on (default: %(default)s, the nominal world; the episodes "
+        "are the policy's env's, averaged in their box's frame)",
     )
     p.add_argument(
         "--tool-length",
@@ -301,8 +301,10 @@ def add_parsers(sub) -> None:
         "--trajectory",
         type=Path,
         metavar="NPZ",
-        help="open loop: replay this trajectory (default: extract one from the "
-        "policy's --episodes episodes)",
+        help="open loop: replay this trajectory, for every tool (`drake-tooluse trajectory` "
+        "writes one): with --extraction line-contact it is taken as made for the nominal box "
+        "start and replayed at each run's, with --extraction paper as it is (default: extract "
+        "one per tool from the policy's --episodes episodes)",
     )
     p.add_argument(
         "--episodes",

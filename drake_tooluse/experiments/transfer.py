@@ -23,7 +23,9 @@ Both run in one of two modes:
   shaft pushes (`experiments.line_contact`), and each run's replay moved to its box's start,
   which the robot measures in reality with its hand camera (`diagrams.box_measurement`; the
   nominal world's robot knows it); or `paper`, the paper's own: the per-step mean of where the
-  tip got, one trajectory for every tool and run, replayed as it is.
+  tip got, one trajectory for every tool and run, replayed as it is. A trajectory given as a
+  file is replayed for every tool, moved to each run's box start as a line-contact one is
+  (`extraction` `line-contact`) or as it is (`paper`).
 
 The result has per tool and world the box travel (mean, std, each run) and the final box–goal
 distance, the reality/nominal travel ratio and the two tools' travel difference (the
@@ -500,7 +502,9 @@ def transfer_experiment(
     extraction: str = "line-contact",
 ) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
-    loop, the trajectory: `trajectory_path`, replayed as it is, or made of the policy's
+    loop, the trajectory: `trajectory_path` (one for every tool: with `extraction`
+    `line-contact` made for the nominal box start and replayed at each run's, with `paper`
+    replayed as it is), or made of the policy's
     `episodes` episodes in the nominal simulation, aligned by `align`, of the tip poses each
     step commanded or reached (`record`; default the extraction's own, EXTRACTION_RECORDS),
     the way `extraction` says (see the module docstring): `line-contact`, one trajectory per
@@ -517,12 +521,18 @@ def transfer_experiment(
     check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))  # before any work
     nominal = load_scenario(nominal_path)
     reality = load_scenario(reality_path)
-    box_frame = mode == "open-loop" and trajectory_path is None and extraction == "line-contact"
+    # A line-contact trajectory (extracted here, or a file `drake-tooluse trajectory` wrote) is
+    # made for the nominal box start: each run replays it at its own box's start.
+    box_frame = mode == "open-loop" and extraction == "line-contact"
     with atomic_dir(out) as work:
         trajectory, made = None, None
         if mode == "open-loop" and trajectory_path is not None:
             trajectory = TipTrajectory.load(trajectory_path)
-            made = {"file": str(Path(trajectory_path).absolute()), "poses": len(trajectory)}
+            made = {
+                "file": str(Path(trajectory_path).absolute()),
+                "poses": len(trajectory),
+                "extraction": extraction,  # how it is replayed: at each box start, or as it is
+            }
         elif mode == "open-loop":
             log(f"extracting the {extraction} trajectory from {episodes} episodes …")
             ex = extract(
@@ -626,17 +636,22 @@ def format_transfer(out: dict) -> str:
             return cm(mean)
         return f"{mean * 100:.1f} ± {std * 100:.1f} cm"
 
-    by_tool = out.get("trajectory", {}).get("by_tool")
-    if by_tool:
+    made = out.get("trajectory", {})
+    by_tool = made.get("by_tool")
+    if out.get("box_frame"):
         errors = [
             x["box_xy_error_m"]
             for t in out["tools"]
             for x in t["reality"]["per_run"]
             if x.get("box_xy_error_m") is not None
         ]
+        what = (
+            "line contact (the commanded tip poses in each box's frame"
+            if by_tool
+            else f"{made['file']} (made for the nominal box start"
+        )
         lines.append(
-            "  the trajectory: line contact (the commanded tip poses in each box's frame, "
-            "replayed at each run's box start"
+            f"  the trajectory: {what}, replayed at each run's box start"
             + (f"; the hand camera's within {max(errors) * 1000:.1f} mm)" if errors else ")")
         )
     for t in out["tools"]:

@@ -34,7 +34,7 @@ class TipTrajectory:
     def __post_init__(self):
         self.times = np.asarray(self.times, float)
         self.positions = np.asarray(self.positions, float)
-        self.quaternions = np.asarray(self.quaternions, float)
+        self.quaternions = np.array(self.quaternions, float)  # a copy: normalised in place below
         T = self.times.shape[0]
         if self.times.ndim != 1 or T < 1:
             raise ValueError(f"times must be a non-empty vector; got shape {self.times.shape}")
@@ -55,7 +55,11 @@ class TipTrajectory:
         norms = np.linalg.norm(self.quaternions, axis=1)
         if np.any(norms < 1e-6):
             raise ValueError("trajectory quaternions must be non-zero")
-        self.quaternions = self.quaternions / norms[:, None]
+        # Only rows that are not unit already: a saved trajectory loads bit for bit as it was
+        # (dividing again by a norm 1 ± 1e-16 moves the last bits, and a contact-rich replay
+        # amplifies them to a different push).
+        off = np.abs(norms - 1.0) > 1e-12
+        self.quaternions[off] /= norms[off, None]
 
     def __len__(self) -> int:
         return len(self.times)

@@ -70,6 +70,17 @@ def test_delayed_arm_holds_still_at_the_start():
     assert np.linalg.norm(obs2[6:9] - obs[6:9]) < 0.01
 
 
+def test_a_saved_trajectory_loads_bit_for_bit(tmp_path):
+    """Its quaternions are normalised once (not again on load, nor the caller's array)."""
+    quaternions = np.random.default_rng(0).normal(size=(20, 4))
+    given = quaternions.copy()
+    traj = TipTrajectory(np.arange(20.0), np.zeros((20, 3)), quaternions)
+    assert np.array_equal(quaternions, given)
+    np.testing.assert_allclose(np.linalg.norm(traj.quaternions, axis=1), 1.0, atol=1e-15)
+    loaded = TipTrajectory.load(traj.save(tmp_path / "t.npz"))
+    assert np.array_equal(loaded.quaternions, traj.quaternions)
+
+
 def test_tip_trajectory_source_interpolates_holds_and_leads():
     q = np.array([0.0, 1.0, 0.0, 0.0])
     traj = TipTrajectory([0.0, 0.1, 0.2], [[0, 0, 0], [0.1, 0, 0], [0.2, 0, 0]], [q, -q, q])
@@ -358,6 +369,20 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
         assert nominal["box_xy_error_m"] == 0.0  # the nominal robot knows its box
         assert not reality["failed"] and not nominal["failed"]
     assert "line contact" in format_transfer(result) and "tool tilted" in format_transfer(result)
+    # The same trajectory as a file (as `drake-tooluse trajectory` writes it) replays the same:
+    # moved to each run's box start.
+    from_file = transfer_experiment(
+        tmp_path / "f", TRANSFER_POLICY, tools=[0.15], runs=1, mode="open-loop",
+        trajectory_path=made["by_tool"]["0.15"]["file"], log=lambda text: None,
+    )  # fmt: skip
+    assert from_file["box_frame"] and from_file["trajectory"]["extraction"] == "line-contact"
+    assert "made for the nominal box start, replayed at each run's box start" in format_transfer(
+        from_file
+    )
+    for world in ("nominal", "reality"):
+        again, first = from_file["tools"][0][world], result["tools"][0][world]
+        assert again["per_run"][0]["believed_box_xy_m"] == first["per_run"][0]["believed_box_xy_m"]
+        assert again["box_travel_mean_m"] == pytest.approx(first["box_travel_mean_m"], abs=1e-9)
     # The paper's own: one trajectory for every tool, replayed as it is, of where the tip got.
     paper = transfer_experiment(
         tmp_path / "p", TRANSFER_POLICY, tools=[0.15], runs=1, mode="open-loop", episodes=1,
