@@ -135,6 +135,11 @@ def build_policy_diagram(
     )
 
 
+# m/s: the arm's tip moves at most ~1 m/s; a box faster than this was flung by a diverged
+# contact solve (forced steep tool tilts do it), and its "travel" would be metres of nonsense.
+MAX_BOX_SPEED = 5.0
+
+
 @dataclass
 class PushRun:
     """What happened in one push, from the world's truth."""
@@ -178,8 +183,9 @@ def run_push(
     """Simulates a push diagram from its default state one control period at a time, for
     `max_steps` or until the box reaches the goal (as the env terminates) if
     `stop_at_success`. With a `visualizer`, the run is recorded. `on_step(step)` is called
-    after each control step (progress displays). A simulation failure ends the run flagged
-    `sim_error`, with the figures of the last finite state."""
+    after each control step (progress displays). A simulation failure (Drake raises, the state
+    is no longer finite, or the box flies faster than MAX_BOX_SPEED) ends the run flagged
+    `sim_error`, with the figures of the last sound state."""
     s = world.scenario
     simulator = Simulator(diagram)
     root = simulator.get_mutable_context()
@@ -208,10 +214,17 @@ def run_push(
         if not finite_state(world.plant, plant_context):
             error = f"the state is no longer finite at step {step}"
             break
-        now = reader.read(plant_context, goal, box_start)
+        moved = world.box.EvalPoseInWorld(plant_context).translation()
+        speed = np.linalg.norm(moved - box) / period
+        if speed > MAX_BOX_SPEED:  # a contact solve that diverged flings the box: not a push
+            error = (
+                f"the box flew off at {speed:.1f} m/s at step {step} (more than "
+                f"{MAX_BOX_SPEED:g} m/s, which no push of the arm reaches): the simulation diverged"
+            )
+            break
+        metrics = reader.read(plant_context, goal, box_start)
         tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
-        box = world.box.EvalPoseInWorld(plant_context).translation()
-        metrics = now
+        box = moved
         tool_touched |= metrics.tool_touches_box
         gripper_touched |= metrics.gripper_touches_box
         if on_step is not None:

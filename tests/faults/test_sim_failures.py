@@ -145,3 +145,31 @@ def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypa
     assert "step 5" in run.error
     assert np.all(np.isfinite(run.tip_path)) and np.all(np.isfinite(run.box_path))
     assert np.isfinite(run.final_box_to_goal) and run.as_dict()["sim_error"]
+
+
+def test_a_box_flung_by_a_diverged_solve_is_a_simulation_failure(monkeypatch):
+    """A blow-up that stays finite (the box thrown metres in one step) is flagged too, and its
+    travel is not counted as a push."""
+    from drake_tooluse.diagrams.push import MAX_BOX_SPEED, build_policy_diagram, run_policy
+    from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.world.scenario import Scenario
+
+    built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))
+    plant, box = built.world.plant, built.world.box
+    calls = {"n": 0}
+
+    def flinging_advance(self, t):
+        status = ADVANCE(self, t)
+        calls["n"] += 1
+        if calls["n"] == 3:  # after the third step the box is 2 m away
+            context = plant.GetMyMutableContextFromRoot(self.get_mutable_context())
+            X_WB = box.EvalPoseInWorld(context)
+            X_WB.set_translation(X_WB.translation() + [2.0, 0.0, 0.0])
+            plant.SetFreeBodyPose(context, box, X_WB)
+        return status
+
+    monkeypatch.setattr(Simulator, "AdvanceTo", flinging_advance)
+    run = run_policy(built, max_steps=20)
+    assert run.sim_error and run.steps == 3 and not run.success
+    assert f"more than {MAX_BOX_SPEED:g} m/s" in run.error and "step 3" in run.error
+    assert run.box_travel < 0.1 and np.linalg.norm(run.box_path[-1] - run.box_path[0]) < 0.1
