@@ -219,7 +219,7 @@ def study(args) -> None:
             worlds[tool, i] = (nominal, reality, believed, box_xy)
     print(f"box start measured within {max(box_errors) * 1000:.1f} mm", flush=True)
     push_direction = np.asarray(nominal_s.goal_offset, float)
-    half_size = nominal_s.box.size[1] / 2
+    box_size = nominal_s.box.size
     # (variant, the tilts its line contact may take: None for the variant's own, an offset
     # across the push in m)
     specs = [(v, None, 0.0) for v in args.variants]
@@ -231,7 +231,7 @@ def study(args) -> None:
         v = VARIANTS[variant]
         base = trajectory(recorded, period, variant, nominal_box)
         if v.centred:
-            base = centred(base, push_direction, nominal_box, half_size)
+            base = centred(base, push_direction, nominal_box, box_size)
         for tool in args.tools:
             if v.line_contact:
                 contact = line_contact_for_task(base, tool, nominal_s, tilts or TILTS_DEG)

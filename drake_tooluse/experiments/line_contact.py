@@ -50,17 +50,19 @@ RAMP_STEPS = 10  # the recorded tip first meets the box ~12-16 steps in
 MAX_JOINT_STEP = 1.0
 
 
-def centred(traj: TipTrajectory, push_direction, p_WB, box_half_size: float) -> TipTrajectory:
+def centred(traj: TipTrajectory, push_direction, p_WB, box_size) -> TipTrajectory:
     """The trajectory moved across the push so that its tool axis, at the height of the box
     centre `p_WB`, runs on average through the box's centre line over the poses that push:
     the tip below the box's top and the axis no further back than 1 cm behind its face (the
-    box is `box_half_size` (m) from centre to face)."""
+    box is `box_size` (m, x y z), its faces square to W's axes, as at its nominal start)."""
     u = np.array([push_direction[0], push_direction[1], 0.0])
     u /= np.linalg.norm(u)
     side = np.cross([0.0, 0.0, 1.0], u)
+    half_along = 0.5 * float(np.abs(u[:2]) @ np.asarray(box_size, float)[:2])  # centre to face
+    half_height = 0.5 * float(box_size[2])
     axis_points = _axis_points(traj, p_WB[2]) - p_WB
-    pushing = (axis_points @ u >= -(box_half_size + 0.01)) & (
-        traj.positions[:, 2] <= p_WB[2] + box_half_size
+    pushing = (axis_points @ u >= -(half_along + 0.01)) & (
+        traj.positions[:, 2] <= p_WB[2] + half_height
     )
     if not pushing.any():
         raise ValueError("the trajectory never pushes the box: nothing to centre on it")
@@ -150,7 +152,7 @@ def line_contact(
     push_direction,
     p_WB,
     box_xy: float,
-    box_half_size: float,
+    box_size,
     tilts_deg=TILTS_DEG,
 ) -> LineContact:
     """The tool's line-contact trajectory of `base` (a trajectory in the frame of the nominal
@@ -158,7 +160,7 @@ def line_contact(
     follows for every box start within ±`box_xy` (see the module docstring); where none does,
     the tilt whose worst replay has the most poses reached, then the smallest joint step
     (`followed` False)."""
-    base = centred(base, push_direction, p_WB, box_half_size)
+    base = centred(base, push_direction, p_WB, box_size)
     best = None
     for deg in tilts_deg:
         trajectory = tilted(base, np.radians(deg), push_direction, p_WB)
@@ -208,6 +210,6 @@ def line_contact_for_task(
         scenario.goal_offset,
         initial_box_pose(scenario).translation(),
         scenario.randomization.box_xy,
-        scenario.box.size[1] / 2,
+        scenario.box.size,
         tilts_deg,
     )

@@ -14,6 +14,7 @@ from drake_tooluse.systems.tip_trajectory import TipTrajectory
 
 Q_DOWN = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
 P_WBOX = np.array([0.7, -0.25, -0.18])  # the nominal box centre (push.yaml)
+BOX_SIZE = (0.04, 0.04, 0.04)  # m (push.yaml)
 
 
 def _axis(q) -> np.ndarray:
@@ -68,12 +69,23 @@ def _push(across: float = 0.0, T: int = 40) -> TipTrajectory:
 
 
 def test_centring_puts_the_push_on_the_box_centre_line():
-    out = variants.centred(_push(across=0.005), [0.0, 0.2, 0.0], P_WBOX, 0.02)
+    out = variants.centred(_push(across=0.005), [0.0, 0.2, 0.0], P_WBOX, BOX_SIZE)
     np.testing.assert_allclose(out.positions[12:, 0], P_WBOX[0], atol=1e-12)
     np.testing.assert_allclose(out.positions[:, 1:], _push().positions[:, 1:])  # across only
     never = TipTrajectory([0.0, 0.04], P_WBOX + [[0, -0.2, 0.1]] * 2, [Q_DOWN] * 2)
     with pytest.raises(ValueError, match="never pushes the box"):
-        variants.centred(never, [0.0, 0.2, 0.0], P_WBOX, 0.02)
+        variants.centred(never, [0.0, 0.2, 0.0], P_WBOX, BOX_SIZE)
+
+
+def test_centring_takes_the_box_size_along_the_push_not_across_it():
+    """A box long along the push (+y) counts the approach's last poses as pushing; one wide
+    across it (x) centres as the cube does."""
+    push = _push(across=0.005)
+    cube = variants.centred(push, [0.0, 0.2, 0.0], P_WBOX, BOX_SIZE)
+    wide = variants.centred(push, [0.0, 0.2, 0.0], P_WBOX, (0.2, 0.04, 0.04))
+    long = variants.centred(push, [0.0, 0.2, 0.0], P_WBOX, (0.04, 0.2, 0.04))
+    np.testing.assert_array_equal(wide.positions, cube.positions)
+    assert abs(long.positions[12, 0] - cube.positions[12, 0]) > 1e-4
 
 
 def test_the_box_starts_checked_are_the_nominal_then_the_square_around_it():
@@ -84,7 +96,7 @@ def test_the_box_starts_checked_are_the_nominal_then_the_square_around_it():
 
 
 def test_line_contact_takes_the_first_tilt_the_ik_follows_from_every_box_start():
-    contact = variants.line_contact(_push(0.004), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, 0.02)
+    contact = variants.line_contact(_push(0.004), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, BOX_SIZE)
     assert contact.followed and contact.tilt_deg == variants.TILTS_DEG[0]
     assert contact.reachable == contact.poses == len(contact.trajectory) == 40
     assert contact.worst_joint_step <= variants.MAX_JOINT_STEP
@@ -98,6 +110,6 @@ def test_line_contact_takes_the_first_tilt_the_ik_follows_from_every_box_start()
         assert pivot[0] == pytest.approx(P_WBOX[0], abs=1e-9)
     # A tilt the IK cannot follow (the tool lying flat) is reported, not hidden.
     flat = variants.line_contact(
-        _push(), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, 0.02, tilts_deg=(85,)
+        _push(), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, BOX_SIZE, tilts_deg=(85,)
     )
     assert not flat.followed and flat.tilt_deg == 85
