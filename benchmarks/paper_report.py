@@ -167,12 +167,31 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
         gone = [s for s in done if not (run_dir(runs_dir, cell, s) / "config.json").is_file()]
         if gone:
             many = len(gone) > 1
+            # A lost run a missing fine-tuning starts from trains right before it (the runner's
+            # `order`); the others after every missing run.
+            needed = {
+                s: other
+                for other, oc in CELLS.items()
+                if oc.get("init_from") == cell
+                for s in oc["seeds"]
+                if s in gone and s not in finished(results, other)
+            }
+            first, last = [s for s in gone if s in needed], [s for s in gone if s not in needed]
+
+            def seeds(group):
+                return f"seed{'s' if len(group) > 1 else ''} {', '.join(map(str, group))}"
+
+            when = "; ".join(
+                [f"{seeds(first)} right before the `{needed[first[0]]}` runs that start from "
+                 f"{'them' if len(first) > 1 else 'it'}"] if first else []
+            ) + ("; " if first and last else "") + (
+                f"{seeds(last)} after the missing runs" if last else ""
+            )  # fmt: skip
             lines.append(
                 f"- `{cell}`: seed{'s' if many else ''} {', '.join(map(str, gone))} evaluated (in "
                 f"the table), but {'their curves and policies' if many else 'its curve and policy'}"
                 " were lost with the machine they trained on, before runs were archived in the "
-                f"repo (not in the figures): {'they train' if many else 'it trains'} again after "
-                "the missing runs"
+                f"repo (not in the figures); trained again: {when}"
             )
         if not todo:
             continue
