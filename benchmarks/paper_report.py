@@ -447,6 +447,37 @@ were never taught to stop there, and push the box on past it.
 Both columns are of the same 100 seeded episodes; the paper's figures are one run each at
 1.25 M steps in another simulator (MuJoCo, a Fetch-style env with mocap control), so neither
 column is a like-for-like comparison.
+{env2_paragraph(results)}"""
+
+
+def env2_paragraph(results: dict) -> str:
+    """Env2 (reward −d(box, goal) only), per seed: does the policy push, and with what."""
+    done = finished(results, "ppo_env2")
+    if not done:
+        return ""
+    seeds = [
+        f"s{s}: {e['evaluate_best']['final_box_to_goal_mean_m'] * 100:.2f} cm, tool "
+        f"{e['evaluate_best']['tool_touched_rate'] * 100:.0f} % / gripper "
+        f"{e['evaluate_best']['gripper_touched_rate'] * 100:.0f} % of episodes"
+        for s, e in sorted(done.items())
+    ]
+    idle = sum(
+        e["evaluate_best"]["tool_touched_rate"] == 0
+        and e["evaluate_best"]["gripper_touched_rate"] == 0
+        for e in done.values()
+    )
+    pushers = [e["evaluate_best"] for e in done.values() if e["evaluate_best"]["tool_touched_rate"]]
+    with_what = (
+        "No seed pushes the box with the tool"
+        if not pushers
+        else "The seeds that do find the box push it with the tool"
+        + (", never the gripper" if all(e["gripper_touched_rate"] == 0 for e in pushers) else "")
+    )
+    return f"""
+**Env2 (reward −d(box, goal) only) learns or not by the seed.** Of {len(done)} seeds
+({"; ".join(seeds)}), {idle} never touch the box: its reward stays at −0.20 (the box where it
+started) whatever the arm does until something reaches the box, so nothing draws the tool to it
+(Env1's tip–box term does). {with_what} (the paper's Env2 policy pushed with the gripper).
 """
 
 
