@@ -411,7 +411,7 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
                 why = f" (last try: {entry['error']})" if "error" in entry else ""
                 state = f"trained, not evaluated yet: the job evaluates it{why}"
             elif evaluated(entry):
-                state = "evaluated, but its files were lost: trains again after the missing runs"
+                state = "evaluated, but its files were lost: trains again (see `order`)"
                 if "retrain_error" in entry:
                     state += f" (last try: {entry['retrain_error']})"
             elif "error" in entry:

@@ -181,17 +181,19 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
             def seeds(group):
                 return f"seed{'s' if len(group) > 1 else ''} {', '.join(map(str, group))}"
 
-            when = "; ".join(
-                [f"{seeds(first)} right before the `{needed[first[0]]}` runs that start from "
-                 f"{'them' if len(first) > 1 else 'it'}"] if first else []
-            ) + ("; " if first and last else "") + (
-                f"{seeds(last)} after the missing runs" if last else ""
-            )  # fmt: skip
+            when = []
+            if first:
+                them = "them" if len(first) > 1 else "it"
+                when.append(
+                    f"{seeds(first)} right before the `{needed[first[0]]}` runs that start from {them}"
+                )
+            if last:
+                when.append(f"{seeds(last)} after the missing runs")
             lines.append(
-                f"- `{cell}`: seed{'s' if many else ''} {', '.join(map(str, gone))} evaluated (in "
+                f"- `{cell}`: {seeds(gone)} evaluated (in "
                 f"the table), but {'their curves and policies' if many else 'its curve and policy'}"
                 " were lost with the machine they trained on, before runs were archived in the "
-                f"repo (not in the figures); trained again: {when}"
+                f"repo (not in the figures); trained again: {'; '.join(when)}"
             )
         if not todo:
             continue
