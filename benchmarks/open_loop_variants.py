@@ -51,6 +51,7 @@ import numpy as np
 
 from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
+from drake_tooluse.diagrams.trajectory import run_open_loop
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
     centred,
@@ -64,7 +65,7 @@ from drake_tooluse.experiments.trajectory import (
     shifted,
     smooth,
 )
-from drake_tooluse.experiments.transfer import run_open_loop, run_worlds
+from drake_tooluse.experiments.transfer import run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO

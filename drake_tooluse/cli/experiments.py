@@ -14,11 +14,18 @@ from drake_tooluse.cli.common import (
     seed_arg,
     tool_length_arg,
 )
-from drake_tooluse.experiments.choices import ALIGNMENTS, EXTRACTIONS, MODES, RECORDS
+from drake_tooluse.experiments.choices import (
+    ALIGNMENTS,
+    CALIBRATION_DRAWS,
+    EXTRACTIONS,
+    MODES,
+    RECORDS,
+)
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
 
 MAX_EPISODES = 100_000
+MAX_CALIBRATION_DRAWS = 1000
 
 
 def cmd_trajectory(args) -> dict:
@@ -30,6 +37,7 @@ def cmd_trajectory(args) -> dict:
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
+    count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
     from drake_tooluse.experiments.choices import EXTRACTION_RECORDS
     from drake_tooluse.experiments.line_contact import line_contact_for_task
@@ -50,7 +58,13 @@ def cmd_trajectory(args) -> dict:
         record=args.record or EXTRACTION_RECORDS[args.extraction],
         box_frame=line,
     )
-    contact = line_contact_for_task(ex.smoothed, length, scenario) if line else None
+    contact = (
+        line_contact_for_task(
+            ex.smoothed, length, scenario, calibration_draws=args.calibration_draws
+        )
+        if line
+        else None
+    )
     path, figure = save_extraction(ex, args.out, None if contact is None else contact.trajectory)
     r = ex.reachability
     return {
@@ -69,11 +83,14 @@ def cmd_trajectory(args) -> dict:
 
 
 def format_trajectory(out: dict) -> str:
+    from drake_tooluse.experiments.line_contact import describe_choice
+
     dropped = len(out["dropped_steps"])
     contact = out.get("line_contact")
     how = (
         f"; line contact, the tool tilted {contact['tilt_deg']} deg"
         + ("" if contact["followed"] else " (the IK jumps on it from some box starts)")
+        + describe_choice(contact)
         + ", for the nominal box start"
         if contact
         else ""
@@ -149,6 +166,7 @@ def cmd_transfer(args) -> dict:
     runs = count_arg(args.runs, "--runs", 1, 10_000)
     seed_arg(args.seed, "--seed", runs)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
     from drake_tooluse.experiments.transfer import transfer_experiment
 
     return transfer_experiment(
@@ -167,6 +185,7 @@ def cmd_transfer(args) -> dict:
         trust_pickle=args.trust_pickle,
         record=args.record,
         extraction=args.extraction,
+        calibration_draws=args.calibration_draws,
     )
 
 
@@ -199,6 +218,18 @@ def format_demo(out: dict) -> str:
     from drake_tooluse.experiments.demo import format_demo as format_result
 
     return format_result(out)
+
+
+def add_calibration_arg(p) -> None:
+    p.add_argument(
+        "--calibration-draws",
+        type=int,
+        default=CALIBRATION_DRAWS,
+        metavar="N",
+        help="line contact: move the trajectory across the push to where it pushes best over N "
+        "randomized replays in the nominal simulation, per offset tried (0: the geometric "
+        "centring only; default %(default)s)",
+    )
 
 
 def add_parsers(sub) -> None:
@@ -250,6 +281,7 @@ def add_parsers(sub) -> None:
         required=True,
         help="new directory (absent or empty) for trajectory.npz and trajectory.png",
     )
+    add_calibration_arg(p)
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_trajectory, show=format_trajectory)
 
@@ -332,6 +364,7 @@ def add_parsers(sub) -> None:
         help="open loop: 'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
         "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
     )
+    add_calibration_arg(p)
     p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")
     p.add_argument(

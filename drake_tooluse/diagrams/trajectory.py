@@ -10,7 +10,8 @@ TrajectorySource ──tip_pose_desired──► ToolTipIKSystem ──q*──�
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.diagrams.control import TipControl, add_trajectory_control, add_world_at_home
+from drake_tooluse.diagrams.push import PushRun, run_push
 from drake_tooluse.diagrams.visualization import (
     add_meshcat_visualizer,
     save_recording,
@@ -25,6 +27,7 @@ from drake_tooluse.diagrams.visualization import (
 )
 from drake_tooluse.robot.ik import rotation_angle_between
 from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import (
     TipTrajectory,
     tip_trajectory_source,
@@ -33,6 +36,8 @@ from drake_tooluse.systems.tip_trajectory import (
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, home_tip_pose
+
+SETTLE_TIME = 1.0  # s after an open-loop trajectory ends
 
 
 @dataclass
@@ -58,7 +63,11 @@ def build_trajectory_diagram(
     `tip_trajectory_source`) through the tool-tip IK on the robot model of `belief` (default:
     the scenario's true length, nominal grasp) and the joint command (with the scenario's
     actuation delay) to the plant; Meshcat if given, framed on the task
-    (`visualization.show_task`)."""
+    (`visualization.show_task`). The arm starts at the scenario's home, solved from the
+    trajectory's `arm_start` where it has one (the IK branch it was planned on)."""
+    if trajectory.arm_start is not None:
+        robot = replace(scenario.robot, posture_seed=trajectory.arm_start.tolist())
+        scenario = replace(scenario, robot=robot)
     builder = DiagramBuilder()
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     source = builder.AddNamedSystem("tip_trajectory", tip_trajectory_source(trajectory, lead))
@@ -69,6 +78,24 @@ def build_trajectory_diagram(
     diagram = builder.Build()
     diagram.set_name("trajectory_control")
     return TrajectoryDiagram(diagram, world, control, visualizer)
+
+
+def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:
+    """Replays the whole trajectory, a control period ahead (it holds where the tip was at each
+    step), then lets the world settle for SETTLE_TIME."""
+    period = scenario.control.control_period
+    built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
+    duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
+    try:
+        return run_push(
+            built.diagram,
+            built.world,
+            built.control,
+            math.ceil(duration / period),
+            stop_at_success=False,
+        )
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 @dataclass

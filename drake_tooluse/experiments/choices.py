@@ -15,3 +15,6 @@ RECORDS = ("achieved", "commanded")
 EXTRACTIONS = ("line-contact", "paper")
 # What each takes by default for the recording (RECORDS).
 EXTRACTION_RECORDS = {"line-contact": "commanded", "paper": "achieved"}
+# Randomization draws of the nominal simulation over which a line-contact trajectory is moved
+# across the push to where it pushes best (`experiments.line_contact.calibrated`); 0: not.
+CALIBRATION_DRAWS = 16

@@ -54,7 +54,7 @@ def shifted(traj: TipTrajectory, dxy) -> TipTrajectory:
     """The trajectory moved by `dxy` (m) across the table: to where a box starts `dxy` from
     the start the trajectory was made for."""
     offset = np.array([dxy[0], dxy[1], 0.0])
-    return TipTrajectory(traj.times, traj.positions + offset, traj.quaternions)
+    return TipTrajectory(traj.times, traj.positions + offset, traj.quaternions, traj.arm_start)
 
 
 def pad_episodes(episodes: list[np.ndarray]) -> np.ndarray:

@@ -40,7 +40,6 @@ figures are those of the runs that completed.
 from __future__ import annotations
 
 import dataclasses as dc
-import math
 import time
 from pathlib import Path
 
@@ -50,16 +49,17 @@ from matplotlib.patches import Patch
 
 from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
-from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy, run_push
-from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
+from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy
+from drake_tooluse.diagrams.trajectory import run_open_loop
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
+    CALIBRATION_DRAWS,
     EXTRACTION_RECORDS,
     EXTRACTIONS,
     MODES,
     RECORDS,
 )
-from drake_tooluse.experiments.line_contact import line_contact_for_task
+from drake_tooluse.experiments.line_contact import describe_choice, line_contact_for_task
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.experiments.trajectory import (
     extract,
@@ -87,7 +87,6 @@ from drake_tooluse.world.scene import initial_box_pose
 
 WORLDS = ("nominal", "reality")
 MAX_STEPS = 100  # control steps of a closed-loop run (the env's episode)
-SETTLE_TIME = 1.0  # s after an open-loop trajectory ends
 TRAVEL_RATIO_GOAL = 0.9
 TOOL_DIFFERENCE_GOAL = 0.01  # m
 
@@ -142,24 +141,6 @@ def run_worlds(nominal: Scenario, reality: Scenario, tool_length: float, seed: i
         apply_draw(reality, draw),
         draw,
     )
-
-
-def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:
-    """Replays the whole trajectory, a control period ahead (it holds where the tip was at each
-    step), then lets the world settle for SETTLE_TIME."""
-    period = scenario.control.control_period
-    built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
-    duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
-    try:
-        return run_push(
-            built.diagram,
-            built.world,
-            built.control,
-            math.ceil(duration / period),
-            stop_at_success=False,
-        )
-    finally:
-        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 def run_closed_loop(scenario: Scenario, policy, belief: RobotBelief) -> PushRun:
@@ -500,6 +481,7 @@ def transfer_experiment(
     trust_pickle: bool = False,
     record: str | None = None,
     extraction: str = "line-contact",
+    calibration_draws: int = CALIBRATION_DRAWS,
 ) -> dict:
     """`run_transfer` written to a new directory `out`: `transfer.json`, the box plot and, open
     loop, the trajectory: `trajectory_path` (one for every tool: with `extraction`
@@ -508,11 +490,13 @@ def transfer_experiment(
     `episodes` episodes in the nominal simulation, aligned by `align`, of the tip poses each
     step commanded or reached (`record`; default the extraction's own, EXTRACTION_RECORDS),
     the way `extraction` says (see the module docstring): `line-contact`, one trajectory per
-    tool (`trajectory-<mm>mm.npz`), or `paper`, one kept to the poses every tool reaches
+    tool (`trajectory-<mm>mm.npz`, moved across the push to where it pushes best over
+    `calibration_draws` randomized replays in the nominal simulation), or `paper`, one kept to the poses every tool reaches
     under the conservative limits (`trajectory.npz`). Everything is written into a staging
     directory that becomes `out` only when complete. Every path in the result is absolute (as
     the demo's metrics.json). Returns the result."""
     tools = check_transfer_args(tools, runs, mode, seed)
+    check_int(calibration_draws, 0, 1000, "calibration_draws")
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(extraction, EXTRACTIONS, "extraction")
     record = EXTRACTION_RECORDS[extraction] if record is None else record
@@ -556,7 +540,7 @@ def transfer_experiment(
             }
             if box_frame:
                 trajectory, made["by_tool"] = _line_contact_trajectories(
-                    ex.smoothed, tools, nominal, work, out, log
+                    ex.smoothed, tools, nominal, work, out, log, calibration_draws
                 )
             else:
                 trajectory = ex.reachability.kept
@@ -597,12 +581,15 @@ def trajectory_file_name(tool: float) -> str:
     return f"trajectory-{tool * 1000:g}mm.npz"
 
 
-def _line_contact_trajectories(base: TipTrajectory, tools, nominal: Scenario, work, out, log):
-    """Each tool's line-contact trajectory of `base` (for the nominal box start), written to
-    `work`: ({length: trajectory}, {"<length>": how it was chosen, its file})."""
+def _line_contact_trajectories(
+    base: TipTrajectory, tools, nominal: Scenario, work, out, log, calibration_draws: int
+):
+    """Each tool's line-contact trajectory of `base` (for the nominal box start, calibrated
+    over `calibration_draws` nominal draws), written to `work`: ({length: trajectory},
+    {"<length>": how it was chosen, its file})."""
     trajectories, chosen = {}, {}
     for tool in tools:
-        contact = line_contact_for_task(base, tool, nominal)
+        contact = line_contact_for_task(base, tool, nominal, calibration_draws=calibration_draws)
         trajectories[tool] = contact.trajectory
         contact.trajectory.save(work / trajectory_file_name(tool))
         chosen[f"{tool:g}"] = {
@@ -614,6 +601,7 @@ def _line_contact_trajectories(base: TipTrajectory, tools, nominal: Scenario, wo
             f"tool {tool:.3f} m: tilt {contact.tilt_deg} deg, "
             + ("followed" if contact.followed else "NOT followed")
             + f" for every box start (worst joint step {contact.worst_joint_step:.2f} rad)"
+            + describe_choice(contact.as_dict())
         )
     return trajectories, chosen
 
@@ -661,6 +649,7 @@ def format_transfer(out: dict) -> str:
         tilt = (
             f", tool tilted {contact['tilt_deg']} deg"
             + ("" if contact["followed"] else " (the IK jumps on it: no tilt is followed)")
+            + describe_choice(contact)
             if contact
             else ""
         )

@@ -1,7 +1,10 @@
 """The trajectory source: tool-tip poses over time as a Drake `TrajectorySource`.
 
 A `TipTrajectory` is tool-tip poses in W at times (s); its file is an `.npz` with `times`
-(T,), `positions` (T, 3) and `quaternions` (T, 4, w x y z). `waypoint_trajectory` makes one
+(T,), `positions` (T, 3) and `quaternions` (T, 4, w x y z), and may hold `arm_start` (7,):
+the right-arm posture (s0 … w2, rad) a replay starts the arm near, where the IK follows the
+trajectory only from there (a planned motion's start configuration; `experiments.line_contact`
+chooses it). `waypoint_trajectory` makes one
 from waypoints (move, then dwell), `tip_trajectory_source` turns one into the 7-vector
 [p_WT, quaternion wxyz] a `ToolTipIKSystem` takes.
 """
@@ -30,6 +33,8 @@ class TipTrajectory:
     times: np.ndarray  # (T,)
     positions: np.ndarray  # (T, 3)
     quaternions: np.ndarray  # (T, 4), w x y z, unit
+    # The arm posture (s0 … w2, rad) that seeds the replay's home IK; None: the scenario's.
+    arm_start: np.ndarray | None = None
 
     def __post_init__(self):
         self.times = np.asarray(self.times, float)
@@ -43,11 +48,16 @@ class TipTrajectory:
                 f"positions {self.positions.shape} and quaternions "
                 f"{self.quaternions.shape} must be ({T}, 3) and ({T}, 4)"
             )
-        for name, a in (
-            ("times", self.times),
-            ("positions", self.positions),
-            ("quaternions", self.quaternions),
-        ):
+        arrays = [("times", self.times), ("positions", self.positions)]
+        arrays.append(("quaternions", self.quaternions))
+        if self.arm_start is not None:
+            self.arm_start = np.array(self.arm_start, float)
+            if self.arm_start.shape != (7,):
+                raise ValueError(
+                    f"arm_start must be 7 joint angles (rad); got shape {self.arm_start.shape}"
+                )
+            arrays.append(("arm_start", self.arm_start))
+        for name, a in arrays:
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"trajectory {name} hold NaN or infinite values")
         if np.any(np.diff(self.times) <= 0):
@@ -66,7 +76,10 @@ class TipTrajectory:
 
     def save(self, path) -> Path:
         buffer = io.BytesIO()
-        np.savez(buffer, times=self.times, positions=self.positions, quaternions=self.quaternions)
+        arrays = dict(times=self.times, positions=self.positions, quaternions=self.quaternions)
+        if self.arm_start is not None:
+            arrays["arm_start"] = self.arm_start
+        np.savez(buffer, **arrays)
         return atomic_write_bytes(path, buffer.getvalue())
 
     @staticmethod
@@ -76,11 +89,14 @@ class TipTrajectory:
             raise FileNotFoundError(f"trajectory file not found: {str(path)!r}")
         try:
             with np.load(path) as data:
-                return TipTrajectory(data["times"], data["positions"], data["quaternions"])
+                arm_start = data["arm_start"] if "arm_start" in data.files else None
+                return TipTrajectory(
+                    data["times"], data["positions"], data["quaternions"], arm_start
+                )
         except (KeyError, ValueError, OSError, EOFError, zipfile.BadZipFile) as e:
             raise ValueError(
                 f"malformed trajectory file {str(path)!r}: {e} (it needs times "
-                "(T,), positions (T, 3), quaternions (T, 4))"
+                "(T,), positions (T, 3), quaternions (T, 4), optionally arm_start (7,))"
             ) from None
 
 

@@ -169,6 +169,7 @@ def test_trajectory_line_contact_and_paper(capsys, tmp_path):
         code, text, err = run(
             capsys, "trajectory", "--policy", str(TRANSFER_POLICY), "--episodes", "2",
             "--tool-length", "0.15", "--extraction", extraction, "--out", str(out), "--json",
+            "--calibration-draws", "1",
         )  # fmt: skip
         assert code == 0, err
         made[extraction] = data = json.loads(text)

@@ -188,6 +188,22 @@ CASES = [
     ),
     (["sweep", "--num-cpus", "0", "--out", "{d}/s"], r"--num-cpus=0 is outside the allowed range"),
     (["sweep", "--out", "{d}/a_file"], r"--out '.*a_file' is a file"),
+    (
+        ["transfer", "--mode", "open-loop", "--calibration-draws", "-1", "--out", "{d}/t"],
+        r"--calibration-draws=-1 is outside the allowed range \[0, 1000\]",
+    ),
+    (
+        [
+            "trajectory",
+            "--policy",
+            TRANSFER_POLICY,
+            "--calibration-draws",
+            "1001",
+            "--out",
+            "{d}/t",
+        ],
+        r"--calibration-draws=1001 is outside the allowed range \[0, 1000\]",
+    ),
 ]
 
 

@@ -9,9 +9,11 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.analysis import Simulator
 
-from drake_tooluse.diagrams.trajectory import simulate_waypoints
+from drake_tooluse.diagrams.trajectory import build_trajectory_diagram, simulate_waypoints
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief
-from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.world.scenario import Scenario, with_tool_length
+from drake_tooluse.world.scene import home_tip_pose
 
 DOWN = RollPitchYaw(*TOOL_DOWN_RPY)
 
@@ -156,3 +158,20 @@ def test_simulate_cli_honours_the_reality_scenarios_actuation_delay(tmp_path, ca
         errors.append(waypoint["position_error_m"])
     late, on_time = errors
     assert late > on_time + 0.005, errors  # measured: 62 mm vs 47 mm
+
+
+def test_a_trajectory_with_an_arm_start_starts_the_arm_on_that_branch():
+    """The home pose is the same tip pose either way; a trajectory's `arm_start` seeds the IK
+    that solves it, so the arm starts on the branch the trajectory was planned on (here the
+    elbow-out one a 0.25 m tool's line contact takes) instead of the scenario's posture."""
+    scenario = with_tool_length(Scenario(), 0.25)
+    X = home_tip_pose(scenario)
+    p, q = X.translation(), X.rotation().ToQuaternion().wxyz()
+    elbow_out = np.array([-0.15, -0.74, 1.28, 1.73, 2.3, -1.25, -1.02])
+    plain = TipTrajectory([0.0], [p], [q])
+    planned = TipTrajectory([0.0], [p], [q], elbow_out)
+    q_seed = build_trajectory_diagram(scenario, plain).control.q0
+    q_planned = build_trajectory_diagram(scenario, planned).control.q0
+    assert np.abs(q_planned - elbow_out).max() < 0.3
+    assert np.abs(q_seed - np.array(scenario.robot.posture_seed)).max() < 0.3
+    assert np.abs(q_planned - q_seed).max() > 1.0

@@ -9,8 +9,11 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from drake_tooluse.experiments import line_contact as variants
+from drake_tooluse.experiments.trajectory import filter_reachable
+from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.model import TOOL_DOWN_RPY
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.world.scenario import load_scenario
 
 Q_DOWN = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
 P_WBOX = np.array([0.7, -0.25, -0.18])  # the nominal box centre (push.yaml)
@@ -113,3 +116,52 @@ def test_line_contact_takes_the_first_tilt_the_ik_follows_from_every_box_start()
         _push(), 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, BOX_SIZE, tilts_deg=(85,)
     )
     assert not flat.followed and flat.tilt_deg == 85
+
+
+def _largest_step(q: np.ndarray) -> float:
+    return float(np.abs(np.diff(q, axis=0)).max())
+
+
+def test_a_long_tool_starts_the_arm_on_the_ik_branch_that_follows_the_push():
+    """With a 0.25 m tool the IK from Baxter's posture seed leaves its branch mid-push (the
+    shoulder at its conservative limit); the arm starts instead where the branch the path ends
+    on begins (`branch_start`), kept as the trajectory's `arm_start`, and from there the IK
+    follows the steepest tilt. A tool the seed's path follows keeps the seed."""
+    push = _push(0.004)
+    contact = variants.line_contact(push, 0.25, [0.0, 0.2, 0.0], P_WBOX, 0.02, BOX_SIZE)
+    assert contact.followed and contact.tilt_deg == variants.TILTS_DEG[0]
+    start = contact.trajectory.arm_start
+    assert start is not None and contact.as_dict()["arm_start"] == start.tolist()
+    from_seed = filter_reachable(contact.trajectory, 0.25)
+    assert _largest_step(from_seed.joint_positions) > variants.MAX_JOINT_STEP
+    planned = filter_reachable(contact.trajectory, 0.25, q_start=start)
+    assert planned.reachable == len(push)
+    assert _largest_step(planned.joint_positions) <= variants.MAX_JOINT_STEP
+    short = variants.line_contact(push, 0.175, [0.0, 0.2, 0.0], P_WBOX, 0.02, BOX_SIZE)
+    assert short.trajectory.arm_start is None and short.as_dict()["arm_start"] is None
+
+
+def test_calibration_moves_the_push_across_to_where_it_pushes_best_in_the_nominal_world():
+    """`calibrated` replays the trajectory in the nominal simulation at each offset across the
+    push and keeps the best: 15 mm beside the 4 cm box's centre line the tool catches only its
+    corner and the box turns away; through the centre line it pushes on."""
+    scenario = load_scenario(DEFAULT_SCENARIO)
+    contact = variants.line_contact_for_task(_push(0.004), 0.175, scenario, calibration_draws=0)
+    assert contact.calibration is None and contact.across_offset == 0.0
+    assert variants.describe_choice(contact.as_dict()) == ""
+    moved = variants.calibrated(contact, 0.175, scenario, draws=1, offsets=(0.015, 0.0))
+    beside, through = moved.calibration
+    assert (beside["offset_m"], through["offset_m"]) == (0.015, 0.0)
+    assert through["mean_final_distance_m"] < beside["mean_final_distance_m"] - 0.01
+    assert moved.across_offset == 0.0
+    np.testing.assert_array_equal(moved.trajectory.positions, contact.trajectory.positions)
+    assert "moved +0 mm across the push (best of 2 offsets" in variants.describe_choice(
+        moved.as_dict()
+    )
+    # An offset moves the trajectory along z × the push direction (here -x).
+    beside_only = variants.calibrated(contact, 0.175, scenario, draws=1, offsets=(0.015,))
+    np.testing.assert_allclose(
+        beside_only.trajectory.positions - contact.trajectory.positions,
+        np.tile([-0.015, 0.0, 0.0], (len(contact.trajectory), 1)),
+        atol=1e-12,
+    )

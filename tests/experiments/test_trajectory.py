@@ -11,6 +11,7 @@ from drake_tooluse.experiments.trajectory import (
     average_quaternions,
     filter_reachable,
     pad_episodes,
+    shifted,
     smooth,
 )
 from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
@@ -75,6 +76,14 @@ def test_trajectory_file_round_trip_and_malformed_file(tmp_path):
         TipTrajectory([0], [[np.nan, 0, 0]], [[1, 0, 0, 0]])
     with pytest.raises(ValueError, match="increase strictly"):
         TipTrajectory([0, 0], [[0, 0, 0]] * 2, [[1, 0, 0, 0]] * 2)
+    # The arm posture a replay starts from travels with the file, and with a shifted copy.
+    assert back.arm_start is None
+    planned = TipTrajectory(traj.times, traj.positions, traj.quaternions, np.arange(7) * 0.1)
+    again = TipTrajectory.load(planned.save(tmp_path / "planned.npz"))
+    np.testing.assert_array_equal(again.arm_start, planned.arm_start)
+    np.testing.assert_array_equal(shifted(again, (0.01, 0.0)).arm_start, planned.arm_start)
+    with pytest.raises(ValueError, match="arm_start must be 7 joint angles"):
+        TipTrajectory([0], [[0, 0, 0]], [[1, 0, 0, 0]], [0.0] * 6)
 
 
 def test_baxter_csv_format_read_back(tmp_path):
@@ -218,8 +227,8 @@ def test_the_commanded_trajectory_replays_the_push_the_achieved_one_lags():
     ~2 cm at full speed, so replaying where the tip got (the paper's recording) commands a
     slower push that trails the closed-loop tip; replaying what each step commanded follows
     it within millimetres (the nominal start, one deterministic episode)."""
+    from drake_tooluse.diagrams.trajectory import run_open_loop
     from drake_tooluse.experiments.trajectory import average_episodes, record_episodes
-    from drake_tooluse.experiments.transfer import run_open_loop
     from drake_tooluse.paths import DEFAULT_SCENARIO, TRANSFER_POLICY
     from drake_tooluse.robot.model import RobotBelief
     from drake_tooluse.world.scenario import load_scenario

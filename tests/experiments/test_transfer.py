@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from drake_tooluse.cli import main
+from drake_tooluse.experiments.line_contact import CALIBRATION_OFFSETS
 from drake_tooluse.experiments.transfer import run_transfer, run_worlds
 from drake_tooluse.paths import SCENARIOS_DIR, SHIPPED_POLICY, TRANSFER_POLICY
 from drake_tooluse.systems.tip_trajectory import TipTrajectory, tip_trajectory_source
@@ -354,7 +355,7 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
     out = tmp_path / "t"
     result = transfer_experiment(
         out, TRANSFER_POLICY, tools=[0.15], runs=1,
-        mode="open-loop", episodes=2, log=lambda text: None,
+        mode="open-loop", episodes=2, log=lambda text: None, calibration_draws=1,
     )  # fmt: skip
     assert result["box_frame"]
     made = result["trajectory"]
@@ -362,6 +363,7 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
     for tool in result["tools"]:
         chosen = made["by_tool"][f"{tool['tool_length_m']:g}"]
         assert chosen["followed"] and chosen["tilt_deg"] > 0
+        assert len(chosen["calibration"]) == len(CALIBRATION_OFFSETS)  # one nominal draw each
         replayed = TipTrajectory.load(chosen["file"])
         assert len(replayed) == chosen["kept"] == chosen["poses"]
         reality, nominal = tool["reality"]["per_run"][0], tool["nominal"]["per_run"][0]
