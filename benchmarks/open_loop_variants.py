@@ -6,7 +6,8 @@ transfer --mode open-loop` replays its trajectory.
 
     python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--tools M ...]
                                             [--variants NAME ...] [--tilts DEG ...]
-                                            [--offsets CM ...] [--out FILE]
+                                            [--offsets CM ...] [--calibration-draws N]
+                                            [--out FILE]
 
 Variants, each changing one thing of the one above it:
 
@@ -28,13 +29,17 @@ Variants, each changing one thing of the one above it:
                shaft, not its point, meets the box's face: a line contact, which pushes stably
                open loop where a point does not (Lynch & Mason 1996); ramped in over the
                approach, 30 degrees or the steepest shallower tilt the IK follows without a
-               jump for every box start (`drake_tooluse.experiments.line_contact`: what
-               `drake-tooluse transfer --mode open-loop` replays by default)
+               jump for every box start (from the posture seed or the start of the branch its
+               path ends on), then moved across the push to the offset that pushes best over
+               `--calibration-draws` randomized replays in the nominal simulation
+               (`drake_tooluse.experiments.line_contact`: what `drake-tooluse transfer --mode
+               open-loop` replays by default)
 
 `--tilts DEG ...` adds a line-contact row per tilt (that tilt, whether the IK follows it or
 not): how steep is best. `--offsets CM ...` adds a line-contact row per offset: the centred,
 tilted trajectory moved that far across the push (+: to the left of the push direction): how
-far off the box's centre line an open-loop push may run.
+far off the box's centre line an open-loop push may run. Those rows are not calibrated (the
+geometric centring, as `--calibration-draws 0`).
 
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
@@ -52,6 +57,7 @@ import numpy as np
 from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.trajectory import run_open_loop
+from drake_tooluse.experiments.choices import CALIBRATION_DRAWS
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
     centred,
@@ -181,11 +187,18 @@ def main() -> None:
     ap.add_argument(
         "--offsets", type=float, nargs="+", default=[], help="a line-contact row at each (cm)"
     )
+    ap.add_argument(
+        "--calibration-draws",
+        type=int,
+        default=CALIBRATION_DRAWS,
+        help="line-contact row: nominal replays per offset across the push (0: not calibrated)",
+    )
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     try:  # bad input: one line naming the value, not a traceback
         check_int(args.episodes, 1, 10_000, "--episodes")
         check_int(args.runs, 1, 10_000, "--runs")
+        check_int(args.calibration_draws, 0, 1000, "--calibration-draws")
         check_seed(args.seed, "--seed", args.runs)
         for tool in args.tools:
             check_tool_length(tool, "--tools")
@@ -235,7 +248,10 @@ def study(args) -> None:
             base = centred(base, push_direction, nominal_box, box_size)
         for tool in args.tools:
             if v.line_contact:
-                contact = line_contact_for_task(base, tool, nominal_s, tilts or TILTS_DEG)
+                draws = args.calibration_draws if tilts is None and not offset else 0
+                contact = line_contact_for_task(
+                    base, tool, nominal_s, tilts or TILTS_DEG, calibration_draws=draws
+                )
                 kept, tilt_deg, followed = contact.trajectory, contact.tilt_deg, contact.followed
                 kept = shifted(kept, offset * left) if offset else kept
                 at_limit = contact.joints_at_limit
@@ -273,6 +289,8 @@ def study(args) -> None:
             row["tilts_tried_deg"] = list(tilts or TILTS_DEG) if v.line_contact else []
             row["tilt_deg"], row["tilt_followed"] = tilt_deg, followed
             row["joints_at_limit"] = at_limit
+            if v.line_contact:
+                row["line_contact"] = contact.as_dict()
             for world, rs in runs.items():
                 row[world] = {
                     "at_goal": sum(r["success"] for r in rs),
@@ -301,7 +319,12 @@ def study(args) -> None:
             + " ".join(f"{t:g}" for t in args.tools)
             + ("" if args.variants == list(VARIANTS) else " --variants " + " ".join(args.variants))
             + (" --tilts " + " ".join(map(str, args.tilts)) if args.tilts else "")
-            + (" --offsets " + " ".join(f"{o:g}" for o in args.offsets) if args.offsets else ""),
+            + (" --offsets " + " ".join(f"{o:g}" for o in args.offsets) if args.offsets else "")
+            + (
+                f" --calibration-draws {args.calibration_draws}"
+                if args.calibration_draws != CALIBRATION_DRAWS
+                else ""
+            ),
             "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
@@ -329,6 +352,9 @@ def study(args) -> None:
         label = row["row"]
         if row["tilt_deg"] and not label.startswith(f"{row['variant']} at"):  # the tilt it chose
             label += f" ({row['tilt_deg']}°)"
+        calibrated = row.get("line_contact", {}).get("across_offset_m")
+        if calibrated:  # where the nominal replays put it across the push
+            label += f" ({calibrated * 1000:+.0f} mm across)"
         if row["tilts_tried_deg"] and not row["tilt_followed"]:
             label += " (the IK jumps)"
         print(
