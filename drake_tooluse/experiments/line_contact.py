@@ -300,19 +300,19 @@ def calibrated(
     box_xy = scenario.randomization.box_xy
     rows, best = [], None
     for offset in offsets:
-        trajectory = shifted(contact.trajectory, offset * side[:2])
-        if contact.followed:
-            tried = _tried(trajectory, contact.tilt_deg, tool, box_xy, trajectory.arm_start)
+        moved = replace(contact, trajectory=shifted(contact.trajectory, offset * side[:2]))
+        if contact.followed:  # the IK's figures of the moved trajectory, if it follows it
+            t = moved.trajectory
+            tried = _tried(t, contact.tilt_deg, tool, box_xy, t.arm_start)
             if tried is None or not tried[0].followed:
                 rows.append({"offset_m": offset, "followed": False})
                 continue
-        at_goal, distance = nominal_replays(trajectory, tool, scenario, draws, seed)
+            moved = tried[0]
+        at_goal, distance = nominal_replays(moved.trajectory, tool, scenario, draws, seed)
         rows.append({"offset_m": offset, "at_goal": at_goal, "mean_final_distance_m": distance})
         if best is None or (at_goal, -distance) > best[0]:
-            best = ((at_goal, -distance), offset, trajectory)
-    if best is None:
-        return replace(contact, calibration=rows)
-    return replace(contact, trajectory=best[2], across_offset=best[1], calibration=rows)
+            best = ((at_goal, -distance), replace(moved, across_offset=offset))
+    return replace(contact if best is None else best[1], calibration=rows)
 
 
 def describe_choice(contact: dict) -> str:
