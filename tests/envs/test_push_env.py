@@ -178,6 +178,7 @@ def _make(rank):
     return thunk
 
 
+@pytest.mark.slow  # ~9 s: two worker processes; .ci/run runs it
 def test_subproc_vec_env_with_two_workers():
     vec = SubprocVecEnv([_make(0), _make(1)])
     try:

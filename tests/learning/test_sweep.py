@@ -43,6 +43,7 @@ def _wait_for(paths, timeout_s=240):
         time.sleep(0.2)
 
 
+@pytest.mark.slow  # ~45 s: a Ray sweep; .ci/run runs it
 def test_a_failed_cell_is_reported_and_the_others_finish(tmp_path, capsys):
     # PPO refuses n_steps * n_envs = 1 when it is built (inside the cell); A2C takes it. The
     # refusal is deterministic: the cell ends with it (no trial error), and is not retried.

@@ -26,7 +26,10 @@ PER_ALGO = {
 }
 
 
-@pytest.mark.parametrize("algo", list(PER_ALGO))
+# DDPG's smoke run is ~20 s (its replay buffer): slow, run by .ci/run.
+@pytest.mark.parametrize(
+    "algo", [pytest.param(a, marks=pytest.mark.slow) if a == "ddpg" else a for a in PER_ALGO]
+)
 def test_smoke_run_per_algorithm(algo, tmp_path):
     config = resolve_config(ENV, algo, 1000, 1, 0, overrides={**TINY, **PER_ALGO[algo]})
     summary = train(config, tmp_path / "run", progress_bar=False)
@@ -40,6 +43,7 @@ def test_smoke_run_per_algorithm(algo, tmp_path):
     assert policy.meta.algo == algo and policy.meta.action_shape == [3]
 
 
+@pytest.mark.slow  # ~30 s; .ci/run runs it
 def test_resume_after_sigkill_loses_at_most_one_checkpoint_interval(tmp_path):
     out = tmp_path / "run"
     hp = json.dumps({**TINY, **PER_ALGO["ppo"]})
