@@ -158,6 +158,7 @@ def uninterrupted(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow  # ~14 s with its uninterrupted twin; .ci/run runs it
 def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path):
     out, config = tmp_path / "run", tiny_config(STEPS, seed=1, **FAULTY)
 

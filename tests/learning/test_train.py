@@ -26,9 +26,12 @@ PER_ALGO = {
 }
 
 
-# DDPG's smoke run is ~20 s (its replay buffer): slow, run by .ci/run.
+# PPO and A2C by default; DDPG (~20 s, its replay buffer) and TRPO (~6 s) slow, run by .ci/run.
+SLOW_ALGOS = ("ddpg", "trpo")
+
+
 @pytest.mark.parametrize(
-    "algo", [pytest.param(a, marks=pytest.mark.slow) if a == "ddpg" else a for a in PER_ALGO]
+    "algo", [pytest.param(a, marks=pytest.mark.slow) if a in SLOW_ALGOS else a for a in PER_ALGO]
 )
 def test_smoke_run_per_algorithm(algo, tmp_path):
     config = resolve_config(ENV, algo, 1000, 1, 0, overrides={**TINY, **PER_ALGO[algo]})
