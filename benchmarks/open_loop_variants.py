@@ -57,12 +57,13 @@ import numpy as np
 from drake_tooluse.diagrams.box_measurement import measure_box_start
 from drake_tooluse.diagrams.measurement import measure_belief
 from drake_tooluse.diagrams.trajectory import run_open_loop
-from drake_tooluse.experiments.choices import CALIBRATION_DRAWS
+from drake_tooluse.experiments.choices import CALIBRATION_DRAWS, MAX_CALIBRATION_DRAWS
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
     centred,
     joints_at_limit,
     line_contact_for_task,
+    side_of,
 )
 from drake_tooluse.experiments.trajectory import (
     average_episodes,
@@ -198,7 +199,7 @@ def main() -> None:
     try:  # bad input: one line naming the value, not a traceback
         check_int(args.episodes, 1, 10_000, "--episodes")
         check_int(args.runs, 1, 10_000, "--runs")
-        check_int(args.calibration_draws, 0, 1000, "--calibration-draws")
+        check_int(args.calibration_draws, 0, MAX_CALIBRATION_DRAWS, "--calibration-draws")
         check_seed(args.seed, "--seed", args.runs)
         for tool in args.tools:
             check_tool_length(tool, "--tools")
@@ -239,7 +240,7 @@ def study(args) -> None:
     specs = [(v, None, 0.0) for v in args.variants]
     specs += [("line-contact", (t,), 0.0) for t in args.tilts]
     specs += [("line-contact", None, o / 100) for o in args.offsets]
-    left = np.cross([0.0, 0.0, 1.0], push_direction / np.linalg.norm(push_direction))[:2]
+    left = side_of(push_direction)[:2]
     rows = []
     for variant, tilts, offset in specs:
         v = VARIANTS[variant]

@@ -18,6 +18,7 @@ from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
     EXTRACTIONS,
+    MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
 )
@@ -25,7 +26,6 @@ from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POL
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
 
 MAX_EPISODES = 100_000
-MAX_CALIBRATION_DRAWS = 1000
 
 
 def cmd_trajectory(args) -> dict:

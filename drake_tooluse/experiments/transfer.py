@@ -56,6 +56,7 @@ from drake_tooluse.experiments.choices import (
     CALIBRATION_DRAWS,
     EXTRACTION_RECORDS,
     EXTRACTIONS,
+    MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
 )
@@ -491,12 +492,12 @@ def transfer_experiment(
     step commanded or reached (`record`; default the extraction's own, EXTRACTION_RECORDS),
     the way `extraction` says (see the module docstring): `line-contact`, one trajectory per
     tool (`trajectory-<mm>mm.npz`, moved across the push to where it pushes best over
-    `calibration_draws` randomized replays in the nominal simulation), or `paper`, one kept to the poses every tool reaches
-    under the conservative limits (`trajectory.npz`). Everything is written into a staging
+    `calibration_draws` randomized replays in the nominal simulation), or `paper`, one kept
+    to the poses every tool reaches under the conservative limits (`trajectory.npz`). Everything is written into a staging
     directory that becomes `out` only when complete. Every path in the result is absolute (as
     the demo's metrics.json). Returns the result."""
     tools = check_transfer_args(tools, runs, mode, seed)
-    check_int(calibration_draws, 0, 1000, "calibration_draws")
+    check_int(calibration_draws, 0, MAX_CALIBRATION_DRAWS, "calibration_draws")
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(extraction, EXTRACTIONS, "extraction")
     record = EXTRACTION_RECORDS[extraction] if record is None else record

@@ -48,8 +48,11 @@ class TipTrajectory:
                 f"positions {self.positions.shape} and quaternions "
                 f"{self.quaternions.shape} must be ({T}, 3) and ({T}, 4)"
             )
-        arrays = [("times", self.times), ("positions", self.positions)]
-        arrays.append(("quaternions", self.quaternions))
+        arrays = [
+            ("times", self.times),
+            ("positions", self.positions),
+            ("quaternions", self.quaternions),
+        ]
         if self.arm_start is not None:
             self.arm_start = np.array(self.arm_start, float)
             if self.arm_start.shape != (7,):
