@@ -43,6 +43,7 @@ Cells, cheapest evidence first (the order they run in):
 
 import argparse
 import json
+import os
 import re
 import shlex
 import shutil
@@ -393,6 +394,17 @@ def order(queue: list[tuple[str, int]], runs_dir: Path, results: dict) -> list[t
     return ordered + [run for run in queue if run not in ordered]
 
 
+def _training_pid(out: Path) -> int | None:
+    """The pid of the live process that holds the run's lock (`train` writes it there), or
+    None: a stopped run's lock names a process that is gone."""
+    try:
+        pid = int((out / ".lock").read_text().strip())
+        os.kill(pid, 0)
+    except (OSError, ValueError):
+        return None
+    return pid
+
+
 def status(runs_dir: Path, archive: Path, results: dict) -> None:
     for cell, c in CELLS.items():
         for seed in c["seeds"]:
@@ -406,7 +418,13 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
             elif (out / "config.json").is_file() and not trained(out, c["timesteps"]):
                 ckpt = out / "checkpoints" / "latest.json"
                 steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
-                state = f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+                pid = _training_pid(out)
+                state = (
+                    f"training now (pid {pid}), last checkpoint at {steps} of {c['timesteps']}"
+                    " steps"
+                    if pid
+                    else f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+                )
             elif trained(out, c["timesteps"]):
                 why = f" (last try: {entry['error']})" if "error" in entry else ""
                 state = f"trained, not evaluated yet: the job evaluates it{why}"

@@ -6,6 +6,7 @@ the runner stops on an error. No training runs here (fast)."""
 
 import importlib.util
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -128,3 +129,20 @@ def test_a_training_does_not_outlive_the_runner(runner, tmp_path, monkeypatch):
     with pytest.raises(RuntimeError, match="the disk went away"):
         runner.train_and_archive(sleeper, tmp_path, tmp_path / "archive", lambda: None)
     assert started and started[0].poll() is not None  # killed, not orphaned
+
+
+def test_status_tells_a_run_training_now_from_a_stopped_one(runner, tmp_path, capsys):
+    out = runner.run_dir(tmp_path, "other", 0)
+    out.mkdir(parents=True)
+    (out / "config.json").write_text("{}")
+    (out / ".lock").write_text(str(os.getpid()))  # this process: alive
+    runner.status(tmp_path, tmp_path / "archive", {})
+    assert f"other              seed 0: training now (pid {os.getpid()})" in capsys.readouterr().out
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"], text=True, capture_output=True
+    ).stdout.strip()
+    (out / ".lock").write_text(dead)  # a process that has ended
+    runner.status(tmp_path, tmp_path / "archive", {})
+    assert (
+        "other              seed 0: stopped at 0 of 100 steps (resumes)" in capsys.readouterr().out
+    )
