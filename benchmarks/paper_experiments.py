@@ -43,7 +43,6 @@ Cells, cheapest evidence first (the order they run in):
 
 import argparse
 import json
-import os
 import re
 import shlex
 import shutil
@@ -52,7 +51,7 @@ import sys
 import time
 from pathlib import Path
 
-from drake_tooluse.files import atomic_dir, atomic_write_json, run_lock
+from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results" / "paper_study.json"
@@ -394,17 +393,6 @@ def order(queue: list[tuple[str, int]], runs_dir: Path, results: dict) -> list[t
     return ordered + [run for run in queue if run not in ordered]
 
 
-def _training_pid(out: Path) -> int | None:
-    """The pid of the live process that holds the run's lock (`train` writes it there), or
-    None: a stopped run's lock names a process that is gone."""
-    try:
-        pid = int((out / ".lock").read_text().strip())
-        os.kill(pid, 0)
-    except (OSError, ValueError):
-        return None
-    return pid
-
-
 def status(runs_dir: Path, archive: Path, results: dict) -> None:
     for cell, c in CELLS.items():
         for seed in c["seeds"]:
@@ -418,12 +406,11 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
             elif (out / "config.json").is_file() and not trained(out, c["timesteps"]):
                 ckpt = out / "checkpoints" / "latest.json"
                 steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
-                pid = _training_pid(out)
+                at, pid = f"{steps} of {c['timesteps']} steps", lock_holder(out)  # train's lock
                 state = (
-                    f"training now (pid {pid}), last checkpoint at {steps} of {c['timesteps']}"
-                    " steps"
+                    f"training now (pid {pid}), last checkpoint at {at}"
                     if pid
-                    else f"stopped at {steps} of {c['timesteps']} steps (resumes)"
+                    else f"stopped at {at} (resumes)"
                 )
             elif trained(out, c["timesteps"]):
                 why = f" (last try: {entry['error']})" if "error" in entry else ""

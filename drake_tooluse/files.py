@@ -373,6 +373,16 @@ def check_output_dir(path, option: str, must_be_new: bool = True) -> Path:
     return path
 
 
+def lock_holder(directory: str | Path) -> int | None:
+    """The pid that `run_lock` wrote in `directory`, if that process is alive; else None (no
+    lock file, or its holder has ended: the lock went with it)."""
+    try:
+        pid = int((Path(directory) / ".lock").read_text().strip())
+    except (OSError, ValueError):
+        return None
+    return pid if _pid_alive(pid) else None
+
+
 @contextlib.contextmanager
 def run_lock(directory: str | Path):
     """Holds an exclusive lock on `directory` (its `.lock` file) while the block runs; a
