@@ -5,7 +5,7 @@ stopped), its best policy evaluated with `drake-tooluse evaluate` over 100 seede
 limit (`--to-time-limit`: where the box ends, as a protocol without an early end judges it).
 
     python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only CELL ...]
-                                           [--seeds N ...] [--commit] [--status]
+                                           [--seeds N ...] [--parallel N] [--commit] [--status]
 
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
@@ -25,7 +25,9 @@ finished in this job the report is regenerated (`python benchmarks/paper_report.
 docs/TRAINING.md's tables and figures, needs the `bench` extra's rliable; a report that fails is
 logged and the job goes on) and, with `--commit`, committed (the page and its figures), so the
 page is current whenever a session ends. `--status` prints what is done, what is missing
-and the measured time per run.
+and the measured time per run. `--parallel N` runs N at a time (each training is one process
+on one core; a fine-tuning waits while the run it starts from is still to run or running);
+runs that share the cores report a lower steps/s than a run alone.
 
 Cells, cheapest evidence first (the order they run in):
   ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
@@ -48,7 +50,9 @@ import shlex
 import shutil
 import subprocess
 import sys
+import threading
 import time
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
@@ -96,6 +100,48 @@ CELLS = {
     "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=300_000, seeds=(0, 1, 2)),
 }
 EPISODES, EVALUATION_SEED = 100, 1000
+# The job's running commands (trainings, evaluations): killed when the job stops on an error,
+# so that no run goes on without the job that records it.
+_LIVE: set[subprocess.Popen] = set()
+_LIVE_LOCK = threading.Lock()
+_STOPPING = threading.Event()
+_GIT_LOCK = threading.Lock()  # one git command at a time: the runs commit from their threads
+
+
+def _start(cmd: list[str]) -> subprocess.Popen:
+    with _LIVE_LOCK:
+        if _STOPPING.is_set():
+            raise RuntimeError(f"the job is stopping: {shlex.join(cmd)} not started")
+        job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        _LIVE.add(job)
+    return job
+
+
+def _end(job: subprocess.Popen) -> None:
+    """Kills `job` if it still runs, and forgets it."""
+    if job.poll() is None:
+        job.kill()
+        job.wait()
+    with _LIVE_LOCK:
+        _LIVE.discard(job)
+
+
+def stop_live_commands() -> None:
+    """Kills every running command of the job and lets no new one start."""
+    with _LIVE_LOCK:
+        _STOPPING.set()
+        for job in _LIVE:
+            if job.poll() is None:
+                job.kill()
+
+
+def _run(cmd: list[str]) -> subprocess.CompletedProcess:
+    job = _start(cmd)
+    try:
+        stdout, stderr = job.communicate()
+    finally:
+        _end(job)
+    return subprocess.CompletedProcess(cmd, job.returncode, stdout, stderr)
 
 
 def run_dir(runs_dir: Path, cell: str, seed: int) -> Path:
@@ -223,7 +269,7 @@ def train_and_archive(
 ) -> subprocess.CompletedProcess:
     """Runs the training command, archiving the run every ARCHIVE_EVERY while it trains
     (`on_archive()` after each) and once when it ends; what it printed and its exit code."""
-    job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    job = _start(cmd)
     try:
         while True:
             try:
@@ -233,9 +279,7 @@ def train_and_archive(
                 if archive_run(out, archived):
                     on_archive()
     finally:  # the job stopped (a signal, an error): no training goes on without it
-        if job.poll() is None:
-            job.kill()
-            job.wait()
+        _end(job)
     if (out / "config.json").is_file() and archive_run(out, archived):
         on_archive()
     return subprocess.CompletedProcess(cmd, job.returncode, stdout, stderr)
@@ -309,7 +353,7 @@ def run_one(
             )  # evaluated already
             continue
         cmd = evaluate_command(out / "best", c["env"], extra)
-        finished = subprocess.run(cmd, capture_output=True, text=True)
+        finished = _run(cmd)
         if finished.returncode != 0:
             error = _last_line(finished)
             print(f"[{_stamp()}] {cell} seed {seed} ({key}) failed: {error}", flush=True)
@@ -329,6 +373,11 @@ def run_one(
 
 def commit(paths: list[Path], message: str) -> None:
     """Commits `paths` alone (whatever else is staged stays staged); retried on a busy index."""
+    with _GIT_LOCK:
+        _commit(paths, message)
+
+
+def _commit(paths: list[Path], message: str) -> None:
     git = ["git", "-C", str(ROOT)]
     names = [str(p) for p in paths]
     done = None
@@ -426,6 +475,72 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
             print(f"{cell:18s} seed {seed}: {state}")
 
 
+def ready(run: tuple[str, int], pending, running) -> bool:
+    """Whether `run` may start: the run its training starts from (a fine-tuning's source) is
+    neither still to run nor running."""
+    source = (CELLS[run[0]].get("init_from"), run[1])
+    return source not in pending and source not in running
+
+
+def record(cell: str, seed: int, entry: dict, before, was_lost: bool, results: dict, args) -> None:
+    """Writes a finished run's entry into the results (and commits it), and regenerates the
+    report after a run that finished in this job."""
+    if was_lost and "error" in entry:  # the evaluation stays; the next job tries again
+        entry = {**before, "retrain_error": entry["error"]}
+    spec = {k: v for k, v in CELLS[cell].items() if k != "seeds"}
+    results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
+    results[cell]["seeds"][str(seed)] = entry
+    atomic_write_json(args.out, results)
+    if args.commit:
+        commit([args.out], f"Paper study: {cell} seed {seed}")
+    if evaluated(entry) and entry != before and "retrain_error" not in entry:
+        # a run finished in this job
+        written = report(args.archive, args.out)
+        if written and args.commit:
+            commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
+
+
+def _submit(pool: ThreadPoolExecutor, cell: str, seed: int, results: dict, args):
+    """Starts one run in `pool`; its future and what `record` needs of it."""
+    before = results.get(cell, {}).get("seeds", {}).get(str(seed))
+    was_lost = lost(args.runs_dir, results, cell, seed)
+    if was_lost:
+        print(f"[{_stamp()}] {cell} seed {seed}: its files were lost; trains again", flush=True)
+    archived = run_dir(args.archive, cell, seed)
+
+    def on_archive():
+        if args.commit:
+            commit([archived], f"Paper study: {cell} seed {seed} archived")
+
+    snapshot = json.loads(json.dumps(results))  # the main thread goes on updating `results`
+    future = pool.submit(run_one, cell, seed, args.runs_dir, snapshot, args.archive, on_archive)
+    return future, (cell, seed, before, was_lost)
+
+
+def run_queue(pending: list[tuple[str, int]], results: dict, args) -> None:
+    """Runs `pending` in its order, `args.parallel` at a time (a run waits while its source is
+    still to run or running), recording each as it finishes; if the job stops on an error or
+    a signal, every command still running is killed first."""
+    running = {}  # future -> (cell, seed, its entry before, whether its files were lost)
+    _STOPPING.clear()
+    with ThreadPoolExecutor(max_workers=args.parallel) as pool:
+        try:
+            while pending or running:
+                for run in list(pending):
+                    busy = [r[:2] for r in running.values()]
+                    if len(running) < args.parallel and ready(run, pending, busy):
+                        pending.remove(run)
+                        future, about = _submit(pool, *run, results, args)
+                        running[future] = about
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    cell, seed, before, was_lost = running.pop(future)
+                    record(cell, seed, future.result(), before, was_lost, results, args)
+        except BaseException:  # no run goes on without the job that records it
+            stop_live_commands()
+            raise
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -437,7 +552,15 @@ def main() -> int:
     ap.add_argument("--archive", type=Path, default=ARCHIVE, help="each run's files, in the repo")
     ap.add_argument("--commit", action="store_true", help="git-commit the results after each run")
     ap.add_argument("--status", action="store_true", help="print what is done and missing")
+    ap.add_argument(
+        "--parallel",
+        type=int,
+        default=1,
+        help="runs at a time (default 1); each training takes one core",
+    )
     args = ap.parse_args()
+    if args.parallel < 1:
+        ap.error(f"--parallel {args.parallel}: runs at a time must be at least 1")
     results = json.loads(args.out.read_text()) if args.out.is_file() else {}
     if args.status:
         status(args.runs_dir, args.archive, results)
@@ -454,36 +577,7 @@ def main() -> int:
         if args.commit:  # what a job killed between an archive and its commit left
             commit([args.archive, args.out], "Paper study: the archive as the last job left it")
         # What is missing first; runs whose evaluation survived but whose files did not last.
-        queue = order(queue, args.runs_dir, results)
-        for position, (cell, seed) in enumerate(queue):
-            c = CELLS[cell]
-            before = results.get(cell, {}).get("seeds", {}).get(str(seed))
-            archived = run_dir(args.archive, cell, seed)
-
-            def on_archive(cell=cell, seed=seed, archived=archived):
-                if args.commit:
-                    commit([archived], f"Paper study: {cell} seed {seed} archived")
-
-            was_lost = lost(args.runs_dir, results, cell, seed)
-            if was_lost:
-                print(f"[{_stamp()}] {cell} seed {seed}: its files were lost; trains again")
-            entry = run_one(cell, seed, args.runs_dir, results, args.archive, on_archive)
-            source = (c.get("init_from"), seed)
-            if "waits for" in entry.get("error", "") and source in queue[position + 1 :]:
-                queue.append((cell, seed))  # again once the run it starts from has trained
-            if was_lost and "error" in entry:  # the evaluation stays; the next job tries again
-                entry = {**before, "retrain_error": entry["error"]}
-            spec = {k: v for k, v in c.items() if k != "seeds"}
-            results.setdefault(cell, {"spec": spec, "seeds": {}})["spec"] = spec
-            results[cell]["seeds"][str(seed)] = entry
-            atomic_write_json(args.out, results)
-            if args.commit:
-                commit([args.out], f"Paper study: {cell} seed {seed}")
-            if evaluated(entry) and entry != before and "retrain_error" not in entry:
-                # a run finished in this job
-                written = report(args.archive, args.out)
-                if written and args.commit:
-                    commit(written, f"TRAINING.md regenerated: {cell} seed {seed}")
+        run_queue(order(queue, args.runs_dir, results), results, args)
     return 0
 
 

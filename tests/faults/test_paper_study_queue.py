@@ -2,13 +2,16 @@
 runs right after the lost run it starts from is trained again; a finished fine-tuning keeps
 its results when its source is lost; a lost run whose retraining fails keeps its evaluation;
 a stray folder in the archive is not taken for a run; a training is not left running when
-the runner stops on an error. No training runs here (fast)."""
+the runner stops on an error; runs in parallel wait for the run they start from, and one
+that fails hard stops those beside it. No training runs here (fast)."""
 
 import importlib.util
 import json
 import os
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -36,6 +39,20 @@ def runner():
         ),
     )
     return module
+
+
+@pytest.fixture
+def started(runner, monkeypatch) -> list[subprocess.Popen]:
+    """The commands the runner starts, as they start."""
+    commands = []
+
+    class Recorded(subprocess.Popen):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            commands.append(self)
+
+    monkeypatch.setattr(runner.subprocess, "Popen", Recorded)
+    return commands
 
 
 def _evaluated(summary: dict) -> dict:
@@ -111,18 +128,10 @@ def test_status_tells_a_trained_run_waiting_for_its_evaluation(runner, tmp_path,
     assert "other              seed 0: trained, not evaluated yet" in capsys.readouterr().out
 
 
-def test_a_training_does_not_outlive_the_runner(runner, tmp_path, monkeypatch):
-    started = []
-
-    class Recorded(subprocess.Popen):
-        def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs)
-            started.append(self)
-
+def test_a_training_does_not_outlive_the_runner(runner, tmp_path, monkeypatch, started):
     def archive_fails(*args):
         raise RuntimeError("the disk went away")
 
-    monkeypatch.setattr(runner.subprocess, "Popen", Recorded)
     monkeypatch.setattr(runner, "ARCHIVE_EVERY", 0.2)
     monkeypatch.setattr(runner, "archive_run", archive_fails)
     sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
@@ -146,3 +155,68 @@ def test_status_tells_a_run_training_now_from_a_stopped_one(runner, tmp_path, ca
     assert (
         "other              seed 0: stopped at 0 of 100 steps (resumes)" in capsys.readouterr().out
     )
+
+
+def _main(runner, tmp_path, monkeypatch, *extra) -> Path:
+    """Runs the runner's main with `extra` arguments; its results file."""
+    study = tmp_path / "study.json"
+    argv = ["paper_experiments.py", "--runs-dir", str(tmp_path / "runs"), "--out", str(study)]
+    monkeypatch.setattr(sys, "argv", [*argv, "--archive", str(tmp_path / "archive"), *extra])
+    assert runner.main() == 0
+    return study
+
+
+def test_parallel_runs_wait_for_the_run_they_start_from(runner, tmp_path, monkeypatch):
+    spans, lock = {}, threading.Lock()
+
+    def run_one(cell, seed, *args, **kwargs):
+        began = time.monotonic()
+        time.sleep(0.3)
+        with lock:
+            spans[(cell, seed)] = (began, time.monotonic())
+        return _evaluated({"timesteps": runner.CELLS[cell]["timesteps"]})
+
+    monkeypatch.setattr(runner, "run_one", run_one)
+    monkeypatch.setattr(runner, "report", lambda *a: None)
+    study = _main(runner, tmp_path, monkeypatch, "--parallel", "2")
+    assert set(spans) == {(c, s) for c, cell in runner.CELLS.items() for s in cell["seeds"]}
+    at_once = max(sum(b <= t < e for b, e in spans.values()) for t, _ in spans.values())
+    assert at_once == 2
+    for seed in (0, 1):  # each fine-tuning began once its source had finished
+        assert spans[("finetune", seed)][0] >= spans[("source", seed)][1]
+    results = json.loads(study.read_text())
+    assert all(runner.evaluated(e) for c in results.values() for e in c["seeds"].values())
+
+
+def test_a_run_that_fails_hard_stops_the_runs_beside_it(runner, tmp_path, monkeypatch, started):
+    sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+
+    def run_one(cell, seed, runs_dir, results, archive, on_archive):
+        if cell == "other":
+            while not started:
+                time.sleep(0.05)
+            raise RuntimeError("the disk went away")
+        return runner.train_and_archive(sleeper, tmp_path, archive, on_archive)
+
+    monkeypatch.setattr(runner, "run_one", run_one)
+    began = time.monotonic()
+    with pytest.raises(RuntimeError, match="the disk went away"):
+        _main(
+            runner,
+            tmp_path,
+            monkeypatch,
+            "--parallel",
+            "2",
+            "--only",
+            "source",
+            "other",
+            "--seeds",
+            "0",
+        )
+    assert time.monotonic() - began < 30 and started[0].poll() is not None  # killed, not waited
+
+
+def test_parallel_must_be_at_least_one(runner, tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit):
+        _main(runner, tmp_path, monkeypatch, "--parallel", "0")
+    assert "--parallel 0: runs at a time must be at least 1" in capsys.readouterr().err
