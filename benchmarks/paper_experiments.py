@@ -29,7 +29,8 @@ and the measured time per run. `--parallel N` runs N at a time (each training is
 on one core; a fine-tuning waits while the run it starts from is still to run or running);
 runs that share the cores report a lower steps/s than a run alone.
 
-Cells, cheapest evidence first (the order they run in):
+Cells, cheapest evidence first (the order they run in, but for DDPG's: a run whose replay
+buffer makes its checkpoint too big to archive goes first, to finish within the job):
   ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
                      observation, exploration noise std e^-1 (log_std_init -1); tuned on seed 0
                      at 300k steps, run on seeds 1-3
@@ -100,6 +101,7 @@ CELLS = {
     "ddpg_env1": dict(env=ENV1, algo="ddpg", timesteps=300_000, seeds=(0, 1, 2)),
 }
 EPISODES, EVALUATION_SEED = 100, 1000
+REPLAY_BUFFER = ("ddpg",)  # algorithms whose checkpoints hold a replay buffer (~100 MB)
 # The job's running commands (trainings, evaluations): killed when the job stops on an error,
 # so that no run goes on without the job that records it.
 _LIVE: set[subprocess.Popen] = set()
@@ -427,8 +429,11 @@ def lost(runs_dir: Path, results: dict, cell: str, seed: int) -> bool:
 
 
 def order(queue: list[tuple[str, int]], runs_dir: Path, results: dict) -> list[tuple[str, int]]:
-    """The runs in the order they train: the missing ones first, each preceded by the lost run
-    it starts from (a fine-tuning needs its source's policy); then the other lost runs."""
+    """The runs in the order they train: the missing ones first (those whose checkpoints hold
+    a replay buffer first of all: they cannot be archived mid-way, so such a run has to finish
+    within one job, and it gets the most of the job's time), each preceded by the lost run it
+    starts from (a fine-tuning needs its source's policy); then the other lost runs."""
+    queue = sorted(queue, key=lambda run: CELLS[run[0]]["algo"] not in REPLAY_BUFFER)
     ordered = []
     for cell, seed in queue:
         if lost(runs_dir, results, cell, seed):

@@ -220,3 +220,11 @@ def test_parallel_must_be_at_least_one(runner, tmp_path, monkeypatch, capsys):
     with pytest.raises(SystemExit):
         _main(runner, tmp_path, monkeypatch, "--parallel", "0")
     assert "--parallel 0: runs at a time must be at least 1" in capsys.readouterr().err
+
+
+def test_a_run_that_cannot_be_archived_mid_way_goes_first(runner, tmp_path):
+    runner.CELLS["replay"] = dict(
+        env="drake_tooluse/ToolPush-v0", algo="ddpg", timesteps=9, seeds=(0,)
+    )
+    queue = [(cell, seed) for cell, c in runner.CELLS.items() for seed in c["seeds"]]
+    assert runner.order(queue, tmp_path, {})[:2] == [("replay", 0), ("source", 0)]
