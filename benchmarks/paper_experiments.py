@@ -447,37 +447,41 @@ def order(queue: list[tuple[str, int]], runs_dir: Path, results: dict) -> list[t
     return ordered + [run for run in queue if run not in ordered]
 
 
+def run_state(runs_dir: Path, archive: Path, results: dict, cell: str, seed: int) -> str:
+    """Where one run stands: "done, ..." (with its time), training now, stopped (resumes),
+    trained but not evaluated, evaluated but its files lost (trains again), failed, missing."""
+    c = CELLS[cell]
+    out = run_dir(runs_dir, cell, seed)
+    if not (out / "config.json").is_file():
+        out = run_dir(archive, cell, seed)  # not restored yet: the archive tells
+    entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
+    if evaluated(entry) and trained(out, c["timesteps"]):
+        s = entry["train"]
+        return f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
+    if (out / "config.json").is_file() and not trained(out, c["timesteps"]):
+        ckpt = out / "checkpoints" / "latest.json"
+        steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
+        at, pid = f"{steps} of {c['timesteps']} steps", lock_holder(out)  # train's lock
+        if pid:
+            return f"training now (pid {pid}), last checkpoint at {at}"
+        return f"stopped at {at} (resumes)"
+    if trained(out, c["timesteps"]):
+        why = f" (last try: {entry['error']})" if "error" in entry else ""
+        return f"trained, not evaluated yet: the job evaluates it{why}"
+    if evaluated(entry):
+        state = "evaluated, but its files (curve, policy) were lost: trains again"
+        if "retrain_error" in entry:
+            state += f" (last try: {entry['retrain_error']})"
+        return state
+    if "error" in entry:
+        return f"failed: {entry['error']}"
+    return "missing"
+
+
 def status(runs_dir: Path, archive: Path, results: dict) -> None:
     for cell, c in CELLS.items():
         for seed in c["seeds"]:
-            out = run_dir(runs_dir, cell, seed)
-            if not (out / "config.json").is_file():
-                out = run_dir(archive, cell, seed)  # not restored yet: the archive tells
-            entry = results.get(cell, {}).get("seeds", {}).get(str(seed), {})
-            if evaluated(entry) and trained(out, c["timesteps"]):
-                s = entry["train"]
-                state = f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
-            elif (out / "config.json").is_file() and not trained(out, c["timesteps"]):
-                ckpt = out / "checkpoints" / "latest.json"
-                steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
-                at, pid = f"{steps} of {c['timesteps']} steps", lock_holder(out)  # train's lock
-                state = (
-                    f"training now (pid {pid}), last checkpoint at {at}"
-                    if pid
-                    else f"stopped at {at} (resumes)"
-                )
-            elif trained(out, c["timesteps"]):
-                why = f" (last try: {entry['error']})" if "error" in entry else ""
-                state = f"trained, not evaluated yet: the job evaluates it{why}"
-            elif evaluated(entry):
-                state = "evaluated, but its files were lost: trains again (see `order`)"
-                if "retrain_error" in entry:
-                    state += f" (last try: {entry['retrain_error']})"
-            elif "error" in entry:
-                state = f"failed: {entry['error']}"
-            else:
-                state = "missing"
-            print(f"{cell:18s} seed {seed}: {state}")
+            print(f"{cell:18s} seed {seed}: {run_state(runs_dir, archive, results, cell, seed)}")
 
 
 def ready(run: tuple[str, int], pending, running) -> bool:

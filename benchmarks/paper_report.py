@@ -29,7 +29,16 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from paper_experiments import ARCHIVE, CELLS, FIGURES, REPORT, RESULTS, run_dir  # noqa: E402
+from paper_experiments import (  # noqa: E402
+    ARCHIVE,
+    CELLS,
+    FIGURES,
+    REPORT,
+    RESULTS,
+    order,
+    run_dir,
+    run_state,
+)
 from pydrake.common.eigen_geometry import Quaternion  # noqa: E402
 from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
 from rliable import library as rly  # noqa: E402
@@ -159,56 +168,20 @@ def _at_limit(results: dict, cell: str) -> str:
 
 
 def missing_runs(results: dict, runs_dir: Path) -> str:
-    """What is still to run, and what each finished run took (so the rest can be planned)."""
+    """What is still to run, in the order the job runs it (the runner's `order`), and about
+    how long each run takes here (its cell's finished runs), so that the rest can be planned."""
+    queue = [(cell, seed) for cell, c in CELLS.items() for seed in c["seeds"]]
     lines = []
-    for cell, c in CELLS.items():
-        done = finished(results, cell)
-        todo = [s for s in c["seeds"] if s not in done]
-        gone = [s for s in done if not (run_dir(runs_dir, cell, s) / "config.json").is_file()]
-        if gone:
-            many = len(gone) > 1
-            # A lost run a missing fine-tuning starts from trains right before it (the runner's
-            # `order`); the others after every missing run.
-            needed = {
-                s: other
-                for other, oc in CELLS.items()
-                if oc.get("init_from") == cell
-                for s in oc["seeds"]
-                if s in gone and s not in finished(results, other)
-            }
-            first, last = [s for s in gone if s in needed], [s for s in gone if s not in needed]
-
-            def seeds(group):
-                return f"seed{'s' if len(group) > 1 else ''} {', '.join(map(str, group))}"
-
-            when = []
-            if first:
-                them = "them" if len(first) > 1 else "it"
-                when.append(
-                    f"{seeds(first)} right before the `{needed[first[0]]}` runs that start from {them}"
-                )
-            if last:
-                when.append(f"{seeds(last)} after the missing runs")
-            lines.append(
-                f"- `{cell}`: {seeds(gone)} evaluated (in "
-                f"the table), but {'their curves and policies' if many else 'its curve and policy'}"
-                " were lost with the machine they trained on, before runs were archived in the "
-                f"repo (not in the figures); trained again: {'; '.join(when)}"
-            )
-        if not todo:
+    for cell, seed in order(queue, runs_dir, results):
+        state = run_state(runs_dir, runs_dir, results, cell, seed)
+        if state.startswith("done"):
             continue
-        rates = [e["train"]["steps_per_s"] for e in done.values()]
-        rate = f", ~{c['timesteps'] / np.mean(rates) / 60:.0f} min each here" if rates else ""
-        stopped = []
-        for s in todo:
-            latest = run_dir(runs_dir, cell, s) / "checkpoints" / "latest.json"
-            if latest.is_file():
-                stopped.append(f"s{s} at {json.loads(latest.read_text())['timesteps']} steps")
-        where = f" (stopped, resumes: {', '.join(stopped)})" if stopped else ""
-        lines.append(
-            f"- `{cell}`: seed{'s' if len(todo) > 1 else ''} {', '.join(map(str, todo))} of "
-            f"{c['timesteps']} steps{rate}{where}"
-        )
+        rates = [
+            e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e
+        ]
+        minutes = CELLS[cell]["timesteps"] / np.mean(rates) / 60 if rates else None
+        took = f"; ~{minutes:.0f} min here" if minutes else ""
+        lines.append(f"- `{cell}` seed {seed}: {state}{took}")
     return "\n".join(lines) + "\n" if lines else "Every cell has all its seeds.\n"
 
 
@@ -512,7 +485,7 @@ python benchmarks/paper_report.py                 # this page and its figures
 The paper: PPO 7.74 cm, TRPO 11.9 cm, DDPG 35.1 cm, A2C 40.9 cm (final box–goal distance, one
 run each at 1.25 M steps, ~7 h on 32 cores).
 
-**Still to run** (each run resumes where it stopped):
+**Still to run**, in the order the job runs it (each run resumes where it stopped):
 
 {missing}
 """
