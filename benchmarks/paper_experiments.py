@@ -533,17 +533,22 @@ def run_queue(pending: list[tuple[str, int]], results: dict, args) -> None:
     running = {}  # future -> (cell, seed, its entry before, whether its files were lost)
     _STOPPING.clear()
     with ThreadPoolExecutor(max_workers=args.parallel) as pool:
+
+        def start_ready():
+            for run in list(pending):
+                busy = [r[:2] for r in running.values()]
+                if len(running) < args.parallel and ready(run, pending, busy):
+                    pending.remove(run)
+                    future, about = _submit(pool, *run, results, args)
+                    running[future] = about
+
         try:
-            while pending or running:
-                for run in list(pending):
-                    busy = [r[:2] for r in running.values()]
-                    if len(running) < args.parallel and ready(run, pending, busy):
-                        pending.remove(run)
-                        future, about = _submit(pool, *run, results, args)
-                        running[future] = about
+            start_ready()
+            while running:
                 finished, _ = wait(running, return_when=FIRST_COMPLETED)
-                for future in finished:
-                    cell, seed, before, was_lost = running.pop(future)
+                ended = [(future, running.pop(future)) for future in finished]
+                start_ready()  # before the records: a report takes minutes, a core would idle
+                for future, (cell, seed, before, was_lost) in ended:
                     record(cell, seed, future.result(), before, was_lost, results, args)
         except BaseException:  # no run goes on without the job that records it
             stop_live_commands()
