@@ -25,9 +25,11 @@ finished in this job the report is regenerated (`python benchmarks/paper_report.
 docs/TRAINING.md's tables and figures, needs the `bench` extra's rliable; a report that fails is
 logged and the job goes on) and, with `--commit`, committed (the page and its figures), so the
 page is current whenever a session ends. `--status` prints what is done, what is missing
-and the measured time per run. `--parallel N` runs N at a time (each training is one process
-on one core; a fine-tuning waits while the run it starts from is still to run or running);
-runs that share the cores report a lower steps/s than a run alone.
+and the measured time per run. `--parallel N` runs N at a time (a fine-tuning waits while the
+run it starts from is still to run or running): it gains where one run leaves cores idle
+(DDPG's training is one process; PPO's, TRPO's and A2C's learner and its two env processes
+wait for each other). Runs that share the cores, with each other or with a report being
+made, record a lower steps/s and a longer wall time than a run alone.
 
 Cells, cheapest evidence first (the order they run in, but for DDPG's: a run whose replay
 buffer makes its checkpoint too big to archive goes first, to finish within the job):
@@ -49,6 +51,7 @@ import json
 import re
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -459,11 +462,18 @@ def run_state(runs_dir: Path, archive: Path, results: dict, cell: str, seed: int
         s = entry["train"]
         return f"done, {s['wall_time_s'] / 60:.0f} min ({s['steps_per_s']:.0f} steps/s)"
     if (out / "config.json").is_file() and not trained(out, c["timesteps"]):
-        ckpt = out / "checkpoints" / "latest.json"
-        steps = json.loads(ckpt.read_text())["timesteps"] if ckpt.is_file() else 0
-        at, pid = f"{steps} of {c['timesteps']} steps", lock_holder(out)  # train's lock
+        pid = lock_holder(out)  # train's lock (never archived)
+        if out == run_dir(archive, cell, seed) and c["algo"] in REPLAY_BUFFER:
+            return "started on another machine: its checkpoint is not archived, it starts over"
+        try:
+            steps = json.loads((out / "checkpoints" / "latest.json").read_text())["timesteps"]
+        except (OSError, ValueError, KeyError):  # none yet, or an archive being replaced
+            steps = 0
+        at = f"{steps} of {c['timesteps']} steps"
         if pid:
             return f"training now (pid {pid}), last checkpoint at {at}"
+        if out == run_dir(archive, cell, seed):
+            return f"last archived checkpoint at {at} (resumes from it)"
         return f"stopped at {at} (resumes)"
     if trained(out, c["timesteps"]):
         why = f" (last try: {entry['error']})" if "error" in entry else ""
@@ -484,10 +494,13 @@ def status(runs_dir: Path, archive: Path, results: dict) -> None:
             print(f"{cell:18s} seed {seed}: {run_state(runs_dir, archive, results, cell, seed)}")
 
 
-def ready(run: tuple[str, int], pending, running) -> bool:
-    """Whether `run` may start: the run its training starts from (a fine-tuning's source) is
-    neither still to run nor running."""
-    source = (CELLS[run[0]].get("init_from"), run[1])
+def ready(run: tuple[str, int], pending, running, runs_dir: Path) -> bool:
+    """Whether `run` may start: it has finished training, or the run its training starts from
+    (a fine-tuning's source) is neither still to run nor running."""
+    cell, seed = run
+    if trained(run_dir(runs_dir, cell, seed), CELLS[cell]["timesteps"]):
+        return True
+    source = (CELLS[cell].get("init_from"), seed)
     return source not in pending and source not in running
 
 
@@ -526,18 +539,27 @@ def _submit(pool: ThreadPoolExecutor, cell: str, seed: int, results: dict, args)
     return future, (cell, seed, before, was_lost)
 
 
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)  # stop the job as Ctrl-C does
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+
 def run_queue(pending: list[tuple[str, int]], results: dict, args) -> None:
     """Runs `pending` in its order, `args.parallel` at a time (a run waits while its source is
     still to run or running), recording each as it finishes; if the job stops on an error or
-    a signal, every command still running is killed first."""
+    a signal (SIGINT, SIGTERM, SIGHUP; SIGKILL cannot be caught: kill the job's process
+    group), every command still running is killed first."""
     running = {}  # future -> (cell, seed, its entry before, whether its files were lost)
     _STOPPING.clear()
+    handlers = {signum: signal.signal(signum, _interrupt) for signum in STOP_SIGNALS}
     with ThreadPoolExecutor(max_workers=args.parallel) as pool:
 
         def start_ready():
             for run in list(pending):
                 busy = [r[:2] for r in running.values()]
-                if len(running) < args.parallel and ready(run, pending, busy):
+                if len(running) < args.parallel and ready(run, pending, busy, args.runs_dir):
                     pending.remove(run)
                     future, about = _submit(pool, *run, results, args)
                     running[future] = about
@@ -547,12 +569,20 @@ def run_queue(pending: list[tuple[str, int]], results: dict, args) -> None:
             while running:
                 finished, _ = wait(running, return_when=FIRST_COMPLETED)
                 ended = [(future, running.pop(future)) for future in finished]
-                start_ready()  # before the records: a report takes minutes, a core would idle
+                failed = [future.exception() for future, _ in ended if future.exception()]
+                if not failed:  # before the records: a report takes minutes, a core would idle
+                    start_ready()
                 for future, (cell, seed, before, was_lost) in ended:
-                    record(cell, seed, future.result(), before, was_lost, results, args)
+                    if future.exception() is None:
+                        record(cell, seed, future.result(), before, was_lost, results, args)
+                if failed:
+                    raise failed[0]
         except BaseException:  # no run goes on without the job that records it
             stop_live_commands()
             raise
+        finally:
+            for signum, handler in handlers.items():
+                signal.signal(signum, handler)
 
 
 def main() -> int:
@@ -570,7 +600,7 @@ def main() -> int:
         "--parallel",
         type=int,
         default=1,
-        help="runs at a time (default 1); each training takes one core",
+        help="runs at a time (default 1): more where runs leave cores idle",
     )
     args = ap.parse_args()
     if args.parallel < 1:

@@ -475,7 +475,7 @@ each.
 ```bash
 python benchmarks/paper_experiments.py --status   # what is done and what is missing
 python benchmarks/paper_experiments.py            # runs what is missing, resuming stopped runs
-python benchmarks/paper_experiments.py --parallel 2  # the same, two runs at a time (a core each)
+python benchmarks/paper_experiments.py --parallel 2  # the same, two runs at a time
 python benchmarks/paper_report.py                 # this page and its figures
 ```
 

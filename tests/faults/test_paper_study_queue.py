@@ -3,11 +3,12 @@ runs right after the lost run it starts from is trained again; a finished fine-t
 its results when its source is lost; a lost run whose retraining fails keeps its evaluation;
 a stray folder in the archive is not taken for a run; a training is not left running when
 the runner stops on an error; runs in parallel wait for the run they start from, and one
-that fails hard stops those beside it. No training runs here (fast)."""
+that fails hard, or a stop signal, stops those beside it. No training runs here (fast)."""
 
 import importlib.util
 import json
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -178,8 +179,9 @@ def test_parallel_runs_wait_for_the_run_they_start_from(runner, tmp_path, monkey
 
     monkeypatch.setattr(runner, "run_one", run_one)
     monkeypatch.setattr(runner, "report", lambda *a: None)
-    study = _main(runner, tmp_path, monkeypatch, "--parallel", "2")
-    assert set(spans) == {(c, s) for c, cell in runner.CELLS.items() for s in cell["seeds"]}
+    # The fine-tunings first in the queue: they have to wait.
+    study = _main(runner, tmp_path, monkeypatch, "--parallel", "2", "--only", "finetune", "source")
+    assert set(spans) == {(c, s) for c in ("finetune", "source") for s in (0, 1)}
     at_once = max(sum(b <= t < e for b, e in spans.values()) for t, _ in spans.values())
     assert at_once == 2
     for seed in (0, 1):  # each fine-tuning began once its source had finished
@@ -188,19 +190,26 @@ def test_parallel_runs_wait_for_the_run_they_start_from(runner, tmp_path, monkey
     assert all(runner.evaluated(e) for c in results.values() for e in c["seeds"].values())
 
 
-def test_a_run_that_fails_hard_stops_the_runs_beside_it(runner, tmp_path, monkeypatch, started):
+@pytest.mark.parametrize("stop", ["error", signal.SIGTERM, signal.SIGHUP])
+def test_a_run_that_fails_hard_or_a_signal_stops_the_runs_beside_it(
+    runner, tmp_path, monkeypatch, started, stop
+):
     sleeper = [sys.executable, "-c", "import time; time.sleep(60)"]
+    handlers = {signum: signal.getsignal(signum) for signum in runner.STOP_SIGNALS}
 
     def run_one(cell, seed, runs_dir, results, archive, on_archive):
         if cell == "other":
             while not started:
                 time.sleep(0.05)
-            raise RuntimeError("the disk went away")
+            if stop == "error":
+                raise RuntimeError("the disk went away")
+            os.kill(os.getpid(), stop)  # as `kill PID` would
+            return {}
         return runner.train_and_archive(sleeper, tmp_path, archive, on_archive)
 
     monkeypatch.setattr(runner, "run_one", run_one)
     began = time.monotonic()
-    with pytest.raises(RuntimeError, match="the disk went away"):
+    with pytest.raises(RuntimeError if stop == "error" else KeyboardInterrupt):
         _main(
             runner,
             tmp_path,
@@ -214,6 +223,7 @@ def test_a_run_that_fails_hard_stops_the_runs_beside_it(runner, tmp_path, monkey
             "0",
         )
     assert time.monotonic() - began < 30 and started[0].poll() is not None  # killed, not waited
+    assert {signum: signal.getsignal(signum) for signum in handlers} == handlers  # restored
 
 
 def test_parallel_must_be_at_least_one(runner, tmp_path, monkeypatch, capsys):
@@ -228,3 +238,30 @@ def test_a_run_that_cannot_be_archived_mid_way_goes_first(runner, tmp_path):
     )
     queue = [(cell, seed) for cell, c in runner.CELLS.items() for seed in c["seeds"]]
     assert runner.order(queue, tmp_path, {})[:2] == [("replay", 0), ("source", 0)]
+
+
+def test_a_trained_finetuning_does_not_wait_for_its_source(runner, tmp_path):
+    _trained_run(runner, tmp_path, "finetune", 1)
+    pending = [("source", 1), ("finetune", 0)]
+    assert runner.ready(("finetune", 1), pending, [], tmp_path)
+    assert not runner.ready(("finetune", 1), [], [("source", 1)], tmp_path / "elsewhere")
+    assert runner.ready(("finetune", 0), pending, [("source", 1)], tmp_path)
+
+
+def test_the_archive_tells_a_replay_buffer_run_starts_over(runner, tmp_path):
+    runner.CELLS["replay"] = dict(
+        env="drake_tooluse/ToolPush-v0", algo="ddpg", timesteps=9, seeds=(0,)
+    )
+    for cell in ("replay", "other"):
+        out = runner.run_dir(tmp_path, cell, 0)
+        out.mkdir(parents=True)
+        (out / "config.json").write_text("{}")  # started, not finished
+
+    def state(cell):
+        return runner.run_state(tmp_path / "runs", tmp_path, {}, cell, 0)
+
+    assert (
+        state("replay")
+        == "started on another machine: its checkpoint is not archived, it starts over"
+    )
+    assert state("other") == "last archived checkpoint at 0 of 100 steps (resumes from it)"
