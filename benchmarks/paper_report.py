@@ -33,6 +33,7 @@ from paper_experiments import (  # noqa: E402
     ARCHIVE,
     CELLS,
     FIGURES,
+    PAPER_STEPS,
     REPORT,
     RESULTS,
     order,
@@ -374,6 +375,27 @@ def _at_limit_brief(results: dict, cell: str) -> str | None:
     return f"{_ci(d, 'mean', 2)} cm, {_ci(s, 'mean', 0)} % at the goal at the limit"
 
 
+def budget_note(results: dict, cell: str, name: str) -> str | None:
+    """For a cell trained below the paper's 1.25 M steps: how far, and why, in this machine's
+    own measured speed (its finished runs)."""
+    steps = CELLS[cell]["timesteps"]
+    if steps >= PAPER_STEPS:
+        return None
+    rates = [e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e]
+    speed = (
+        f"it trained at {np.mean(rates):.0f} steps/s here ({steps / np.mean(rates) / 60:.0f} min "
+        f"per run; the paper's 1.25 M would take ~{PAPER_STEPS / np.mean(rates) / 3600:.1f} h "
+        "per seed)"
+        if rates
+        else "its speed here is not measured yet (no run has finished)"
+    )
+    return (
+        f"{name}'s runs are {steps:,} steps, not the paper's {PAPER_STEPS / 1e6:.2f} M, as far "
+        f"as this 2-core machine allows: one gradient step per env step makes it the slowest "
+        f"per step; {speed}."
+    )
+
+
 def discussion(results: dict) -> str:
     """What the table shows, each figure computed here from the results."""
     steps = 50
@@ -384,6 +406,8 @@ def discussion(results: dict) -> str:
         f"{name} {_brief(results, cell)}" if finished(results, cell) else f"{name}: not run yet"
         for cell, name in ALGORITHMS.items()
     )
+    short = [budget_note(results, cell, name) for cell, name in ALGORITHMS.items()]
+    short = " ".join(note for note in short if note)
     cells = {**ALGORITHMS, "ppo_env1_paper": "PPO with the paper's action"}
     briefs = [f"{name} {_at_limit_brief(results, c)}" for c, name in cells.items()]
     briefs = [b for b, c in zip(briefs, cells) if _at_limit_brief(results, c)]
@@ -408,7 +432,7 @@ the same training with std 1: {control}. Goal (issue 13, item 1): ≤ 4 cm and �
 seeds within 1.25 M steps, on seeds it was not tuned on.
 
 **The four algorithms on Env1** (position action; the paper's figures are one run each):
-{algorithms}.
+{algorithms}. {short}
 
 **Where our figures and the paper's differ, and why.** Our episodes end at the success
 (d(x, x*) + d(x, y) ≤ 5 cm, the paper's criterion), so a successful episode's final box–goal
