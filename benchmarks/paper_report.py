@@ -4,7 +4,10 @@ training curves and best policies, in the repo).
 
     python benchmarks/paper_report.py [--runs-dir docs/results/paper_study] [--results FILE]
                                       [--doc docs/TRAINING.md] [--figures docs/figures]
-                                      [--trajectories N]
+                                      [--trajectories N] [--check]
+
+`--check` writes nothing and exits 1 if docs/TRAINING.md is not the page the results give (a
+test runs it, so a results file committed without its page fails the suite).
 
 Statistics are rliable's (Agarwal et al. 2021) over the seeds of a cell, each seed's score its
 mean over the 100 evaluation episodes (the same seeded starts for every run): the mean and the
@@ -501,6 +504,7 @@ python benchmarks/paper_experiments.py --status   # what is done and what is mis
 python benchmarks/paper_experiments.py            # runs what is missing, resuming stopped runs
 python benchmarks/paper_experiments.py --parallel 2  # the same, two runs at a time
 python benchmarks/paper_report.py                 # this page and its figures
+python benchmarks/paper_report.py --check         # exit 1 if this page is not the results' (a test)
 ```
 
 ## The study
@@ -515,6 +519,46 @@ run each at 1.25 M steps, ~7 h on 32 cores).
 """
 
 
+def training_page(
+    results: dict, runs_dir: Path, figures: Path, doc: Path, results_path: Path = RESULTS
+) -> str:
+    """docs/TRAINING.md's text: the table, what is still to run (of `runs_dir`), the
+    discussion, the figures that exist in `figures` and the earlier runs."""
+    table = study_table(results)
+    page = HEADER.format(
+        reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, runs_dir)
+    )
+    page += "\n" + discussion(results)
+    where = Path(os.path.relpath(figures, doc.parent))
+    page += (
+        "\n## Figures\n\n"
+        + "\n\n".join(
+            f"![{caption}]({(where / name).as_posix()})"
+            for name, caption in (
+                ("training_env1_algorithms.png", "Env1: the four algorithms, seed bands"),
+                (
+                    "training_env1_paper_action.png",
+                    "PPO: the paper's action and the position action",
+                ),
+                ("training_env3_finetune.png", "Env3: fine-tuned against from scratch"),
+                ("training_env1_trajectories.png", "Generated tool-tip trajectories"),
+            )
+            if (figures / name).is_file()
+        )
+        + "\n"
+    )
+    page += "\n" + earlier_runs(results_path.parent / "paper_experiments.json")
+    return page
+
+
+def without_queue(page: str) -> str:
+    """The page without its list of runs still to run, which tells the state of the run
+    directories of the machine that made it (a run training there is "training now"), not the
+    results."""
+    start, end = page.find("**Still to run**"), page.find("## What it shows")
+    return page[:start] + page[end:] if 0 <= start < end else page
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -524,10 +568,20 @@ def main() -> None:
     ap.add_argument("--doc", type=Path, default=REPORT)
     ap.add_argument("--figures", type=Path, default=FIGURES)
     ap.add_argument("--trajectories", type=int, default=10, help="episodes per 3-D panel")
+    ap.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 1 if the page is not what the results give (its list of runs"
+        " still to run aside: that is of the machine's run directories)",
+    )
     args = ap.parse_args()
     results = json.loads(args.results.read_text()) if args.results.is_file() else {}
-    table = study_table(results)
-    print(table)
+    if args.check:
+        page = training_page(results, args.runs_dir, args.figures, args.doc, args.results)
+        current = args.doc.is_file() and without_queue(args.doc.read_text()) == without_queue(page)
+        print(f"{args.doc}: {'current' if current else 'NOT current: run ' + __file__}")
+        raise SystemExit(0 if current else 1)
+    print(study_table(results))
     figure_algorithms(results, args.runs_dir, args.figures)
     figure_pair(
         results,
@@ -557,29 +611,7 @@ def main() -> None:
         "training_env3_finetune",
     )
     figure_trajectories(results, args.runs_dir, args.figures, args.trajectories)
-    page = HEADER.format(
-        reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, args.runs_dir)
-    )
-    page += "\n" + discussion(results)
-    where = Path(os.path.relpath(args.figures, args.doc.parent))
-    page += (
-        "\n## Figures\n\n"
-        + "\n\n".join(
-            f"![{caption}]({(where / name).as_posix()})"
-            for name, caption in (
-                ("training_env1_algorithms.png", "Env1: the four algorithms, seed bands"),
-                (
-                    "training_env1_paper_action.png",
-                    "PPO: the paper's action and the position action",
-                ),
-                ("training_env3_finetune.png", "Env3: fine-tuned against from scratch"),
-                ("training_env1_trajectories.png", "Generated tool-tip trajectories"),
-            )
-            if (args.figures / name).is_file()
-        )
-        + "\n"
-    )
-    page += "\n" + earlier_runs(args.results.parent / "paper_experiments.json")
+    page = training_page(results, args.runs_dir, args.figures, args.doc, args.results)
     atomic_write_text(args.doc, page)
     print(f"wrote {args.doc} and the figures in {args.figures}")
 
