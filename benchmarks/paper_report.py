@@ -190,8 +190,8 @@ def missing_runs(results: dict, runs_dir: Path) -> str:
 
 
 def earlier_runs(path: Path) -> str:
-    """The single-seed runs of an earlier session (docs/results/paper_experiments.json), kept
-    until the study above replaces them: most trained with the first-order IK since retired."""
+    """The single-seed runs of an earlier session (docs/results/paper_experiments.json): most
+    trained with the first-order IK since retired; one is where the demo's policy comes from."""
     if not path.is_file():
         return ""
     lines = [
@@ -199,7 +199,8 @@ def earlier_runs(path: Path) -> str:
         "One seed each, at budgets below the paper's, from `docs/results/paper_experiments.json`"
         " (an earlier version of the runner). Every run but `ppo_env1_fullik` and `ppo_env1_tip`"
         " trained with the first-order differential IK, since retired; the evaluations are of "
-        "the current code. Kept until the cells above replace them.\n",
+        "the current code. The study above supersedes them; they stay for `ppo_env1_tip`, the run "
+        "the demo's shipped policy (`models/policies/ppo_toolpush_tip`) comes from.\n",
         "| run | steps | final box–goal mean / median (cm) | success | box travel (cm) | "
         "tool / gripper touched |",
         "| --- | --- | --- | --- | --- | --- |",
