@@ -204,6 +204,22 @@ def evaluated(entry: dict) -> bool:
     return "error" not in entry and all(k in entry for k in EVALUATIONS)
 
 
+def read_results(path: Path, ap: argparse.ArgumentParser) -> dict:
+    """The study's results file ({} if there is none yet); a file that is not a JSON object
+    ends the command with a one-line error naming it."""
+    if not path.is_file():
+        return {}
+    try:
+        results = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        ap.error(f"{path}: not a readable JSON results file ({e})")
+    if not isinstance(results, dict):
+        ap.error(
+            f"{path}: a results file is a JSON object (cell -> seeds), not {type(results).__name__}"
+        )
+    return results
+
+
 def _summary(out: Path) -> dict | None:
     path = out / "summary.json"
     return json.loads(path.read_text()) if path.is_file() else None
@@ -605,7 +621,7 @@ def main() -> int:
     args = ap.parse_args()
     if args.parallel < 1:
         ap.error(f"--parallel {args.parallel}: runs at a time must be at least 1")
-    results = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    results = read_results(args.out, ap)
     if args.status:
         status(args.runs_dir, args.archive, results)
         return 0

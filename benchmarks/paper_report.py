@@ -40,6 +40,7 @@ from paper_experiments import (  # noqa: E402
     REPORT,
     RESULTS,
     order,
+    read_results,
     run_dir,
     run_state,
 )
@@ -576,7 +577,7 @@ def main() -> None:
         " still to run aside: that is of the machine's run directories)",
     )
     args = ap.parse_args()
-    results = json.loads(args.results.read_text()) if args.results.is_file() else {}
+    results = read_results(args.results, ap)
     if args.check:
         page = training_page(results, args.runs_dir, args.figures, args.doc, args.results)
         current = args.doc.is_file() and without_queue(args.doc.read_text()) == without_queue(page)

@@ -60,3 +60,18 @@ def test_check_exits_1_on_a_stale_page_and_0_on_a_current_one(
     assert doc.read_text() == "# an old page\n"  # --check writes nothing
     assert main() == 0  # makes the page
     assert main("--check") == 0 and ": current" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("text, says", [("{bad", "not a readable JSON"), ("[1]", "not list")])
+def test_a_malformed_results_file_is_a_one_line_error(
+    report, tmp_path, monkeypatch, capsys, text, says
+):
+    results = tmp_path / "paper_study.json"
+    results.write_text(text)
+    monkeypatch.setattr(sys, "argv", ["paper_report.py", "--check", "--results", str(results)])
+    with pytest.raises(SystemExit) as e:
+        report.main()
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith(f"paper_report.py: error: {results}: ")
+    assert says in err
