@@ -19,8 +19,8 @@ import gymnasium as gym
 import numpy as np
 
 import drake_tooluse  # noqa: F401
-from drake_tooluse.envs.scripted import ScriptedPush
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.tasks.push.scripted import ScriptedPush
 from drake_tooluse.world.scenario import Scenario
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_fidelity.json"

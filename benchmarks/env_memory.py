@@ -129,7 +129,7 @@ def main() -> None:
     args = ap.parse_args()
     out = args.out or OUT / "env_memory.json"
     if args.without_release:
-        import drake_tooluse.envs.push_env as push_env
+        import drake_tooluse.tasks.push.env as push_env
 
         push_env.release_diagram = lambda diagram: None
     rebuilds = rebuild_loop(args.rebuilds)

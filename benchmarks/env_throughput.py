@@ -86,7 +86,7 @@ def plant_only_ms(steps: int = 500) -> float:
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import ConstantVectorSource
 
-    from drake_tooluse.diagrams.control import add_world_at_home
+    from drake_tooluse.builders.control import add_world_at_home
     from drake_tooluse.world.scenario import Scenario
 
     s = Scenario()

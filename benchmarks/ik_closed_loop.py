@@ -28,7 +28,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from pydrake.math import RigidTransform, RollPitchYaw  # noqa: E402
 
-from drake_tooluse.diagrams.trajectory import simulate_waypoints  # noqa: E402
+from drake_tooluse.builders.trajectory_diagram import simulate_waypoints  # noqa: E402
 from drake_tooluse.files import atomic_write_json  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief  # noqa: E402
 from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
@@ -66,7 +66,7 @@ def run_condition(
     scenario = scenario_for(length, along, across)
     belief = RobotBelief(length)  # the true length, the nominal grasp
     if measure:  # the robot model holds the length the head camera measured
-        from drake_tooluse.diagrams.measurement import measure_belief
+        from drake_tooluse.builders.measurement import measure_belief
 
         # ... and, with grasp_estimate, where the camera saw the hand hold it along the tool
         belief, _ = measure_belief(scenario, use_grasp_estimate=grasp_estimate)

@@ -17,7 +17,7 @@ Variants, each changing one thing of the one above it:
   commanded    the tip poses each step commanded instead (Baxter's arm lags them by ~2 cm)
   box-frame    each episode shifted by where its box started before averaging, and the replay
                by where the run's box starts: in reality as the robot's hand camera measures it
-               at home (`diagrams.box_measurement`), in the nominal world the truth
+               at home (`builders.box_measurement`), in the nominal world the truth
   medoid       the one episode nearest all the others (mean tip distance, in the box frame)
                instead of their mean
   full-length  box-frame, with the episodes recorded past their success to the 100-step limit
@@ -54,9 +54,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from drake_tooluse.diagrams.box_measurement import measure_box_start
-from drake_tooluse.diagrams.measurement import measure_belief
-from drake_tooluse.diagrams.trajectory import run_open_loop
+from drake_tooluse.builders.box_measurement import measure_box_start
+from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.experiments.choices import CALIBRATION_DRAWS, MAX_CALIBRATION_DRAWS
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
@@ -65,7 +64,7 @@ from drake_tooluse.experiments.line_contact import (
     line_contact_for_task,
     side_of,
 )
-from drake_tooluse.experiments.trajectory import (
+from drake_tooluse.experiments.trajectory_extraction import (
     average_episodes,
     filter_reachable,
     pad_episodes,
@@ -79,6 +78,7 @@ from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.tasks.push.diagram import run_open_loop
 from drake_tooluse.validation import check_in_range, check_int, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.scenario import load_scenario

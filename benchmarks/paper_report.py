@@ -49,11 +49,11 @@ from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
 from rliable import library as rly  # noqa: E402
 from rliable import metrics  # noqa: E402
 
-from drake_tooluse.envs.registration import MAX_EPISODE_STEPS  # noqa: E402
-from drake_tooluse.experiments.trajectory import record_episodes  # noqa: E402
+from drake_tooluse.experiments.trajectory_extraction import record_episodes  # noqa: E402
 from drake_tooluse.files import atomic_write_figure, atomic_write_text  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
 from drake_tooluse.systems.tip_target import Workspace, apply_action  # noqa: E402
+from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER_CM = {"ppo_env1": 7.74, "trpo_env1": 11.9, "ddpg_env1": 35.1, "a2c_env1": 40.9}

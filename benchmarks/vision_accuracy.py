@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_tooluse.diagrams.measurement import measure_tool
+from drake_tooluse.builders.measurement import measure_tool
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.world.scenario import Scenario, validate_scenario, with_tool_length
 

@@ -15,8 +15,8 @@ LAYERS = [
     {"robot"},
     {"world"},
     {"systems"},
-    {"diagrams"},
-    {"envs"},
+    {"builders"},
+    {"tasks"},
     {"learning"},
     {"experiments"},
     {"cli"},
@@ -141,6 +141,52 @@ def test_no_import_cycle():
     for m in sorted(edges):
         if m not in state:
             visit(m)
+
+
+def _is_task(module: str) -> bool:
+    """A module of a task package (`drake_tooluse.tasks.<task>…`), not the task contract."""
+    parts = module.split(".")
+    return len(parts) >= 3 and parts[1] == "tasks" and parts[2] != "contract"
+
+
+# Layers that may import a task: the experiments, the command line, the tasks themselves and
+# the package's top level (which registers every task's env ids).
+TASK_USERS = {"experiments", "cli", "tasks"}
+
+
+def _task_imports(graph) -> list[str]:
+    return [
+        f"{m} line {line}: {target}"
+        for m, edges in graph.items()
+        if len(m.split(".")) > 1 and m.split(".")[1] not in TASK_USERS
+        for target, line, _ in edges
+        if _is_task(target)
+    ]
+
+
+def test_nothing_below_the_experiments_imports_a_task():
+    """learning/ and every layer under it reach tasks through Gymnasium's registry and the task
+    contract only, so a new task is a package of its own."""
+    offenders = _task_imports(GRAPH)
+    assert not offenders, f"task imports below experiments/: {offenders}"
+
+
+def test_tasks_do_not_import_each_other():
+    crossing = [
+        f"{m} line {line}: {target}"
+        for m, edges in GRAPH.items()
+        if _is_task(m)
+        for target, line, _ in edges
+        if _is_task(target) and target.split(".")[2] != m.split(".")[2]
+    ]
+    assert not crossing, f"a task imports another task: {crossing}"
+
+
+def test_the_checker_sees_a_planted_task_import():
+    tree = ast.parse("from drake_tooluse.tasks.push.env import ToolPushEnv\n")
+    edges = {(_known(n), 1, False) for n, _, _ in _imports(tree, "drake_tooluse.learning.x")}
+    assert _task_imports({"drake_tooluse.learning.x": edges})
+    assert not _task_imports({"drake_tooluse.experiments.x": edges})
 
 
 def test_the_checker_sees_a_planted_upward_import(tmp_path):

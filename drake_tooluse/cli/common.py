@@ -68,7 +68,7 @@ def scenario_from_args(args):
 def measured_belief(scenario) -> tuple[object, dict]:
     """Measures the scenario's (true) tool with the head camera: the robot's belief (its
     length and where the hand holds it along it) and the figures to print."""
-    from drake_tooluse.diagrams.measurement import measure_belief
+    from drake_tooluse.builders.measurement import measure_belief
 
     belief, result = measure_belief(scenario)
     return belief, {

@@ -41,7 +41,7 @@ def cmd_trajectory(args) -> dict:
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
     from drake_tooluse.experiments.choices import EXTRACTION_RECORDS
     from drake_tooluse.experiments.line_contact import line_contact_for_task
-    from drake_tooluse.experiments.trajectory import extract, save_extraction
+    from drake_tooluse.experiments.trajectory_extraction import extract, save_extraction
     from drake_tooluse.world.scenario import load_scenario
 
     start = time.perf_counter()
@@ -115,7 +115,7 @@ def cmd_export_csv(args) -> dict:
         check_left_arm,
         export_baxter_csv,
     )
-    from drake_tooluse.experiments.trajectory import filter_reachable
+    from drake_tooluse.experiments.trajectory_extraction import filter_reachable
     from drake_tooluse.systems.tip_trajectory import TipTrajectory
     from drake_tooluse.world.scenario import load_scenario
 

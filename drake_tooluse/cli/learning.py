@@ -18,8 +18,8 @@ from drake_tooluse.cli.common import (
     policy_dir_arg,
     seed_arg,
 )
-from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.learning.algorithms import ALGOS
+from drake_tooluse.learning.task_envs import task_env_ids
 
 MAX_TIMESTEPS = 10**10
 MAX_EPISODES = 100_000
@@ -48,7 +48,7 @@ def cmd_train(args) -> dict:
     else:
         out_dir = output_dir_arg(args.out, "--out", must_be_new=False)
     choice_arg(args.algo, ALGOS, "--algo", "algorithm")
-    choice_arg(args.env, ENV_IDS, "--env", "env")
+    choice_arg(args.env, task_env_ids(), "--env", "env")
     count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
     seed_arg(args.seed)
     if args.n_envs is not None:
@@ -98,28 +98,24 @@ def format_train(out: dict) -> str:
 
 
 def cmd_evaluate(args) -> dict:
-    from dataclasses import asdict
-
     policy_dir_arg(args.policy, "--policy")
     if args.env is not None:
-        choice_arg(args.env, ENV_IDS, "--env", "env")
+        choice_arg(args.env, task_env_ids(), "--env", "env")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
     from drake_tooluse.learning.evaluate import evaluate
 
-    result = asdict(
-        evaluate(
-            args.policy,
-            args.env,
-            episodes,
-            seed,
-            env_kwargs,
-            trust_pickle=args.trust_pickle,
-            progress=not args.no_progress,
-            to_time_limit=args.to_time_limit,
-        )
-    )
+    result = evaluate(
+        args.policy,
+        args.env,
+        episodes,
+        seed,
+        env_kwargs,
+        trust_pickle=args.trust_pickle,
+        progress=not args.no_progress,
+        to_time_limit=args.to_time_limit,
+    ).as_dict()
     if not args.per_episode:
         result.pop("per_episode")
     return result
@@ -142,6 +138,10 @@ def format_convert_policy(out: dict) -> str:
 
 def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
+    if "final_box_to_goal_mean_m" not in out:  # another task: its figures as they are
+        skip = ("episodes", "seed", "to_time_limit", "per_episode")
+        figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
+        return f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
     return (
         f"{out['episodes']} episodes from seed {out['seed']}{ends}: final box-goal distance "
         f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
@@ -189,7 +189,7 @@ def cmd_sweep(args) -> dict:
     for algo in args.algos or []:
         choice_arg(algo, ALGOS, "--algos", "algorithm")
     for env in args.envs or []:
-        choice_arg(env, ENV_IDS, "--envs", "env")
+        choice_arg(env, task_env_ids(), "--envs", "env")
     seeds = [0] if args.seeds is None else args.seeds
     for seed in seeds:
         seed_arg(seed, "--seeds")
@@ -217,7 +217,7 @@ def cmd_sweep(args) -> dict:
 
 def add_parsers(sub) -> None:
     p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
-    p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {list(ENV_IDS)}")
+    p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {task_env_ids()}")
     p.add_argument("--algo", default="ppo", help=f"one of {list(ALGOS)}")
     p.add_argument("--timesteps", type=int, default=1_250_000, help="environment steps in all")
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")

@@ -11,7 +11,7 @@ from drake_tooluse.perception.markers import LIGHTINGS, METHODS
 
 def cmd_measure(args) -> dict:
     """The result as a dict (see MeasurementResult.as_dict)."""
-    from drake_tooluse.diagrams.measurement import measure_tool
+    from drake_tooluse.builders.measurement import measure_tool
 
     if args.save_images is not None:
         output_dir_arg(args.save_images, "--save-images", must_be_new=False)
@@ -28,7 +28,7 @@ def cmd_measure(args) -> dict:
 
 def cmd_measure_box(args) -> dict:
     """The box's start as the hand camera measures it, beside the scenario's truth."""
-    from drake_tooluse.diagrams.box_measurement import measure_box_start
+    from drake_tooluse.builders.box_measurement import measure_box_start
     from drake_tooluse.world.scene import initial_box_pose
 
     scenario = scenario_from_args(args)

@@ -133,7 +133,7 @@ def _parse_waypoint(text: str):
 
 
 def cmd_simulate(args) -> dict:
-    from drake_tooluse.diagrams.trajectory import simulate_waypoints
+    from drake_tooluse.builders.trajectory_diagram import simulate_waypoints
     from drake_tooluse.robot.model import RobotBelief
 
     if args.record is not None:  # before the simulation, not after it

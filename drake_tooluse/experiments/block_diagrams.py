@@ -12,13 +12,13 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from drake_tooluse.diagrams.push import build_policy_diagram
-from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
+from drake_tooluse.builders.trajectory_diagram import build_trajectory_diagram
 from drake_tooluse.files import atomic_write_text
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import waypoint_trajectory
+from drake_tooluse.tasks.push.diagram import build_policy_diagram
 from drake_tooluse.validation import EnvironmentProblem
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import home_tip_pose

@@ -1,5 +1,5 @@
 """The experiments' option names, without Drake: the command line checks them before it imports
-the modules that use them (`experiments.transfer`, `experiments.trajectory`)."""
+the modules that use them (`experiments.transfer`, `experiments.trajectory_extraction`)."""
 
 MODES = ("closed-loop", "open-loop")  # a transfer run: the policy in the loop, or a replay
 ALIGNMENTS = ("start", "contact")  # averaging episodes from their start or the first touch

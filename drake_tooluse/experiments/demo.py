@@ -30,9 +30,8 @@ from matplotlib.patches import Circle, Patch
 from pydrake.math import RigidTransform
 from tqdm import tqdm
 
-from drake_tooluse.diagrams.measurement import measure_belief
-from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
-from drake_tooluse.diagrams.visualization import save_recording, start_meshcat
+from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.builders.visualization import save_recording, start_meshcat
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
 from drake_tooluse.files import (
     atomic_dir,
@@ -45,6 +44,7 @@ from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
 from drake_tooluse.systems.lifetime import release_diagram
+from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
 from drake_tooluse.validation import check_seed
 from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, SUCCESS_DISTANCE
 from drake_tooluse.world.randomization import apply_draw, draw_randomization

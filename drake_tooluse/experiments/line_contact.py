@@ -48,9 +48,8 @@ import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.math import RotationMatrix
 
-from drake_tooluse.diagrams.trajectory import run_open_loop
 from drake_tooluse.experiments.choices import CALIBRATION_DRAWS
-from drake_tooluse.experiments.trajectory import filter_reachable, shifted
+from drake_tooluse.experiments.trajectory_extraction import filter_reachable, shifted
 from drake_tooluse.robot.baxter_model import (
     Q_LOWER_CONSERVATIVE,
     Q_UPPER_CONSERVATIVE,
@@ -58,6 +57,7 @@ from drake_tooluse.robot.baxter_model import (
 )
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.tasks.push.diagram import run_open_loop
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, with_tool_length
 from drake_tooluse.world.scene import initial_box_pose

@@ -31,7 +31,7 @@ from pathlib import Path
 
 from pydrake.math import RigidTransform, RollPitchYaw
 
-from drake_tooluse.diagrams.trajectory import simulate_waypoints
+from drake_tooluse.builders.trajectory_diagram import simulate_waypoints
 from drake_tooluse.files import atomic_write_bytes, atomic_write_json
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.model import TOOL_DOWN_RPY

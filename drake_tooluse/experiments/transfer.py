@@ -13,15 +13,15 @@ two worlds:
 
 Both run in one of two modes:
 
-- `closed-loop`: the policy inside the diagram (`diagrams.push.build_policy_diagram`), until
+- `closed-loop`: the policy inside the diagram (`tasks.push.diagram.build_policy_diagram`), until
   the box is at the goal or 100 control steps;
 - `open-loop` (the paper's): a tool-tip trajectory averaged from the policy's episodes in the
-  nominal simulation (`experiments.trajectory.extract`), replayed through a TrajectorySource
-  and the IK with the measured length (`diagrams.trajectory`), in full, then 1 s to settle.
+  nominal simulation (`experiments.trajectory_extraction.extract`), replayed through a TrajectorySource
+  and the IK with the measured length (`builders.trajectory_diagram`), in full, then 1 s to settle.
   How the trajectory is made (`extraction`): by default `line-contact` — the commanded tip
   poses of each episode in its box's frame, averaged, the tool tilted per tool so that its
   shaft pushes (`experiments.line_contact`), and each run's replay moved to its box's start,
-  which the robot measures in reality with its hand camera (`diagrams.box_measurement`; the
+  which the robot measures in reality with its hand camera (`builders.box_measurement`; the
   nominal world's robot knows it); or `paper`, the paper's own: the per-step mean of where the
   tip got, one trajectory for every tool and run, replayed as it is. A trajectory given as a
   file is replayed for every tool, moved to each run's box start as a line-contact one is
@@ -47,10 +47,8 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from drake_tooluse.diagrams.box_measurement import measure_box_start
-from drake_tooluse.diagrams.measurement import measure_belief
-from drake_tooluse.diagrams.push import PushRun, build_policy_diagram, run_policy
-from drake_tooluse.diagrams.trajectory import run_open_loop
+from drake_tooluse.builders.box_measurement import measure_box_start
+from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
@@ -62,7 +60,7 @@ from drake_tooluse.experiments.choices import (
 )
 from drake_tooluse.experiments.line_contact import describe_choice, line_contact_for_task
 from drake_tooluse.experiments.runs import stderr_log
-from drake_tooluse.experiments.trajectory import (
+from drake_tooluse.experiments.trajectory_extraction import (
     extract,
     filter_reachable,
     plot_extraction,
@@ -80,6 +78,12 @@ from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.tasks.push.diagram import (
+    PushRun,
+    build_policy_diagram,
+    run_open_loop,
+    run_policy,
+)
 from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
@@ -256,7 +260,7 @@ def run_transfer(
     check_policy_env(policy)  # as every command checks a policy and its env
     if mode == "open-loop" and trajectory is None:
         raise ValueError(
-            "open-loop transfer needs a trajectory (experiments.trajectory.extract "
+            "open-loop transfer needs a trajectory (experiments.trajectory_extraction.extract "
             "or TipTrajectory.load)"
         )
     nominal_scenario = nominal_scenario or load_scenario(DEFAULT_SCENARIO)

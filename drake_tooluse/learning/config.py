@@ -16,10 +16,9 @@ from dataclasses import asdict, dataclass
 import stable_baselines3 as sb3
 from sb3_contrib import TRPO
 
-from drake_tooluse.envs.push_env import check_env_kwargs
-from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.files import read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
+from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs
 from drake_tooluse.paths import HYPERPARAMS_DIR
 from drake_tooluse.validation import check_bool, check_int, check_mapping, check_seed
 
@@ -60,12 +59,6 @@ def check_algo(algo: str) -> str:
     return algo
 
 
-def check_env_id(env_id: str) -> str:
-    if env_id not in ENV_IDS:
-        raise ValueError(f"unknown env {env_id!r}; choose one of {list(ENV_IDS)}")
-    return env_id
-
-
 def algorithm_arguments(algo: str) -> list[str]:
     """The hyperparameters `algo`'s class takes (its constructor's arguments the run does not
     set itself)."""
@@ -73,8 +66,8 @@ def algorithm_arguments(algo: str) -> list[str]:
     return sorted(set(parameters) - _NOT_HYPERPARAMETERS)
 
 
-def check_hyperparams(algo: str, hp, name: str = "hyperparameters") -> dict:
-    """A hyperparameter entry for `algo`, every key known and every run key's value checked;
+def check_hyperparams(algo: str, env_id: str, hp, name: str = "hyperparameters") -> dict:
+    """A hyperparameter entry for `algo` on `env_id`, every key known and every run key's value checked;
     algorithm arguments are passed on as given (their class checks their values)."""
     hp = dict(check_mapping(hp, name))
     allowed = algorithm_arguments(algo)
@@ -100,7 +93,7 @@ def check_hyperparams(algo: str, hp, name: str = "hyperparameters") -> dict:
         if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0 < x <= 10:
             raise ValueError(f"{name}: noise_std={x!r} is outside the allowed range (0, 10]")
     if "env_kwargs" in hp:
-        hp["env_kwargs"] = check_env_kwargs(hp["env_kwargs"], f"{name}: env_kwargs")
+        hp["env_kwargs"] = check_env_kwargs(env_id, hp["env_kwargs"], f"{name}: env_kwargs")
     if "policy_kwargs" in hp:
         check_mapping(hp["policy_kwargs"], f"{name}: policy_kwargs")
     try:
@@ -123,7 +116,7 @@ def load_hyperparams(algo: str, env_id: str) -> dict:
     table = read_yaml(path, "hyperparameter file") or {}
     entry = dict(table.get("default", {}))
     entry.update(table.get(env_id, {}))
-    return check_hyperparams(algo, entry, str(path))
+    return check_hyperparams(algo, env_id, entry, str(path))
 
 
 @dataclass
@@ -170,7 +163,7 @@ def resolve_config(
     check_int(timesteps, 1, MAX_TIMESTEPS, "timesteps")
     check_seed(seed, "seed")
     hp = load_hyperparams(algo, env_id)
-    hp.update(check_hyperparams(algo, overrides, "hyperparameter overrides"))
+    hp.update(check_hyperparams(algo, env_id, overrides, "hyperparameter overrides"))
     n = check_int(n_envs if n_envs is not None else hp.get("n_envs", 1), 1, 64, "n_envs")
     hp["n_envs"] = n
     return TrainConfig(env_id, algo, int(timesteps), n, int(seed), hp, init_from)

@@ -15,21 +15,33 @@ from drake_tooluse.validation import check_int, check_seed
 
 @dataclass
 class EvalResult:
+    """An evaluation's figures: the generic ones, and `metrics`, the summaries of the figures
+    the env's task declares (`TaskEnv.EPISODE_METRICS`: for the push task the final box–goal
+    distance, the box travel, which bodies touched the box)."""
+
     episodes: int
     seed: int
-    final_box_to_goal_mean_m: float
-    final_box_to_goal_median_m: float
-    final_box_to_goal_std_m: float
     success_rate: float
-    box_travel_mean_m: float
     episode_length_mean: float
-    tool_touched_rate: float
-    gripper_touched_rate: float
+    metrics: dict
     # Episodes the simulation failed in (truncated with finite values; counted as failures).
     sim_errors: int = 0
     # Each episode ran on past its success to the step limit (see `run_episode`).
     to_time_limit: bool = False
     per_episode: list = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        """The figures as one flat mapping (the task's metrics beside the generic ones), as
+        `evaluate --json` prints them and policies' metrics.json hold them."""
+        d = {"episodes": self.episodes, "seed": self.seed, **self.metrics}
+        d.update(
+            success_rate=self.success_rate,
+            episode_length_mean=self.episode_length_mean,
+            sim_errors=self.sim_errors,
+            to_time_limit=self.to_time_limit,
+            per_episode=self.per_episode,
+        )
+        return d
 
 
 def make_policy_env(
@@ -85,6 +97,7 @@ def evaluate(
     check_int(episodes, 1, 1_000_000, "episodes")
     check_seed(seed, "seed", episodes)
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
+    task_metrics = type(env.unwrapped).EPISODE_METRICS
     rows = []
     bar = tqdm(
         total=episodes,
@@ -100,12 +113,9 @@ def evaluate(
             rows.append(
                 {
                     "seed": seed + ep,
-                    "final_box_to_goal_m": info["box_to_goal"],
+                    **{m.name: m.read(info) for m in task_metrics},
                     "success": bool(info["is_success"]) and not info["sim_error"],
-                    "box_travel_m": info["box_travel"],
                     "length": steps,
-                    "tool_touched": info["tool_touched_box_in_episode"],
-                    "gripper_touched": info["gripper_touched_box_in_episode"],
                     "sim_error": bool(info["sim_error"]),
                 }
             )
@@ -114,18 +124,15 @@ def evaluate(
     finally:
         bar.close()
         env.close()
-    d = np.array([r["final_box_to_goal_m"] for r in rows])
+    metrics = {}
+    for m in task_metrics:
+        metrics.update(m.summary([r[m.name] for r in rows]))
     return EvalResult(
         episodes=episodes,
         seed=seed,
-        final_box_to_goal_mean_m=float(d.mean()),
-        final_box_to_goal_median_m=float(np.median(d)),
-        final_box_to_goal_std_m=float(d.std()),
         success_rate=float(np.mean([r["success"] for r in rows])),
-        box_travel_mean_m=float(np.mean([r["box_travel_m"] for r in rows])),
         episode_length_mean=float(np.mean([r["length"] for r in rows])),
-        tool_touched_rate=float(np.mean([r["tool_touched"] for r in rows])),
-        gripper_touched_rate=float(np.mean([r["gripper_touched"] for r in rows])),
+        metrics=metrics,
         sim_errors=sum(r["sim_error"] for r in rows),
         to_time_limit=bool(to_time_limit),
         per_episode=rows,

@@ -33,9 +33,9 @@ from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-from drake_tooluse.envs.push_env import check_env_kwargs, env_spaces
 from drake_tooluse.files import atomic_dir, to_json
-from drake_tooluse.learning.config import ALGORITHMS, OFF_POLICY, check_algo, check_env_id
+from drake_tooluse.learning.config import ALGORITHMS, OFF_POLICY, check_algo
+from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs, env_spaces
 
 FORMAT = 2
 META = "policy.json"
@@ -116,7 +116,7 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
     try:
         check_env_id(meta.env_id)
         check_algo(meta.algo)
-        meta.env_kwargs = check_env_kwargs(meta.env_kwargs, "env_kwargs")
+        meta.env_kwargs = check_env_kwargs(meta.env_id, meta.env_kwargs, "env_kwargs")
     except ValueError as e:
         raise ValueError(where + str(e)) from None
     _shape(meta.observation_shape, "observation_shape", path)
@@ -132,7 +132,7 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
         raise ValueError(where + f"policy_kwargs={meta.policy_kwargs!r} must be a mapping")
     if meta.format not in (1, FORMAT):
         raise ValueError(where + f"format={meta.format!r} is not one this version reads (1, 2)")
-    obs, act = env_spaces(meta.env_kwargs)
+    obs, act = env_spaces(meta.env_id, meta.env_kwargs)
     if meta.observation_shape != obs or meta.action_shape != act:
         raise ValueError(
             where + f"observation_shape {meta.observation_shape} and action_shape "
@@ -507,9 +507,9 @@ def check_policy_env(policy: LoadedPolicy, env_id: str | None = None, env_kwargs
     valid, and that env's spaces must be the policy's. Returns (env_id, env_kwargs)."""
     env_id = check_env_id(env_id or policy.meta.env_id)
     kwargs = dict(policy.meta.env_kwargs)
-    kwargs.update(check_env_kwargs(env_kwargs, "env kwargs"))
-    kwargs = check_env_kwargs(kwargs, "env kwargs")
-    check_policy_spaces(policy, *env_spaces(kwargs), "the policy")
+    kwargs.update(check_env_kwargs(env_id, env_kwargs, "env kwargs"))
+    kwargs = check_env_kwargs(env_id, kwargs, "env kwargs")
+    check_policy_spaces(policy, *env_spaces(env_id, kwargs), "the policy")
     return env_id, kwargs
 
 

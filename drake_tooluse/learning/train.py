@@ -66,7 +66,6 @@ from stable_baselines3.common.noise import NormalActionNoise
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor, VecNormalize
 from torch.utils.tensorboard import SummaryWriter
 
-from drake_tooluse.envs.push_env import env_spaces
 from drake_tooluse.files import (
     atomic_dir,
     atomic_write_bytes,
@@ -92,6 +91,7 @@ from drake_tooluse.learning.policy_dir import (
     load_policy,
     save_policy,
 )
+from drake_tooluse.learning.task_envs import env_spaces
 from drake_tooluse.validation import check_int, check_seed
 
 CHECKPOINTS = "checkpoints"
@@ -501,7 +501,7 @@ def check_train_config(config: TrainConfig) -> None:
     check_int(config.timesteps, 1, 10**10, "timesteps")
     check_int(config.n_envs, 1, 64, "n_envs")
     check_seed(config.seed, "seed")
-    check_hyperparams(config.algo, config.hyperparams)
+    check_hyperparams(config.algo, config.env_id, config.hyperparams)
 
 
 LEGACY_CHECKPOINT = Path(CHECKPOINTS) / "latest.zip"  # before this format: SB3 zip + pickles
@@ -578,7 +578,9 @@ def train(
         if config.init_from and checkpoint is None:
             init = load_policy(config.init_from, trust_pickle=trust_pickle)
             check_policy_spaces(
-                init, *env_spaces(env_kwargs), f"init_from (--init-from) {config.init_from!r}"
+                init,
+                *env_spaces(config.env_id, env_kwargs),
+                f"init_from (--init-from) {config.init_from!r}",
             )
 
         venv = make_vec_env(config.env_id, config.n_envs, config.seed, env_kwargs)

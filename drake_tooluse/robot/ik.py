@@ -177,7 +177,7 @@ class ToolTipIK:
         tool_length: believed tool length (m), in (0, 0.60]; None for no tool (T = gripper).
         grasp_offset: believed (across, along) offset of the grasp point from the gripper
             frame's origin (m; default 0, 0): with the camera's estimate the IK also knows
-            where the hand holds the tool (see `diagrams.measurement`).
+            where the hand holds the tool (see `builders.measurement`).
         joint_lower, joint_upper: joint limits (rad) s0 … w2; default Baxter's.
         max_attempts: SNOPT solves tried where the fast path finds nothing (the warm start,
             then library seeds).

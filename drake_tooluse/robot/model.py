@@ -46,7 +46,7 @@ class RobotBelief:
     """What the robot believes of the tool it holds: its length (m; None: no tool) and where
     the hand holds it, (across, along) m from the gripper frame's origin (as the scenario's
     `tool.grasp_offset_across/along`). The camera measures the length and the grasp along
-    the tool (`diagrams.measurement.measure_belief`); a robot told nothing believes the
+    the tool (`builders.measurement.measure_belief`); a robot told nothing believes the
     nominal grasp (0, 0)."""
 
     tool_length: float | None
@@ -163,7 +163,7 @@ def make_robot_model(
     past the grasp point (None: no tool, the tip frame is the gripper frame), the grasp point
     `grasp_offset` = (across, along) m from the gripper frame's origin (as the scenario's
     `tool.grasp_offset_across/along`; the camera can estimate it, see
-    `diagrams.measurement`). Finalized, continuous, no geometry."""
+    `builders.measurement`). Finalized, continuous, no geometry."""
     plant = MultibodyPlant(time_step=0.0)
     baxter = add_baxter(plant, left_arm_q)
     if tool_length is None:

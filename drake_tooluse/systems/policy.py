@@ -25,7 +25,7 @@ class PolicySystem(LeafSystem):
     control period on the observation of that instant, exactly as in the Gym env.
 
     Input ports:
-        observation: the task observation (see `systems.observation`), size of the policy's.
+        observation: the task observation (see `tasks.push.observation`), size of the policy's.
     Output ports:
         action: the policy's action (see `systems.tip_target`), in [-1, 1].
 

@@ -141,7 +141,7 @@ class RandomizationConfig:
 class CameraConfig:
     """Baxter's head camera as a Drake RgbdSensor (RenderEngineVtk): intrinsics, clipping and
     depth ranges, and the colour image noise. The field of view is wide enough to hold a
-    0.60 m tool at the measurement poses of `drake_tooluse.diagrams.measurement`; the resolution gives
+    0.60 m tool at the measurement poses of `drake_tooluse.builders.measurement`; the resolution gives
     about 0.9 mm per pixel there."""
 
     width: int = 1280  # pixels

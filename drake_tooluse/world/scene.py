@@ -241,7 +241,7 @@ def add_world(builder, scenario: Scenario) -> World:
     for joint, q in zip(
         [plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS], scenario.robot.posture_seed
     ):
-        joint.set_default_angle(q)  # callers set the solved home pose (diagrams.control).
+        joint.set_default_angle(q)  # callers set the solved home pose (builders.control).
     plant.SetDefaultFloatingBaseBodyPose(box, initial_box_pose(scenario))
     return World(plant, scene_graph, baxter, tool, box, scenario)
 

@@ -69,7 +69,7 @@ def test_trajectory_refuses_a_non_empty_out_before_any_work(tmp_path, capsys):
 
 
 def test_save_extraction_writes_a_new_directory_whole(tmp_path):
-    from drake_tooluse.experiments.trajectory import save_extraction
+    from drake_tooluse.experiments.trajectory_extraction import save_extraction
     from drake_tooluse.systems.tip_trajectory import TipTrajectory
 
     q = [1.0, 0.0, 0.0, 0.0]

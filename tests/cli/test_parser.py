@@ -136,7 +136,8 @@ def test_the_cli_names_the_algorithms_the_library_has():
 
 def test_the_cli_names_the_modes_alignments_and_recordings_the_library_has():
     from drake_tooluse.cli import experiments as cli
-    from drake_tooluse.experiments import trajectory, transfer
+    from drake_tooluse.experiments import trajectory_extraction as trajectory
+    from drake_tooluse.experiments import transfer
 
     assert cli.MODES == transfer.MODES
     assert (cli.ALIGNMENTS, cli.RECORDS) == (trajectory.ALIGNMENTS, trajectory.RECORDS)

@@ -9,7 +9,7 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from drake_tooluse.experiments import line_contact as variants
-from drake_tooluse.experiments.trajectory import filter_reachable
+from drake_tooluse.experiments.trajectory_extraction import filter_reachable
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.model import TOOL_DOWN_RPY
 from drake_tooluse.systems.tip_trajectory import TipTrajectory

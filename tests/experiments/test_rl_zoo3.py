@@ -12,9 +12,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from drake_tooluse.envs.registration import ENV_IDS
 from drake_tooluse.learning.config import RUN_KEYS, load_hyperparams
 from drake_tooluse.paths import HYPERPARAMS_DIR
+from drake_tooluse.tasks.push.registration import ENV_IDS
 
 CONF = HYPERPARAMS_DIR / "rl_zoo3.yaml"
 README = Path(__file__).resolve().parents[2] / "README.md"

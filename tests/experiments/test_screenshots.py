@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drake_tooluse.diagrams import visualization
-from drake_tooluse.diagrams.visualization import show_task, start_meshcat
+from drake_tooluse.builders import visualization
+from drake_tooluse.builders.visualization import show_task, start_meshcat
 from drake_tooluse.experiments import screenshots
 from drake_tooluse.experiments.screenshots import (
     SCREENSHOTS,

@@ -210,7 +210,7 @@ def test_actuation_delay_is_the_configured_time(delay):
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
-    from drake_tooluse.diagrams.control import TipControl, add_joint_command, add_world_at_home
+    from drake_tooluse.builders.control import TipControl, add_joint_command, add_world_at_home
 
     def first_motion(actuation_delay):
         s = Scenario()

@@ -89,7 +89,7 @@ def test_evaluate_counts_the_episodes_the_simulation_failed_in(monkeypatch):
     assert result.sim_errors == 2
     first = result.per_episode[0]
     assert first["sim_error"] and not first["success"] and first["length"] == 6
-    assert np.isfinite(result.final_box_to_goal_mean_m) and result.success_rate == 0.0
+    assert np.isfinite(result.metrics["final_box_to_goal_mean_m"]) and result.success_rate == 0.0
 
 
 def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatch, tmp_path):
@@ -134,8 +134,8 @@ def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatc
 
 
 def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypatch):
-    from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
     from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
     from drake_tooluse.world.scenario import Scenario
 
     built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))
@@ -150,8 +150,8 @@ def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypa
 def test_a_box_flung_by_a_diverged_solve_is_a_simulation_failure(monkeypatch):
     """A blow-up that stays finite (the box thrown metres in one step) is flagged too, and its
     travel is not counted as a push."""
-    from drake_tooluse.diagrams.push import MAX_BOX_SPEED, build_policy_diagram, run_policy
     from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.tasks.push.diagram import MAX_BOX_SPEED, build_policy_diagram, run_policy
     from drake_tooluse.world.scenario import Scenario
 
     built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))

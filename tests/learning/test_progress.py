@@ -6,6 +6,7 @@ import io
 import pytest
 
 import drake_tooluse.learning.evaluate as evaluate_mod
+from drake_tooluse.tasks.push.metrics import PUSH_EPISODE_METRICS
 
 
 class Stderr(io.StringIO):
@@ -18,6 +19,12 @@ class Stderr(io.StringIO):
 
 
 class Env:
+    EPISODE_METRICS = PUSH_EPISODE_METRICS
+
+    @property
+    def unwrapped(self):
+        return self
+
     def close(self):
         pass
 

@@ -64,7 +64,7 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
 def test_evaluate_reproduces_all_shipped_metrics(name):
     metrics = _metrics(name)
     result = evaluate(POLICIES / name, episodes=metrics["episodes"], seed=metrics["seed"])
-    assert result.final_box_to_goal_mean_m == pytest.approx(
+    assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
         metrics["final_box_to_goal_mean_m"], abs=1e-6
     )
     assert result.success_rate == metrics["success_rate"]

@@ -1,4 +1,4 @@
-"""The hand camera finds where the box starts (diagrams.box_measurement, perception.box)."""
+"""The hand camera finds where the box starts (builders.box_measurement, perception.box)."""
 
 import dataclasses as dc
 
@@ -7,7 +7,7 @@ import pytest
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.sensors import CameraInfo
 
-from drake_tooluse.diagrams.box_measurement import measure_box_start
+from drake_tooluse.builders.box_measurement import measure_box_start
 from drake_tooluse.paths import REALITY_SCENARIO
 from drake_tooluse.perception.box import measure_box
 from drake_tooluse.robot.model import RobotBelief

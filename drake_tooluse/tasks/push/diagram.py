@@ -5,34 +5,38 @@ trained policy closed-loop inside the diagram (not through the Gym wrapper), and
 plant ──state──► ToolPushObservation ──► PolicySystem ──action──► TipTargetSystem ──► IK ──► plant
 ```
 
-`add_push_task` is the one wiring of the task; the Gymnasium env (`envs.push_env`) exports its
+`add_push_task` is the one wiring of the task; the Gymnasium env (`tasks.push.env`) exports its
 `action` input and `observation` output, `build_policy_diagram` connects a policy between them.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.diagrams.control import (
+from drake_tooluse.builders.control import (
     TipControl,
     add_tip_control,
     add_world_at_home,
     nominal_belief,
 )
-from drake_tooluse.diagrams.failures import advance, finite_state
-from drake_tooluse.diagrams.visualization import add_meshcat_visualizer
+from drake_tooluse.builders.failures import advance, finite_state
+from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
+from drake_tooluse.builders.visualization import add_meshcat_visualizer
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import add_scene_camera
-from drake_tooluse.systems.observation import OBSERVATION_SIZES, ToolPushObservation
+from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.policy import PolicySystem
+from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.tasks.push.metrics import PushMetricsReader
+from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, goal_position, initial_box_pose
-from drake_tooluse.world.task import PushMetricsReader
 
 
 @dataclass
@@ -264,3 +268,21 @@ def run_policy(
         visualizer=built.visualizer if record else None,
         on_step=on_step,
     )
+
+
+def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:
+    """Replays the whole trajectory, a control period ahead (it holds where the tip was at each
+    step), then lets the world settle for SETTLE_TIME."""
+    period = scenario.control.control_period
+    built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
+    duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
+    try:
+        return run_push(
+            built.diagram,
+            built.world,
+            built.control,
+            math.ceil(duration / period),
+            stop_at_success=False,
+        )
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive

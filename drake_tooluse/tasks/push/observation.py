@@ -28,7 +28,7 @@ the same for any tool the IK tracks:
 | 12 | believed tool length (optional) | m |
 
 The metrics (reward, success, info) are computed from the world plant, i.e. the true tool
-(`world.task`).
+(`tasks.push.metrics`).
 """
 
 from __future__ import annotations

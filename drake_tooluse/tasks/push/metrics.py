@@ -1,7 +1,7 @@
 """The push task's truth: success, distances and contacts, read from the world plant.
 
 x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x, y) <= 0.05 m
-(the paper's). What the robot observes is `systems.observation`.
+(the paper's). What the robot observes is `tasks.push.observation`.
 """
 
 from __future__ import annotations
@@ -9,11 +9,20 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
 
 # The paper's rewards: Env1 and Env3 -(d(x, x*) + d(x, y)), Env2 -d(x, x*).
 REWARD_TYPES = ("tool_and_box", "box")
+
+# What an evaluation reports of each episode (`info` keys of the env's last step).
+PUSH_EPISODE_METRICS = (
+    EpisodeMetric("final_box_to_goal_m", "box_to_goal"),
+    EpisodeMetric("box_travel_m", "box_travel", mean_only=True),
+    EpisodeMetric("tool_touched", "tool_touched_box_in_episode", flag=True),
+    EpisodeMetric("gripper_touched", "gripper_touched_box_in_episode", flag=True),
+)
 
 
 @dataclass

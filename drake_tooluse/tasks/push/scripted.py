@@ -1,6 +1,6 @@
 """A scripted push in tool-tip space: a reference policy for tests and benchmarks.
 
-It reads only the observation (see `systems.observation`): goes above a point behind the box, lowers the
+It reads only the observation (see `tasks.push.observation`): goes above a point behind the box, lowers the
 tip to push height, and pushes the box along the box-to-goal direction until the box is on the
 goal. Works with `action_mode="position"` (3-d actions).
 """

@@ -9,7 +9,7 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.analysis import Simulator
 
-from drake_tooluse.diagrams.trajectory import build_trajectory_diagram, simulate_waypoints
+from drake_tooluse.builders.trajectory_diagram import build_trajectory_diagram, simulate_waypoints
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.world.scenario import Scenario, with_tool_length
@@ -57,7 +57,7 @@ def test_believed_grasp_reaches_the_ik():
 
     from pydrake.math import RigidTransform, RollPitchYaw
 
-    from drake_tooluse.diagrams.trajectory import simulate_waypoints
+    from drake_tooluse.builders.trajectory_diagram import simulate_waypoints
     from drake_tooluse.robot.model import TOOL_DOWN_RPY
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
@@ -85,7 +85,7 @@ def _with_actuation_delay(scenario, delay):
 def _true_tip_path(scenario, target, move_time, duration):
     """The trajectory diagram moving the tip from home to `target` in `move_time` (no dwell);
     returns it and the true tip's position at every plant tick up to `duration`."""
-    from drake_tooluse.diagrams.trajectory import build_trajectory_diagram
+    from drake_tooluse.builders.trajectory_diagram import build_trajectory_diagram
     from drake_tooluse.systems.tip_trajectory import waypoint_trajectory
     from drake_tooluse.world.scene import home_tip_pose
 

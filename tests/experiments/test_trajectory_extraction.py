@@ -6,7 +6,7 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from drake_tooluse.experiments.baxter_csv import CSV_HEADER, export_baxter_csv, read_baxter_csv
-from drake_tooluse.experiments.trajectory import (
+from drake_tooluse.experiments.trajectory_extraction import (
     average_episodes,
     average_quaternions,
     filter_reachable,
@@ -176,7 +176,7 @@ def test_export_csv_cli_refuses_unreachable_or_malformed_trajectories(tmp_path, 
 
 
 def test_delay_to_event_aligns_the_first_contacts():
-    from drake_tooluse.experiments.trajectory import delay_to_event
+    from drake_tooluse.experiments.trajectory_extraction import delay_to_event
 
     a = np.arange(5, dtype=float)[:, None]  # touches at step 1
     b = np.arange(10, 16, dtype=float)[:, None]  # touches at step 3
@@ -199,7 +199,7 @@ def test_extraction_time_step_is_the_scenarios_control_period():
     scenario whose control period is 0.08 s its poses are 0.08 s apart."""
     import dataclasses as dc
 
-    from drake_tooluse.experiments.trajectory import extract
+    from drake_tooluse.experiments.trajectory_extraction import extract
     from drake_tooluse.paths import SHIPPED_POLICY
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
@@ -227,10 +227,10 @@ def test_the_commanded_trajectory_replays_the_push_the_achieved_one_lags():
     ~2 cm at full speed, so replaying where the tip got (the paper's recording) commands a
     slower push that trails the closed-loop tip; replaying what each step commanded follows
     it within millimetres (the nominal start, one deterministic episode)."""
-    from drake_tooluse.diagrams.trajectory import run_open_loop
-    from drake_tooluse.experiments.trajectory import average_episodes, record_episodes
+    from drake_tooluse.experiments.trajectory_extraction import average_episodes, record_episodes
     from drake_tooluse.paths import DEFAULT_SCENARIO, TRANSFER_POLICY
     from drake_tooluse.robot.model import RobotBelief
+    from drake_tooluse.tasks.push.diagram import run_open_loop
     from drake_tooluse.world.scenario import load_scenario
 
     scenario = load_scenario(DEFAULT_SCENARIO)
@@ -253,7 +253,7 @@ def test_box_frame_recording_moves_each_episode_by_where_its_box_started():
     """With `box_frame` each episode is the push of the nominal box: every row of an episode is
     moved across the table by one offset, its box's from the nominal start (within the
     scenario's randomization), and nothing else changes."""
-    from drake_tooluse.experiments.trajectory import record_episodes
+    from drake_tooluse.experiments.trajectory_extraction import record_episodes
     from drake_tooluse.paths import DEFAULT_SCENARIO, TRANSFER_POLICY
     from drake_tooluse.world.scenario import load_scenario
 

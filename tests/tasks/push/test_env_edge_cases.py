@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import drake_tooluse  # noqa: F401  (registers the ids)
-from drake_tooluse.envs.push_env import ToolPushEnv
+from drake_tooluse.tasks.push.env import ToolPushEnv
 
 
 @pytest.fixture(scope="module")

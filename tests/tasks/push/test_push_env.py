@@ -8,8 +8,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 from stable_baselines3.common.vec_env import SubprocVecEnv
 
 import drake_tooluse  # noqa: F401  (registers the ids)
-from drake_tooluse.envs.registration import ENV_IDS
-from drake_tooluse.envs.scripted import ScriptedPush
+from drake_tooluse.tasks.push.registration import ENV_IDS
+from drake_tooluse.tasks.push.scripted import ScriptedPush
 
 
 @pytest.mark.parametrize("env_id", list(ENV_IDS))
@@ -159,7 +159,7 @@ def test_rgb_array_render_from_the_camera():
 
 
 def test_episode_recorded_to_meshcat_html(tmp_path):
-    from drake_tooluse.diagrams.visualization import start_meshcat
+    from drake_tooluse.builders.visualization import start_meshcat
 
     env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat())
     env.reset(seed=0)
@@ -195,7 +195,7 @@ def test_subproc_vec_env_with_two_workers():
 def test_tip_observation_is_the_same_for_any_tool():
     """`observation_mode="tip"`: goal, box, tip position and velocity — nothing that changes
     with the tool for the same tip motion (unlike the paper's joint angles)."""
-    from drake_tooluse.systems.observation import OBSERVATION_SIZES
+    from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
     observations = {}
     for length in (0.125, 0.175):
@@ -224,7 +224,7 @@ def test_unknown_observation_mode_is_refused():
 
 def test_the_recorded_goal_marker_is_this_episodes_goal():
     """With randomized starts the goal moves with the box: the Meshcat marker follows it."""
-    from drake_tooluse.diagrams.visualization import GOAL_PATH, start_meshcat
+    from drake_tooluse.builders.visualization import GOAL_PATH, start_meshcat
     from drake_tooluse.experiments.screenshots import scene_commands
 
     meshcat = start_meshcat()

@@ -16,7 +16,7 @@ def register_envs() -> None:
         if env_id not in gym.registry:
             gym.register(
                 env_id,
-                entry_point="drake_tooluse.envs.push_env:ToolPushEnv",
+                entry_point="drake_tooluse.tasks.push.env:ToolPushEnv",
                 max_episode_steps=MAX_EPISODE_STEPS,
                 kwargs=dict(kwargs),
             )

@@ -9,8 +9,7 @@ import pytest
 from pydrake.math import RigidTransform
 from pydrake.systems.sensors import CameraInfo
 
-from drake_tooluse.cli import make_parser
-from drake_tooluse.diagrams.measurement import (
+from drake_tooluse.builders.measurement import (
     MEASUREMENT_VIEWS,
     build_measurement_diagram,
     measure_tool,
@@ -18,6 +17,7 @@ from drake_tooluse.diagrams.measurement import (
     orange_distractor,
     plan_measurement,
 )
+from drake_tooluse.cli import make_parser
 from drake_tooluse.perception.markers import add_color_noise, measure_view
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, make_robot_model
@@ -191,7 +191,7 @@ def test_camera_finds_where_the_hand_holds_the_tool(length, along):
     with the arm's joint angles, it gives the grasp shift along the tool."""
     import dataclasses as dc
 
-    from drake_tooluse.diagrams.measurement import measure_tool
+    from drake_tooluse.builders.measurement import measure_tool
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()
@@ -214,7 +214,7 @@ def test_grasp_estimate_for_a_short_tool_held_deep():
     pairs the two bands the wrong way round; the grasp is the end nearer the wrist."""
     import dataclasses as dc
 
-    from drake_tooluse.diagrams.measurement import measure_tool
+    from drake_tooluse.builders.measurement import measure_tool
     from drake_tooluse.world.scenario import Scenario, validate_scenario
 
     s = Scenario()

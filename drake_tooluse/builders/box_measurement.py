@@ -19,7 +19,7 @@ from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.sensors import CameraInfo
 
-from drake_tooluse.diagrams.control import add_world_at_home
+from drake_tooluse.builders.control import add_world_at_home
 from drake_tooluse.perception.box import BoxMeasurement, measure_box
 from drake_tooluse.robot.model import GRIPPER_FRAME, RobotBelief
 from drake_tooluse.systems.camera import add_rgbd_sensor

@@ -1,5 +1,5 @@
-"""A tool-tip trajectory through the IK to the plant, open loop: the waypoint simulation and
-the paper's transfer replay.
+"""A tool-tip trajectory through the IK to the plant, open loop: the waypoint simulation; a
+task replays it (the push task: `tasks.push.diagram.run_open_loop`).
 
 ```
 TrajectorySource ──tip_pose_desired──► ToolTipIKSystem ──q*──► [q*, 0] ──► (delay) ──► plant (in-plant PD)
@@ -10,7 +10,6 @@ TrajectorySource ──tip_pose_desired──► ToolTipIKSystem ──q*──�
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -18,16 +17,14 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.diagrams.control import TipControl, add_trajectory_control, add_world_at_home
-from drake_tooluse.diagrams.push import PushRun, run_push
-from drake_tooluse.diagrams.visualization import (
+from drake_tooluse.builders.control import TipControl, add_trajectory_control, add_world_at_home
+from drake_tooluse.builders.visualization import (
     add_meshcat_visualizer,
     save_recording,
     start_meshcat,
 )
 from drake_tooluse.robot.ik import rotation_angle_between
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import (
     TipTrajectory,
     tip_trajectory_source,
@@ -78,24 +75,6 @@ def build_trajectory_diagram(
     diagram = builder.Build()
     diagram.set_name("trajectory_control")
     return TrajectoryDiagram(diagram, world, control, visualizer)
-
-
-def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:
-    """Replays the whole trajectory, a control period ahead (it holds where the tip was at each
-    step), then lets the world settle for SETTLE_TIME."""
-    period = scenario.control.control_period
-    built = build_trajectory_diagram(scenario, trajectory, belief, lead=period)
-    duration = max(trajectory.times[-1], 0.0) + SETTLE_TIME
-    try:
-        return run_push(
-            built.diagram,
-            built.world,
-            built.control,
-            math.ceil(duration / period),
-            stop_at_success=False,
-        )
-    finally:
-        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 @dataclass

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 import drake_tooluse  # noqa: F401
-from drake_tooluse.diagrams.push import build_policy_diagram, run_policy
 from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.train import train
 from drake_tooluse.systems.policy import PolicySystem
+from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
 from drake_tooluse.world.scenario import Scenario
 
 

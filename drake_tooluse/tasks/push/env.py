@@ -34,10 +34,9 @@ from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.diagrams.control import IK_MODES
-from drake_tooluse.diagrams.failures import advance, finite_state
-from drake_tooluse.diagrams.push import add_push_task
-from drake_tooluse.diagrams.visualization import (
+from drake_tooluse.builders.control import IK_MODES
+from drake_tooluse.builders.failures import advance, finite_state
+from drake_tooluse.builders.visualization import (
     add_meshcat_visualizer,
     save_recording,
     show_task,
@@ -45,8 +44,16 @@ from drake_tooluse.diagrams.visualization import (
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
-from drake_tooluse.systems.observation import OBSERVATION_SIZES
 from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
+from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.tasks.push.diagram import add_push_task
+from drake_tooluse.tasks.push.metrics import (
+    PUSH_EPISODE_METRICS,
+    REWARD_TYPES,
+    PushMetricsReader,
+    reward,
+)
+from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 from drake_tooluse.validation import (
     all_finite,
     check_bool,
@@ -58,7 +65,6 @@ from drake_tooluse.validation import (
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
 from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
-from drake_tooluse.world.task import REWARD_TYPES, PushMetricsReader, reward
 
 
 @dc.dataclass
@@ -71,7 +77,7 @@ class EnvConfig:
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "paper"
     include_tool_length: bool = False
-    observation_mode: str = "paper"  # "paper" or "tip" (see systems.observation)
+    observation_mode: str = "paper"  # "paper" or "tip" (see tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
     # "full": the exact tool-tip IK every control period, the only mode (a keyword kept for the
@@ -111,20 +117,6 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     return config
 
 
-def check_env_kwargs(kwargs, name: str = "env kwargs") -> dict:
-    """Keyword arguments of the push envs, checked (names and values) without building an env:
-    an unknown name or a bad value is a ValueError naming it. Returns them as a dict."""
-    _config(kwargs, name)
-    return dict(kwargs or {})
-
-
-def env_spaces(kwargs) -> tuple[list, list]:
-    """(observation shape, action shape) of the env these keyword arguments make."""
-    config = _config(kwargs)
-    n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
-    return [n_obs], [ACTION_MODES[config.action_mode]]
-
-
 def _scenario(config: EnvConfig) -> Scenario:
     if config.scenario is None:
         scenario = Scenario()
@@ -139,7 +131,7 @@ def _scenario(config: EnvConfig) -> Scenario:
     return dc.replace(scenario, goal_offset=goal)
 
 
-class ToolPushEnv(DrakeGymEnv):
+class ToolPushEnv(TaskEnv, DrakeGymEnv):
     """The push task as a Gymnasium env (see the module docstring for ids and rewards).
 
     Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
@@ -149,6 +141,18 @@ class ToolPushEnv(DrakeGymEnv):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
+    EPISODE_METRICS = PUSH_EPISODE_METRICS
+
+    @classmethod
+    def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
+        _config(kwargs, name)
+        return dict(kwargs or {})
+
+    @classmethod
+    def spaces(cls, kwargs) -> tuple[list, list]:
+        config = _config(kwargs)
+        n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
+        return [n_obs], [ACTION_MODES[config.action_mode]]
 
     def __init__(self, **kwargs):
         config = _config(kwargs)
@@ -255,7 +259,7 @@ class ToolPushEnv(DrakeGymEnv):
         action = check_action(values, self.config.action_mode)
         context = self.simulator.get_mutable_context()
         self.action_port.FixValue(context, action)
-        # A simulation failure truncates the episode, with a flag (`diagrams.failures`).
+        # A simulation failure truncates the episode, with a flag (`builders.failures`).
         sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
         plant_context = self.world.plant.GetMyContextFromRoot(context)
         sim_error = sim_error or not finite_state(self.world.plant, plant_context)

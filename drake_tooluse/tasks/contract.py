@@ -1,0 +1,95 @@
+"""What every task gives: the contract between a task package and the rest of the project.
+
+A task is one package under `drake_tooluse/tasks/<task>/` (the push task is `tasks.push`). It
+gives:
+
+- **wiring** (`TaskParts`): a function that adds the task to a `DiagramBuilder` given the world's
+  scenario and the robot's belief, and returns the systems whose ports it exports —
+  `observation` (what the policy sees), `reward` (the step's reward) and `success` (1.0 when the
+  task is done, else 0.0) — with the tool-tip control whose `action` input a policy drives;
+- **envs** (`TaskEnv`): Gymnasium envs, registered on `import drake_tooluse` by the task's
+  `registration` module (which imports no Drake), each class able to check its keyword
+  arguments and give its spaces without being built;
+- **metrics** (`EpisodeMetric`): what an evaluation reports of an episode, read from the last
+  step's `info`.
+
+`learning/` trains and evaluates any registered env whose class is a `TaskEnv`: it finds the
+class through Gymnasium's registry and imports no task (tests/test_architecture.py checks it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Every env id of the project lives in this Gymnasium namespace.
+ENV_NAMESPACE = "drake_tooluse"
+
+
+@dataclass(frozen=True)
+class EpisodeMetric:
+    """One figure of an episode, read from its last step's `info[info_key]`.
+
+    A number with a unit suffix (`name` "final_box_to_goal_m") is summarized over episodes as
+    mean, median and std ("final_box_to_goal_mean_m", …) or as its mean alone (`mean_only`);
+    a flag (`flag`) as the rate of episodes it was true in ("tool_touched_rate")."""
+
+    name: str
+    info_key: str
+    flag: bool = False
+    mean_only: bool = False
+
+    def summary(self, values) -> dict:
+        """The summary of this metric's per-episode `values`."""
+        if self.flag:
+            return {f"{self.name}_rate": float(np.mean(values))}
+        base, _, unit = self.name.rpartition("_")
+        stats = (
+            {"mean": np.mean}
+            if self.mean_only
+            else {
+                "mean": np.mean,
+                "median": np.median,
+                "std": np.std,
+            }
+        )
+        return {f"{base}_{stat}_{unit}": float(f(values)) for stat, f in stats.items()}
+
+    def read(self, info: dict):
+        value = info[self.info_key]
+        return bool(value) if self.flag else float(value)
+
+
+class TaskEnv:
+    """The class-level part of a task env's contract (a mixin of the task's env class, which
+    is a `pydrake.gym.DrakeGymEnv`). Every step's `info` holds `is_success`, `sim_error` and
+    the keys its `EPISODE_METRICS` read."""
+
+    # What an evaluation reports of each episode, in order (the first is the headline).
+    EPISODE_METRICS: tuple[EpisodeMetric, ...] = ()
+
+    @classmethod
+    def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
+        """The env's keyword arguments, checked (names and values) without building it: an
+        unknown name or a bad value is a ValueError naming it. Returns them as a dict."""
+        raise NotImplementedError
+
+    @classmethod
+    def spaces(cls, kwargs) -> tuple[list, list]:
+        """(observation shape, action shape) of the env these keyword arguments make."""
+        raise NotImplementedError
+
+
+@dataclass
+class TaskParts:
+    """What a task's wiring added to a builder: the world, the tool-tip control (its
+    `target.GetInputPort("action")` is the policy's input) and the systems whose output ports
+    the task exports as `observation`, `reward` and `success`."""
+
+    world: object
+    ik: object
+    control: object
+    observation: object
+    reward: object
+    success: object
