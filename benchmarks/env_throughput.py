@@ -126,7 +126,7 @@ def main() -> None:
     fetch_env = fetch_push_env()
     if fetch_env is not None:
         envs[FETCH] = fetch_env
-    for action_mode in ("paper", "position"):
+    for action_mode in ("position_quaternion", "position"):
         envs[f"ToolPush-v0 action_mode={action_mode}"] = gym.make(
             "drake_tooluse/ToolPush-v0", action_mode=action_mode
         )

@@ -132,7 +132,8 @@ def study_table(results: dict) -> str:
         done = finished(results, cell)
         action = (
             "paper 7-d"
-            if c.get("hyperparams", {}).get("env_kwargs", {}).get("action_mode") == "paper"
+            if c.get("hyperparams", {}).get("env_kwargs", {}).get("action_mode")
+            in ("paper", "position_quaternion")
             else "position"
         )
         head = (
@@ -351,7 +352,7 @@ def orientation_drift(std: float, steps: int, episodes: int = 2000) -> float:
         noise = np.clip(rng.normal(0.0, std, (episodes, 4)), -1.0, 1.0)
         for target, quaternion_change in zip(targets, noise):
             action = np.concatenate([np.zeros(3), quaternion_change])
-            target[:] = apply_action(target, action, "paper", workspace)
+            target[:] = apply_action(target, action, "position_quaternion", workspace)
 
     def axis(quaternion):  # the tool's axis (z of the tip frame), as a copy
         return np.array(RotationMatrix(Quaternion(quaternion)).matrix())[:, 2]

@@ -35,7 +35,7 @@ POLICIES = {"tip": (TIP, []), "paper": (PAPER, []), "tip-length-only": (TIP, ["-
 MODES = {
     "closed-loop": ("closed-loop", []),
     "open-loop": ("open-loop", []),
-    "open-loop-paper": ("open-loop", ["--extraction", "paper"]),
+    "open-loop-paper": ("open-loop", ["--extraction", "mean-achieved"]),
 }
 
 

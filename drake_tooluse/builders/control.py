@@ -30,8 +30,6 @@ from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
 from drake_tooluse.world.scenario import tool_length_or_none
 from drake_tooluse.world.scene import World, add_world, home_tip_pose
 
-# The env's `ik_mode` values: the exact IK only (kept as a keyword for saved policies' kwargs).
-IK_MODES = ("full",)
 # The IK in the loop, per control step: the warm start (the last answer) nearly always holds;
 # if not, a few fast-path starts from each seed library, then one SNOPT solve from the warm
 # start (by then the target has usually left the arm's reach: in 3,000 random-action steps

@@ -247,7 +247,7 @@ def add_parsers(sub) -> None:
         default="line-contact",
         help="'line-contact' (the episodes in their boxes' frame, the push centred on the box, "
         "the tool tilted so that its shaft pushes: for the scenario's nominal box start, as "
-        "`transfer --mode open-loop` replays it) or 'paper' (the per-step mean of where the "
+        "`transfer --mode open-loop` replays it) or 'mean-achieved' (the paper's per-step mean of where the "
         "tip got)",
     )
     p.add_argument(
@@ -356,7 +356,7 @@ def add_parsers(sub) -> None:
         default="line-contact",
         help="open loop: how the trajectory is made of the episodes: 'line-contact' (the "
         "commanded tip poses in each box's frame, the tool tilted per tool so that its shaft "
-        "pushes, replayed at each run's box start, measured by the hand camera) or 'paper' "
+        "pushes, replayed at each run's box start, measured by the hand camera) or 'mean-achieved' "
         "(the per-step mean of where the tip got, replayed as it is)",
     )
     p.add_argument(

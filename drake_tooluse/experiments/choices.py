@@ -12,9 +12,9 @@ RECORDS = ("achieved", "commanded")
 # mean of where the tip got, replayed as it is; or that of the commanded poses, of each episode
 # in its box's frame, the tool tilted into a line contact, and replayed at the box start the
 # hand camera measures (`experiments.line_contact`).
-EXTRACTIONS = ("line-contact", "paper")
+EXTRACTIONS = ("line-contact", "mean-achieved")
 # What each takes by default for the recording (RECORDS).
-EXTRACTION_RECORDS = {"line-contact": "commanded", "paper": "achieved"}
+EXTRACTION_RECORDS = {"line-contact": "commanded", "mean-achieved": "achieved"}
 # Randomization draws of the nominal simulation over which a line-contact trajectory is moved
 # across the push to where it pushes best (`experiments.line_contact.calibrated`); 0: not.
 CALIBRATION_DRAWS = 16

@@ -4,7 +4,7 @@ Three action modes (all actions are in [-1, 1]; values outside are clipped):
 
 | mode | size | meaning (per control step, at |a| = 1) |
 | --- | --- | --- |
-| `paper` | 7 | change of tip position (3) × 0.02 m, change of the quaternion w x y z (4) × 0.05, then normalized — the paper's mocap action |
+| `position_quaternion` | 7 | change of tip position (3) × 0.02 m, change of the quaternion w x y z (4) × 0.05, normalized (the paper's mocap) |
 | `pose` | 6 | change of tip position (3) × 0.02 m, rotation vector (3) × 0.10 rad, in the world frame |
 | `position` | 3 | change of tip position (3) × 0.02 m; the orientation is held |
 
@@ -26,9 +26,9 @@ from drake_tooluse.robot.kinematics import ArmChain
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.validation import all_finite
 
-ACTION_MODES = {"paper": 7, "pose": 6, "position": 3}
+ACTION_MODES = {"position_quaternion": 7, "pose": 6, "position": 3}
 MAX_TRANSLATION_STEP = 0.02  # m per step
-MAX_QUATERNION_STEP = 0.05  # per quaternion component per step (paper mode)
+MAX_QUATERNION_STEP = 0.05  # per quaternion component per step (position_quaternion mode)
 MAX_ROTATION_STEP = 0.10  # rad per step (pose mode)
 
 
@@ -68,7 +68,7 @@ def apply_action(
         np.maximum(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower), workspace.upper
     )
     quat = target[3:]
-    if mode == "paper":
+    if mode == "position_quaternion":
         quat = quat + MAX_QUATERNION_STEP * action[3:7]
         norm = math.sqrt(quat.dot(quat))  # np.linalg.norm's own arithmetic, without its dispatch
         quat = quat / norm if norm > 1e-6 else target[3:]

@@ -165,7 +165,7 @@ def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
         (["--runs", "0"], r"--runs=0 is outside the allowed range \[1, 10000\]"),
         (
             ["--mode", "open-loop", "--extraction", "median"],
-            r"--extraction: unknown extraction 'median'; choose one of \['line-contact', 'paper'\]",
+            r"--extraction: unknown extraction 'median'; choose one of \['line-contact', 'mean-achieved'\]",
         ),
     ],
 )
@@ -388,7 +388,7 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
     # The paper's own: one trajectory for every tool, replayed as it is, of where the tip got.
     paper = transfer_experiment(
         tmp_path / "p", TRANSFER_POLICY, tools=[0.15], runs=1, mode="open-loop", episodes=1,
-        extraction="paper", log=lambda text: None,
+        extraction="mean-achieved", log=lambda text: None,
     )  # fmt: skip
     assert not paper["box_frame"] and paper["trajectory"]["record"] == "achieved"
     assert "box_xy_error_m" not in paper["tools"][0]["reality"]["per_run"][0]

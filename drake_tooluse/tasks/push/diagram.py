@@ -92,7 +92,7 @@ def policy_observation(policy) -> tuple[str, bool]:
     """(observation_mode, include_tool_length) of a loaded policy, from its metadata and its
     observation size; an observation the push task cannot give is an error."""
     n_obs = policy.meta.observation_shape[0]
-    mode = policy.meta.env_kwargs.get("observation_mode", "paper")
+    mode = policy.meta.env_kwargs.get("observation_mode", "gripper_joints")
     size = OBSERVATION_SIZES.get(mode)
     if size is None or n_obs not in (size, size + 1):
         raise ValueError(
@@ -115,7 +115,7 @@ def build_policy_diagram(
     nominal grasp). With `scene_camera`, the diagram exports the `color_image` of a camera
     looking at the work area."""
     mode, include_length = policy_observation(policy)
-    action_mode = policy.meta.env_kwargs.get("action_mode", "paper")
+    action_mode = policy.meta.env_kwargs.get("action_mode", "position_quaternion")
     builder = DiagramBuilder()
     task = add_push_task(builder, scenario, belief, action_mode, mode, include_length)
     action_input = task.control.target.GetInputPort("action")

@@ -34,7 +34,6 @@ from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.control import IK_MODES
 from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.visualization import (
     add_meshcat_visualizer,
@@ -75,19 +74,41 @@ class EnvConfig:
     tool_length: float | None = None  # overrides the scenario's (m)
     reward_type: str = "tool_and_box"
     goal_extra: float = 0.0  # m added to the goal distance along y
-    action_mode: str = "paper"
+    action_mode: str = "position_quaternion"  # see systems.tip_target
     include_tool_length: bool = False
-    observation_mode: str = "paper"  # "paper" or "tip" (see tasks.push.observation)
+    observation_mode: str = "gripper_joints"  # or "tip" (see tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
-    # "full": the exact tool-tip IK every control period, the only mode (a keyword kept for the
-    # env kwargs saved with policies; "differential" was retired).
-    ik_mode: str = "full"
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
 
 
+# Values earlier versions wrote into policy files and run configurations, read as today's.
+LEGACY_VALUES = {
+    "action_mode": {"paper": "position_quaternion"},
+    "observation_mode": {"paper": "gripper_joints"},
+}
+
+
+def current_kwargs(kwargs: dict) -> dict:
+    """`kwargs` with the names of earlier versions replaced by today's: the modes once named
+    "paper", and `ik_mode`, a keyword with the one value "full" (the exact IK, always on)."""
+    kwargs = dict(kwargs)
+    for key, renamed in LEGACY_VALUES.items():
+        value = kwargs.get(key)
+        if isinstance(value, str) and value in renamed:
+            kwargs[key] = renamed[value]
+    if "ik_mode" in kwargs:
+        if kwargs["ik_mode"] != "full":
+            raise ValueError(
+                f"ik_mode={kwargs['ik_mode']!r} is retired: the env always runs the exact "
+                "tool-tip IK; leave ik_mode out"
+            )
+        del kwargs["ik_mode"]
+    return kwargs
+
+
 def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
-    kwargs = check_mapping(kwargs, name)
+    kwargs = current_kwargs(check_mapping(kwargs, name))
     allowed = [f.name for f in dc.fields(EnvConfig)]
     unknown = sorted(set(kwargs) - set(allowed))
     if unknown:
@@ -98,12 +119,6 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
-    if config.ik_mode == "differential":
-        raise ValueError(
-            "ik_mode='differential' (Drake's first-order differential IK) was retired: the exact "
-            "tool-tip IK is faster (docs/BENCHMARKS.md); use ik_mode='full' (the default)"
-        )
-    check_one_of(config.ik_mode, IK_MODES, "ik_mode")
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
@@ -135,8 +150,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     """The push task as a Gymnasium env (see the module docstring for ids and rewards).
 
     Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
-    "box"), goal_extra, action_mode ("paper", "pose", "position"), include_tool_length,
-    observation_mode ("paper", "tip"),
+    "box"), goal_extra, action_mode ("position_quaternion", "pose", "position"),
+    include_tool_length, observation_mode ("gripper_joints", "tip"),
     randomize, render_mode (None, "rgb_array", "human"), meshcat.
     """
 
@@ -146,7 +161,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
         _config(kwargs, name)
-        return dict(kwargs or {})
+        return current_kwargs(kwargs or {})
 
     @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:

@@ -1,6 +1,6 @@
 """The push task's observation: what the robot can know, as a LeafSystem.
 
-Two observation modes. `paper`: the paper's observation, in its order (30 values, float32; 31
+Two observation modes. `gripper_joints`: the paper's observation, in its order (30 values, float32; 31
 with the tool length):
 
 | slice | what | units |
@@ -42,7 +42,7 @@ from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.validation import all_finite, check_one_of
 from drake_tooluse.world.scene import World
 
-OBSERVATION_SIZES = {"paper": 30, "tip": 12}
+OBSERVATION_SIZES = {"gripper_joints": 30, "tip": 12}
 
 
 class ToolPushObservation(LeafSystem):
@@ -71,7 +71,7 @@ class ToolPushObservation(LeafSystem):
         goal,
         include_tool_length: bool,
         believed_tool_length: float | None,
-        mode: str = "paper",
+        mode: str = "gripper_joints",
     ):
         super().__init__()
         check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")

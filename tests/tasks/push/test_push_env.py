@@ -26,7 +26,7 @@ def test_full_ik_env_passes_the_checker():
     check_env(gym.make("drake_tooluse/ToolPush-v0").unwrapped, skip_render_check=True)
 
 
-@pytest.mark.parametrize("mode, size", [("paper", 7), ("pose", 6), ("position", 3)])
+@pytest.mark.parametrize("mode, size", [("position_quaternion", 7), ("pose", 6), ("position", 3)])
 def test_action_modes(mode, size):
     env = gym.make("drake_tooluse/ToolPush-v0", action_mode=mode, include_tool_length=True)
     assert env.action_space.shape == (size,)
@@ -126,15 +126,15 @@ def test_out_of_bounds_actions_are_clipped():
         ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['scenario'"),
         (
             {"action_mode": "joint"},
-            r"action_mode='joint' is not allowed; choose one of \['paper', 'pose', 'position'\]",
+            r"action_mode='joint' is not allowed; choose one of \['position_quaternion', 'pose', 'position'\]",
         ),
         (
             {"ik_mode": "fast"},
-            r"ik_mode='fast' is not allowed; choose one of \['full'\]",
+            r"ik_mode='fast' is retired: the env always runs the exact tool-tip IK",
         ),
         (
             {"ik_mode": "differential"},
-            r"ik_mode='differential' \(Drake's first-order differential IK\) was retired",
+            r"ik_mode='differential' is retired",
         ),
         ({"tool_length": 0.9}, r"tool_length=0.9 m is outside the allowed range \(0, 0.6\]"),
     ],
@@ -218,7 +218,7 @@ def test_tip_observation_is_the_same_for_any_tool():
 
 
 def test_unknown_observation_mode_is_refused():
-    with pytest.raises(ValueError, match="observation_mode='joint'.*paper.*tip"):
+    with pytest.raises(ValueError, match="observation_mode='joint'.*gripper_joints.*tip"):
         gym.make("drake_tooluse/ToolPush-v0", observation_mode="joint")
 
 
