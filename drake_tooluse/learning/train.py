@@ -91,7 +91,7 @@ from drake_tooluse.learning.policy_dir import (
     load_policy,
     save_policy,
 )
-from drake_tooluse.learning.task_envs import env_spaces
+from drake_tooluse.learning.task_envs import env_spaces, episode_metrics
 from drake_tooluse.validation import check_int, check_seed
 
 CHECKPOINTS = "checkpoints"
@@ -112,7 +112,10 @@ def make_vec_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict):
     fns = [_make_env(env_id, env_kwargs) for _ in range(n_envs)]
     vec = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
     vec.seed(seed)
-    return VecMonitor(vec, info_keywords=("is_success", "box_to_goal"))
+    # Each finished episode's success and the task's headline figure (the push task: the
+    # box-goal distance) go into its "episode" info.
+    headline = episode_metrics(env_id)[0].info_key
+    return VecMonitor(vec, info_keywords=("is_success", headline))
 
 
 def _algo_kwargs(config: TrainConfig, action_dim: int) -> dict:

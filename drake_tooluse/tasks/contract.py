@@ -83,13 +83,21 @@ class TaskEnv:
 
 @dataclass
 class TaskParts:
-    """What a task's wiring added to a builder: the world, the tool-tip control (its
-    `target.GetInputPort("action")` is the policy's input) and the systems whose output ports
-    the task exports as `observation`, `reward` and `success`."""
+    """What a task's wiring added to a builder: the world, the robot's IK and the tool-tip
+    control (its `target.GetInputPort("action")` is the policy's input), and the output ports
+    the task gives: `observation`, `reward` ([r]) and `success` ([1.0] or [0.0])."""
 
     world: object
     ik: object
     control: object
-    observation: object
-    reward: object
-    success: object
+    observation_port: object
+    reward_port: object
+    success_port: object
+
+    def export(self, builder) -> None:
+        """Exports the task's ports from the diagram under their contract names: the input
+        `action` and the outputs `observation`, `reward` and `success`."""
+        builder.ExportInput(self.control.target.GetInputPort("action"), "action")
+        builder.ExportOutput(self.observation_port, "observation")
+        builder.ExportOutput(self.reward_port, "reward")
+        builder.ExportOutput(self.success_port, "success")

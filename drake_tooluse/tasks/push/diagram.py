@@ -27,26 +27,32 @@ from drake_tooluse.builders.control import (
 from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
 from drake_tooluse.builders.visualization import add_meshcat_visualizer
-from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.policy import PolicySystem
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.tasks.push.metrics import PushMetricsReader
+from drake_tooluse.tasks.contract import TaskParts
+from drake_tooluse.tasks.push.metrics import PushMetricsReader, PushOutcome
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, goal_position, initial_box_pose
 
 
 @dataclass
-class PushTask:
-    """The parts `add_push_task` added."""
+class PushTask(TaskParts):
+    """The parts `add_push_task` added: the contract's, and the two systems that hold the
+    episode's goal (`observation`, `outcome`: set both per episode, `set_episode`)."""
 
-    world: World
-    ik: ToolTipIK
-    control: TipControl
-    observation: ToolPushObservation
+    observation: ToolPushObservation = None
+    outcome: PushOutcome = None
+
+    def set_episode(self, root_context, goal, box_start) -> None:
+        """This episode's goal x* and the box's start (m, W)."""
+        self.observation.set_goal(self.observation.GetMyMutableContextFromRoot(root_context), goal)
+        self.outcome.set_episode(
+            self.outcome.GetMyMutableContextFromRoot(root_context), goal, box_start
+        )
 
 
 def add_push_task(
@@ -56,10 +62,12 @@ def add_push_task(
     action_mode: str,
     observation_mode: str,
     include_tool_length: bool,
+    reward_type: str = "tool_and_box",
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
-    tool-tip control (`action_mode`) and the task's observation of the world, its
-    goal the scenario's. The tip target's `action` input is left unconnected."""
+    tool-tip control (`action_mode`), the task's observation of the world and its outcome
+    (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
+    `action` input is left unconnected."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     control = add_tip_control(builder, world, ik, q0, action_mode)
@@ -75,7 +83,26 @@ def add_push_task(
         ),
     )
     builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
-    return PushTask(world, ik, control, observation)
+    outcome = builder.AddNamedSystem(
+        "outcome",
+        PushOutcome(
+            world, goal_position(scenario), initial_box_pose(scenario).translation(), reward_type
+        ),
+    )
+    builder.Connect(world.plant.get_body_poses_output_port(), outcome.GetInputPort("body_poses"))
+    builder.Connect(
+        world.plant.get_contact_results_output_port(), outcome.GetInputPort("contact_results")
+    )
+    return PushTask(
+        world,
+        ik,
+        control,
+        observation.get_output_port(),
+        outcome.GetOutputPort("reward"),
+        outcome.GetOutputPort("success"),
+        observation=observation,
+        outcome=outcome,
+    )
 
 
 @dataclass

@@ -49,8 +49,6 @@ from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
     REWARD_TYPES,
-    PushMetricsReader,
-    reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 from drake_tooluse.validation import (
@@ -182,7 +180,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             time_step=self.scenario.control.control_period,
             action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],), np.float32),
             observation_space=gym.spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
-            reward=lambda system, context: self._last_reward,
+            reward="reward",
             action_port_id="action",
             observation_port_id="observation",
             render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
@@ -191,6 +189,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         )
         self.render_mode = config.render_mode
         self.metadata = dict(type(self).metadata)
+        # DrakeGymEnv 1.51 drops an `info_handler` argument (its check compares the handler
+        # with `callable(handler)`), so it is set here, where its `step` and `reset` find it.
+        self.info_handler = self._info_handler
         self._last_reward = 0.0
         self._episode = {}
         self._last = None  # (observation, metrics) of the last finite state
@@ -206,12 +207,13 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             config.action_mode,
             config.observation_mode,
             config.include_tool_length,
+            config.reward_type,
         )
+        task.export(builder)
+        self.task = task
         self.world, self.control = task.world, task.control
         self.ik_system, self.target_system = task.control.ik_system, task.control.target
         self.observation_system = task.observation
-        builder.ExportInput(task.control.target.GetInputPort("action"), "action")
-        builder.ExportOutput(task.observation.get_output_port(), "observation")
         if config.render_mode == "rgb_array":
             add_scene_camera(builder, self.world)
         self.visualizer = None
@@ -221,7 +223,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             )
         self.diagram = builder.Build()
         self.diagram.set_name("tool_push_env")
-        self._metrics = PushMetricsReader(self.world)
+        self._metrics_port = task.outcome.GetOutputPort("metrics")
+        self._success_port = self.diagram.GetOutputPort("success")
         self._simulator = Simulator(self.diagram)
 
     # -- Gymnasium API --------------------------------------------------------------------
@@ -233,9 +236,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         self.control.reset(context)
         box_start = initial_box_pose(s).translation()
         goal = box_start + np.asarray(s.goal_offset, float)
-        self.observation_system.set_goal(
-            self.observation_system.GetMyMutableContextFromRoot(context), goal
-        )
+        self.task.set_episode(context, goal, box_start)
         self._episode = {
             "goal": goal,
             "box_start": box_start,
@@ -255,14 +256,17 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             raise ValueError(f"reset options {options!r} are not supported; pass none")
         if seed is not None:
             seed = check_seed(seed, "seed")
-        observation, _ = super().reset(seed=seed)
+        observation, info = super().reset(seed=seed)
         observation = np.asarray(observation, np.float32)
-        m = self._read_metrics()
-        self._last_reward = reward(m, self.config.reward_type)
-        self._last = (observation, m)
-        return observation, self._info(m, sim_error=False)
+        self._last_reward = self._reward()
+        return observation, info
 
     def step(self, action):
+        """DrakeGymEnv's step, but for three things it cannot do: it would evaluate the
+        observation before advancing too (a second evaluation each step, for its failure
+        path), it keeps no last finite state (NaN would reach the learner), and it checks no
+        action. The episode ends on the `success` port, read once per control step: a
+        simulator monitor would run every plant step and end an episode mid-period."""
         self._check_open()
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
@@ -285,16 +289,12 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             sim_error = not (all_finite(observation) and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
+            terminated = False
         else:
             self._last = (observation, m)
-            self._last_reward = reward(m, self.config.reward_type)
-        return (
-            observation,
-            self._last_reward,
-            bool(m.is_success) and not sim_error,
-            sim_error,
-            self._info(m, sim_error),
-        )
+            self._last_reward = self._reward()
+            terminated = bool(self._success_port.Eval(context)[0] > 0.5)
+        return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
 
     def close(self) -> None:
         """Frees the diagram (pydrake would keep its Python systems, and with them the whole
@@ -319,7 +319,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "target_system",
             "observation_system",
             "visualizer",
-            "_metrics",
+            "_metrics_port",
+            "_success_port",
+            "task",
         ):
             if hasattr(self, name):
                 setattr(self, name, None)
@@ -355,13 +357,27 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         context = self.ik_system.GetMyContextFromRoot(self.simulator.get_context())
         return self.control.ik.fk(self.ik_system.q_desired(context))
 
+    def _reward(self) -> float:
+        """The `reward` port's value (the paper's reward of the env's `reward_type`)."""
+        return float(self.reward(self.diagram, self.simulator.get_context()))
+
     def _read_metrics(self):
-        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
-        m = self._metrics.read(plant_context, self._episode["goal"], self._episode["box_start"])
+        """The `outcome` system's metrics of the current state, the episode's touches kept."""
+        m = self._metrics_port.Eval(
+            self.task.outcome.GetMyContextFromRoot(self.simulator.get_context())
+        )
         if _finite(m):
             self._episode["tool_touched"] |= m.tool_touches_box
             self._episode["gripper_touched"] |= m.gripper_touches_box
         return m
+
+    def _info_handler(self, simulator) -> dict:
+        """`info` of a reset state (DrakeGymEnv's reset calls it), which becomes the last
+        finite state; `step` makes its own from the metrics it read."""
+        context = simulator.get_context()
+        m = self._read_metrics()
+        self._last = (np.asarray(self.observation_port.Eval(context), np.float32), m)
+        return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
         return {

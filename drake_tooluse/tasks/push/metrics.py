@@ -1,4 +1,5 @@
-"""The push task's truth: success, distances and contacts, read from the world plant.
+"""The push task's truth: success, distances and contacts, read from the world plant, and
+the `PushOutcome` system that exports them with the reward and success as ports.
 
 x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x, y) <= 0.05 m
 (the paper's). What the robot observes is `tasks.push.observation`.
@@ -9,7 +10,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.tasks.contract import EpisodeMetric
+from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
 
@@ -44,20 +51,32 @@ class PushMetricsReader:
     def __init__(self, world: World):
         plant = world.plant
         self._plant = plant
-        self._box = world.box
-        self._tip_frame = world.tip_frame
+        self._box_index = int(world.box.index())
+        # The tip as a pose on its body: X_WT = X_WB X_BT, as Drake's `CalcPoseInWorld` forms it
+        # (the same arithmetic, so the same bits, from the plant's body-poses port).
+        self._tip_body = int(world.tip_frame.body().index())
+        self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
         # Body indices as ints: comparing ints is cheaper than comparing pydrake's BodyIndex
         # objects, and this runs every control step.
-        self._box_index = int(world.box.index())
         self._tool_index = int(world.tool.index()) if world.tool is not None else None
         self._robot_bodies = {int(i) for i in plant.GetBodyIndices(world.baxter)}
         self._robot_bodies.discard(self._tool_index)
 
     def read(self, plant_context, goal, box_start) -> PushMetrics:
-        p_box = self._box.EvalPoseInWorld(plant_context).translation()
-        p_tip = self._tip_frame.CalcPoseInWorld(plant_context).translation()
+        """The metrics of the plant's state in `plant_context`."""
+        plant = self._plant
+        return self.measure(
+            plant.get_body_poses_output_port().Eval(plant_context),
+            plant.get_contact_results_output_port().Eval(plant_context),
+            goal,
+            box_start,
+        )
+
+    def measure(self, body_poses, contacts, goal, box_start) -> PushMetrics:
+        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
+        p_box = body_poses[self._box_index].translation()
+        p_tip = body_poses[self._tip_body].multiply(self._X_BT).translation()
         tool_touch = gripper_touch = False
-        contacts = self._plant.get_contact_results_output_port().Eval(plant_context)
         box = self._box_index
         for i in range(contacts.num_point_pair_contacts()):
             info = contacts.point_pair_contact_info(i)
@@ -77,6 +96,82 @@ class PushMetricsReader:
             tool_touches_box=bool(tool_touch),
             gripper_touches_box=bool(gripper_touch),
         )
+
+
+class PushOutcome(LeafSystem):
+    """The push task's truth as ports: the step's metrics, the paper's reward and success.
+
+    .. pydrake_system::
+
+        name: PushOutcome
+        input_ports:
+        - body_poses
+        - contact_results
+        output_ports:
+        - metrics
+        - reward
+        - success
+
+    Input ports:
+        body_poses: the world plant's X_WB of every body (its `body_poses` port).
+        contact_results: the world plant's contact results.
+    Output ports:
+        metrics: `PushMetrics` (distances in m, which bodies touch the box).
+        reward: [r], the paper's reward of `reward_type` (see REWARD_TYPES).
+        success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0].
+    Parameters: the goal x* (3, m) and the box's start (3, m), set per episode.
+    """
+
+    def __init__(self, world: World, goal, box_start, reward_type: str):
+        super().__init__()
+        check_one_of(reward_type, REWARD_TYPES, "reward_type")
+        self._reader = PushMetricsReader(world)
+        self._reward_type = reward_type
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        )
+        self._contacts = self.DeclareAbstractInputPort(
+            "contact_results", world.plant.get_contact_results_output_port().Allocate()
+        )
+        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
+        self._box_start = self.DeclareNumericParameter(BasicVector(np.asarray(box_start, float)))
+        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
+        self._metrics = self.DeclareAbstractOutputPort(
+            "metrics",
+            lambda: AbstractValue.Make(PushMetrics(0.0, 0.0, 0.0, False, False)),
+            weak_method(self._calc_metrics),
+            prerequisites_of_calc=depends,
+        )
+        self.DeclareVectorOutputPort(
+            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
+        )
+        self.DeclareVectorOutputPort(
+            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
+        )
+
+    def set_episode(self, context, goal, box_start) -> None:
+        """This episode's goal x* and box start (m, W)."""
+        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
+        context.get_mutable_numeric_parameter(self._box_start).SetFromVector(box_start)
+
+    def goal(self, context) -> np.ndarray:
+        return context.get_numeric_parameter(self._goal).get_value()
+
+    def _calc_metrics(self, context, output) -> None:
+        output.set_value(
+            self._reader.measure(
+                self._poses.Eval(context),
+                self._contacts.Eval(context),
+                context.get_numeric_parameter(self._goal).get_value(),
+                context.get_numeric_parameter(self._box_start).get_value(),
+            )
+        )
+
+    def _calc_reward(self, context, output) -> None:
+        output.SetAtIndex(0, reward(self._metrics.Eval(context), self._reward_type))
+
+    def _calc_success(self, context, output) -> None:
+        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))
 
 
 def reward(metrics: PushMetrics, reward_type: str) -> float:

@@ -1,0 +1,154 @@
+"""A toy task, written as docs/ARCHITECTURE.md's "Add a task" walks through it: touch a point
+in the air with the tool tip. Nothing outside this file changes for it: it wires itself into a
+builder from the world and the robot's belief, gives the contract's ports, and registers an id
+in the project's namespace, so learning/ trains and evaluates it like the push task.
+
+Task description: the tool tip starts at the scenario's home pose; a target point hangs 5 cm
+to its left and 3 cm below it (`target_offset` changes it). Action: tool-tip position changes
+(3, the push task's `position` mode). Observation: the target and the tip (6, m, W).
+Reward: minus the tip's distance from the target (m). Success: the tip within 2 cm of the
+target; the episode ends there (a simulator monitor, the Drake way) or after 20 steps.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from pydrake.gym import DrakeGymEnv
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, LeafSystem
+
+from drake_tooluse.builders.control import add_tip_control, add_world_at_home
+from drake_tooluse.learning.task_envs import task_env_ids
+from drake_tooluse.tasks.contract import EpisodeMetric, TaskEnv, TaskParts
+from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.world.scene import home_tip_pose
+
+ENV_ID = "drake_tooluse/ToyTouch-v0"
+SUCCESS_DISTANCE = 0.02  # m
+
+
+class TouchOutcome(LeafSystem):
+    """The tip's distance from the target as the observation, the reward and the success.
+
+    .. pydrake_system::
+
+        name: TouchOutcome
+        input_ports:
+        - body_poses
+        output_ports:
+        - observation
+        - reward
+        - success
+    """
+
+    def __init__(self, world, target):
+        super().__init__()
+        self._tip_body = int(world.tip_frame.body().index())
+        self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        )
+        self._target = np.asarray(target, float)
+        self.DeclareVectorOutputPort("observation", 6, self._observation)
+        self.DeclareVectorOutputPort("reward", 1, self._reward)
+        self.DeclareVectorOutputPort("success", 1, self._success)
+
+    def tip(self, context) -> np.ndarray:
+        return self._poses.Eval(context)[self._tip_body].multiply(self._X_BT).translation()
+
+    def distance(self, context) -> float:
+        return float(np.linalg.norm(self.tip(context) - self._target))
+
+    def _observation(self, context, output: BasicVector) -> None:
+        output.SetFromVector(np.concatenate([self._target, self.tip(context)]))
+
+    def _reward(self, context, output: BasicVector) -> None:
+        output.SetAtIndex(0, -self.distance(context))
+
+    def _success(self, context, output: BasicVector) -> None:
+        output.SetAtIndex(0, float(self.distance(context) <= SUCCESS_DISTANCE))
+
+
+def add_touch_task(builder, scenario: Scenario, belief=None, target_offset=(0.0, 0.05, -0.03)):
+    """The contract's wiring: the world at home, tool-tip position control, the outcome."""
+    world, ik, q0 = add_world_at_home(builder, scenario, belief)
+    control = add_tip_control(builder, world, ik, q0, "position")
+    target = home_tip_pose(scenario).translation() + np.asarray(target_offset, float)
+    outcome = builder.AddNamedSystem("touch", TouchOutcome(world, target))
+    builder.Connect(world.plant.get_body_poses_output_port(), outcome.get_input_port())
+    parts = TaskParts(
+        world,
+        ik,
+        control,
+        outcome.GetOutputPort("observation"),
+        outcome.GetOutputPort("reward"),
+        outcome.GetOutputPort("success"),
+    )
+    return parts, outcome
+
+
+class ToyTouchEnv(TaskEnv, DrakeGymEnv):
+    """The toy task as a Gymnasium env, made the Drake way: a reward port, a simulator monitor
+    for the episode's end, an info handler; DrakeGymEnv's own `step` and `reset`."""
+
+    EPISODE_METRICS = (EpisodeMetric("final_distance_m", "distance"),)
+
+    @classmethod
+    def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
+        kwargs = dict(kwargs or {})
+        unknown = sorted(set(kwargs) - {"target_offset"})
+        if unknown:
+            raise ValueError(f"unknown argument(s) {unknown} for {ENV_ID} ({name})")
+        offset = np.asarray(kwargs.get("target_offset", (0, 0, 0)), float)
+        if offset.shape != (3,) or np.abs(offset).max() > 0.1:
+            raise ValueError(f"target_offset={offset.tolist()} must be 3 values within 0.1 m")
+        return kwargs
+
+    @classmethod
+    def spaces(cls, kwargs) -> tuple[list, list]:
+        return [6], [3]
+
+    def __init__(self, **kwargs):
+        self.check_kwargs(kwargs)
+        scenario = Scenario()
+        builder = DiagramBuilder()
+        parts, self._outcome = add_touch_task(builder, scenario, **kwargs)
+        parts.export(builder)
+        self._control = parts.control
+        diagram = builder.Build()
+        simulator = Simulator(diagram)
+        success = diagram.GetOutputPort("success")
+
+        def monitor(context):
+            if success.Eval(context)[0] > 0.5:
+                return EventStatus.ReachedTermination(diagram, "the tip touched the target")
+            return EventStatus.Succeeded()
+
+        simulator.set_monitor(monitor)
+        super().__init__(
+            simulator=simulator,
+            time_step=scenario.control.control_period,
+            action_space=gym.spaces.Box(-1.0, 1.0, (3,), np.float32),
+            observation_space=gym.spaces.Box(-10.0, 10.0, (6,), np.float64),
+            reward="reward",
+            action_port_id="action",
+            observation_port_id="observation",
+            reset_handler=lambda simulator, context, seed: self._control.reset(context),
+        )
+        # DrakeGymEnv 1.51 drops its `info_handler` argument (see tasks.push.env): set it here.
+        self.info_handler = self._info
+
+    def _info(self, simulator) -> dict:
+        context = self._outcome.GetMyContextFromRoot(simulator.get_context())
+        distance = self._outcome.distance(context)
+        return {
+            "is_success": distance <= SUCCESS_DISTANCE,
+            "sim_error": False,
+            "distance": distance,
+        }
+
+
+def register() -> None:
+    if ENV_ID not in task_env_ids():
+        gym.register(ENV_ID, entry_point=f"{__name__}:ToyTouchEnv", max_episode_steps=20)
