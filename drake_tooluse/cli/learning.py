@@ -17,6 +17,7 @@ from drake_tooluse.cli.common import (
     parse_json_arg,
     policy_dir_arg,
     seed_arg,
+    tool_length_arg,
 )
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.task_envs import task_env_ids
@@ -56,6 +57,7 @@ def cmd_train(args) -> dict:
     if args.init_from is not None:
         policy_dir_arg(args.init_from, "--init-from")
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
+    env_kwargs = train_env_kwargs(args)
     import torch
 
     from drake_tooluse.learning.config import resolve_config
@@ -69,6 +71,7 @@ def cmd_train(args) -> dict:
         args.seed,
         init_from=str(args.init_from) if args.init_from else None,
         overrides=overrides,
+        env_kwargs=env_kwargs,
     )
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
@@ -86,6 +89,20 @@ def cmd_train(args) -> dict:
         if args.resume is not None:
             raise
         raise in_cli_words(e, out_dir, "run") from None
+
+
+def train_env_kwargs(args) -> dict:
+    """The env's keyword arguments the train command was given: --env-kwargs, with
+    --tool-length and --scenario on top (each the env kwarg of that name)."""
+    env_kwargs = dict(parse_json_arg(args.env_kwargs, "--env-kwargs") or {})
+    if args.tool_length is not None:
+        env_kwargs["tool_length"] = tool_length_arg(args.tool_length)
+    if args.scenario is not None:
+        from drake_tooluse.world.scenario import load_scenario
+
+        load_scenario(args.scenario)  # a missing or bad file is refused before the run starts
+        env_kwargs["scenario"] = str(args.scenario.resolve())
+    return env_kwargs
 
 
 def format_train(out: dict) -> str:
@@ -228,6 +245,15 @@ def add_parsers(sub) -> None:
         help="new run directory (refused if it holds a run that started: --resume continues it)",
     )
     p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
+    p.add_argument(
+        "--env-kwargs",
+        metavar="JSON",
+        help="env keyword arguments, over the YAML's (as `evaluate --env-kwargs`)",
+    )
+    p.add_argument(
+        "--tool-length", type=float, metavar="L", help="the env's tool length (m, in (0, 0.60])"
+    )
+    p.add_argument("--scenario", type=Path, help="the env's scenario YAML")
     p.add_argument(
         "--init-from",
         type=Path,

@@ -157,13 +157,20 @@ def resolve_config(
     seed: int,
     init_from: str | None = None,
     overrides: dict | None = None,
+    env_kwargs: dict | None = None,
 ) -> TrainConfig:
+    """The run's configuration: `algo`'s YAML entry for `env_id`, updated with `overrides`
+    (hyperparameters; an `env_kwargs` there replaces the YAML's), then the env's keyword
+    arguments updated with `env_kwargs` (merged into the YAML's), every key and value checked."""
     check_env_id(env_id)
     check_algo(algo)
     check_int(timesteps, 1, MAX_TIMESTEPS, "timesteps")
     check_seed(seed, "seed")
     hp = load_hyperparams(algo, env_id)
     hp.update(check_hyperparams(algo, env_id, overrides, "hyperparameter overrides"))
+    if env_kwargs:
+        merged = {**hp.get("env_kwargs", {}), **check_mapping(env_kwargs, "env kwargs")}
+        hp["env_kwargs"] = check_env_kwargs(env_id, merged, "env kwargs")
     n = check_int(n_envs if n_envs is not None else hp.get("n_envs", 1), 1, 64, "n_envs")
     hp["n_envs"] = n
     return TrainConfig(env_id, algo, int(timesteps), n, int(seed), hp, init_from)
