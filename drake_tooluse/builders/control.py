@@ -90,7 +90,7 @@ def home_configuration(scenario, ik: ToolTipIK) -> np.ndarray:
 def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
     """The IK on the robot model of `belief`, with the joint limits the scenario's robot keeps."""
     return ToolTipIK(
-        belief.tool_length,
+        belief.tool,
         grasp_offset=belief.grasp_offset,
         max_attempts=IK_ATTEMPTS,
         library_starts=IK_LIBRARY_STARTS,

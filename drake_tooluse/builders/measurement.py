@@ -68,6 +68,7 @@ from drake_tooluse.perception.markers import (
 )
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool import StraightTool, check_tool_length
 from drake_tooluse.systems.camera import (
     ColorImageNoise,
     ToolLengthEstimator,
@@ -535,8 +536,15 @@ def measure_belief(
     scenario: Scenario, *, use_grasp_estimate: bool = True, **measure_kwargs
 ) -> tuple[RobotBelief, MeasurementResult]:
     """Measures the scenario's (true) tool with the head camera (`measure_tool`) and returns
-    what the robot then believes: the measured length and, with `use_grasp_estimate`, where
-    the hand holds the tool along it (else the nominal grasp: the paper's measurement)."""
+    what the robot then believes: a `StraightTool` of the measured length and, with
+    `use_grasp_estimate`, where the hand holds the tool along it (else the nominal grasp: the
+    paper's measurement)."""
     result = measure_tool(scenario, **measure_kwargs)
     along = result.grasp_along if use_grasp_estimate else 0.0
-    return RobotBelief(result.length, (0.0, along)), result
+    return RobotBelief(measured_tool(result), (0.0, along)), result
+
+
+def measured_tool(result: MeasurementResult) -> StraightTool:
+    """The tool the robot believes after a measurement: a straight tool of the measured length
+    (the camera measures no other geometry)."""
+    return StraightTool(check_tool_length(result.length, "believed tool length"))

@@ -80,7 +80,7 @@ def cmd_ik(args) -> dict:
     else:
         belief = RobotBelief(tool_length_from_args(args))
     X = _target_pose(args)
-    ik = ToolTipIK(belief.tool_length, grasp_offset=belief.grasp_offset)
+    ik = ToolTipIK(belief.tool, grasp_offset=belief.grasp_offset)
     seed = None if args.seed_q is None else ik.check_q(args.seed_q, "--seed-q")
     result = ik.solve(X, seed)
     out = {"tool_length_m": belief.tool_length, **measured, "target": pose_dict(X)}

@@ -1,15 +1,18 @@
-"""Tool-tip inverse kinematics, exact: the tool-tip frame T at a desired pose X_WT* to 1e-10.
+"""Tool-tip inverse kinematics, exact: a frame F of the believed tool (default its tip T) at a
+desired pose X_WF* to 1e-10.
 
-`ToolTipIK(tool_length).solve(X_WT_desired, q_seed)`:
+`ToolTipIK(tool, frame="tool_tip").solve(X_WT_desired, q_seed)`, `tool` a `robot.tool.Tool` or
+a length (m: a straight tool), `frame` any named frame of it:
 
 1. **Fast path**: Levenberg–Marquardt on the arm's chain (`robot.kinematics`, read from the
-   same robot model), from `q_seed`, then from the nearest entries of a seed library of
-   configurations drawn once with fixed seeds. Damped least-squares steps move the joints as
-   little as the tip error needs, so a warm start stays on its branch. Its answer counts
-   only once Drake's own forward kinematics of the robot model certifies it (position within
-   1e-5 m, orientation within 1e-4 rad, the joints within their limits).
+   same robot model, its fixed end offset X_GF = X_GH · X_HF), from `q_seed`, then from the
+   nearest entries of a seed library of configurations drawn once with fixed seeds.
+   Damped least-squares steps move the joints as little as the frame's error needs, so a
+   warm start stays on its branch. Its answer counts only once Drake's own forward
+   kinematics of the robot model certifies it (position within 1e-5 m, orientation within
+   1e-4 rad, the joints within their limits).
 2. **Solver of record, and the fallback**: Drake `InverseKinematics` with a position and an
-   orientation constraint on T (plus the joint limits), solved by SNOPT from the seed and
+   orientation constraint on F (plus the joint limits), solved by SNOPT from the seed and
    then library entries (`solve_with_snopt`), where the fast path finds nothing. A test
    holds the fast path to it.
 
@@ -48,7 +51,14 @@ from drake_tooluse.robot.kinematics import (
     rotation_from_quaternion,
     task_distances,
 )
-from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME, make_robot_model
+from drake_tooluse.robot.model import (
+    GRIPPER_FRAME,
+    TIP_FRAME,
+    RobotBelief,
+    make_robot_model,
+    plant_frame_name,
+)
+from drake_tooluse.robot.tool import GRASP, Tool
 from drake_tooluse.validation import check_finite_vector, check_unit_quaternion
 
 
@@ -156,25 +166,39 @@ def target_arrays(X_WT) -> tuple[np.ndarray, np.ndarray]:
     return x[:3], rotation_from_quaternion(quat)
 
 
-def tool_offset(tool_length: float) -> np.ndarray:
-    """v = p_GT: the tool vector in the gripper frame (the tool axis is +z of G)."""
-    return np.array([0.0, 0.0, float(tool_length)])
+def tool_offset(tool, frame: str = TIP_FRAME) -> np.ndarray:
+    """v = p_GF: the vector to the tool's frame F (default its tip) in the gripper frame for
+    the nominal grasp (the tool axis is +z of G); `tool` a `robot.tool.Tool` or a length (m)."""
+    if isinstance(tool, Tool):
+        return np.array(tool.X_HF(frame).translation)
+    return np.array([0.0, 0.0, float(tool)])
 
 
-def gripper_target_from_tip_target(X_WT: RigidTransform, tool_length: float) -> RigidTransform:
+def gripper_target_from_tip_target(X_WT: RigidTransform, tool) -> RigidTransform:
     """The paper's offset method: p_WG = p_WT - v' with v' = q v q^-1 (q the target
-    orientation, v the tool vector); the gripper takes the target orientation."""
+    orientation, v the tool vector `tool_offset(tool)`: a length in m, or a `robot.tool.Tool`
+    whose tip frame has the handle's orientation); the gripper takes the target orientation."""
     X_WT = check_pose(X_WT)
+    if isinstance(tool, Tool) and not tool.X_HF(TIP_FRAME).is_translation():
+        raise ValueError(
+            "the offset method needs a tip frame with the handle's orientation; this tool's "
+            "tip frame is rotated (use ToolTipIK on the tool)"
+        )
     q = X_WT.rotation().ToQuaternion()
-    v_rotated = q.rotation() @ tool_offset(tool_length)  # q v q^-1
+    v_rotated = q.rotation() @ tool_offset(tool)  # q v q^-1
     return RigidTransform(X_WT.rotation(), X_WT.translation() - v_rotated)
 
 
 class ToolTipIK:
-    """Solves for the right-arm joints that put the tool tip T at a desired pose X_WT.
+    """Solves for the right-arm joints that put a frame F of the believed tool (default its
+    tip T) at a desired pose X_WF.
 
     Args:
-        tool_length: believed tool length (m), in (0, 0.60]; None for no tool (T = gripper).
+        tool: the believed tool, a `robot.tool.Tool`, or its length (m, in (0, 0.60]: a
+            `StraightTool`); None for no tool (T = gripper). `tool_length=` is the same
+            argument under its old name.
+        frame: the tool's frame F the IK places: any of `tool.frame_names()` (`grasp` is H,
+            the plant's `tool_grasp`); default `tool_tip`.
         grasp_offset: believed (across, along) offset of the grasp point from the gripper
             frame's origin (m; default 0, 0): with the camera's estimate the IK also knows
             where the hand holds the tool (see `builders.measurement`).
@@ -184,24 +208,41 @@ class ToolTipIK:
         library_starts: fast-path starts from each seed library after the warm start.
         library_size: configurations in the central seed library (drawn with a fixed seed,
             so the same call gives the same result); the full-range library has half as many.
+
+    Attributes: `tool` (the description or None), `tool_length` (m, `Tool.reach`, or None),
+    `frame` (F's name), `tip_frame` (F in `plant`).
     """
 
     def __init__(
         self,
-        tool_length: float | None = None,
+        tool: Tool | float | None = None,
         *,
+        frame: str = TIP_FRAME,
         grasp_offset=(0.0, 0.0),
         joint_lower=None,
         joint_upper=None,
         max_attempts: int = 16,
         library_size: int = 4000,
         library_starts: int = FAST_LIBRARY_STARTS,
+        tool_length: float | None = None,
     ):
-        self.tool_length = tool_length
+        if tool_length is not None:
+            if tool is not None:
+                raise ValueError("give the tool or its tool_length, not both")
+            tool = tool_length
         self.grasp_offset = tuple(float(v) for v in grasp_offset)
-        self.plant = make_robot_model(tool_length, grasp_offset=self.grasp_offset)
+        belief = RobotBelief(tool, self.grasp_offset)
+        self.tool = belief.tool
+        self.tool_length = belief.tool_length
+        self.plant = make_robot_model(self.tool, grasp_offset=self.grasp_offset)
         self.context = self.plant.CreateDefaultContext()
-        self.tip_frame = self.plant.GetFrameByName(TIP_FRAME)
+        names = [TIP_FRAME] if self.tool is None else self.tool.frame_names()
+        if frame not in names and not (self.tool is not None and frame == plant_frame_name(GRASP)):
+            raise ValueError(
+                f"frame={frame!r} is not a frame of the believed tool; choose one of {names}"
+            )
+        self.frame = frame
+        self.tip_frame = self.plant.GetFrameByName(plant_frame_name(frame))
         self.gripper_frame = self.plant.GetFrameByName(GRIPPER_FRAME)
         self.lower = (
             Q_LOWER.copy()
@@ -311,7 +352,8 @@ class ToolTipIK:
         return q
 
     def fk(self, q) -> RigidTransform:
-        """X_WT: the tool-tip pose at joint angles q (7 finite values, rad), by Drake."""
+        """X_WF: the pose of the IK's frame F (default the tool tip T) at joint angles q (7
+        finite values, rad), by Drake."""
         self.plant.SetPositions(self.context, check_finite_vector(q, 7, "q"))
         return self.tip_frame.CalcPoseInWorld(self.context)
 
@@ -321,7 +363,7 @@ class ToolTipIK:
         return self.gripper_frame.CalcPoseInWorld(self.context)
 
     def errors(self, q, X_WT) -> tuple[float, float]:
-        """(position error m, orientation error rad) of the tip at q from the target X_WT (a
+        """(position error m, orientation error rad) of F at q from the target X_WT (a
         RigidTransform or (p, R) arrays), by Drake's forward kinematics of the robot model."""
         p_target, R_target = (
             (X_WT.translation(), X_WT.rotation().matrix())

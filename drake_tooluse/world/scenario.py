@@ -23,7 +23,7 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
-from drake_tooluse.robot.tool import check_tool_length
+from drake_tooluse.robot.tool import StraightTool, check_tool_length
 from drake_tooluse.validation import (
     check_finite_vector,
     check_in_range,
@@ -56,6 +56,11 @@ class ToolConfig:
     grasp_offset_across: float = 0.0
     # Length of each orange marker band, at the grip end and at the tip (m).
     marker_length: float = 0.012
+
+    def description(self) -> StraightTool:
+        """The tool this describes, as geometry (`robot.tool`): the rod, its frames and
+        pieces (whether or not it is `attached`)."""
+        return StraightTool(self.length, self.radius, self.mass, self.marker_length)
 
 
 @dc.dataclass
@@ -384,6 +389,12 @@ def _parses(parse, text: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+def tool_or_none(scenario: Scenario) -> StraightTool | None:
+    """The scenario's (true) tool as geometry (`ToolConfig.description`), or None when no tool
+    is attached."""
+    return scenario.tool.description() if scenario.tool.attached else None
 
 
 def tool_length_or_none(scenario: Scenario) -> float | None:

@@ -1,8 +1,8 @@
 """The world (truth) built from a scenario: Baxter holding the true tool, the table, the box.
 
 - `add_world(builder, scenario)` adds a discrete MultibodyPlant (SAP) + SceneGraph holding
-  Baxter with the tool welded in its right gripper (true length and grasp), a table and a free
-  box. The seven right-arm joints are PD-controlled in the plant; every other joint is welded.
+  Baxter with the tool welded in its right gripper (the true tool, `robot.tool`, and grasp), a
+  table and a free box. The seven right-arm joints are PD-controlled in the plant; every other joint is welded.
 - The robot's belief (a robot-only plant with the *believed* tool) is `robot.model`.
 
 Frames: W = Baxter's `base`; G = `right_gripper` (between the fingertips, +z out of the
@@ -19,7 +19,6 @@ from pydrake.geometry import (
     AddContactMaterial,
     Box,
     CollisionFilterDeclaration,
-    Cylinder,
     ProximityProperties,
     RoleAssign,
     Sphere,
@@ -34,16 +33,16 @@ from drake_tooluse.robot.model import (
     GRIPPER_FRAME,
     TIP_FRAME,
     TOOL_DOWN_RPY,
-    TOOL_HANDLE_DEPTH,
     add_baxter,
     add_tip_at_gripper,
     add_tool_body,
-    tool_center,
+    drake_shape,
+    rigid_transform,
     tool_grasp_pose,
 )
+from drake_tooluse.robot.tool import TIP_COLLISION_LENGTH, Tool  # noqa: F401  (offered here)
 from drake_tooluse.world.scenario import Scenario
 
-TIP_COLLISION_LENGTH = 0.04  # m, the tool's tip end as a collision geometry of its own
 ORANGE = np.array([1.0, 0.45, 0.0, 1.0])
 TOOL_RGBA = np.array([0.55, 0.6, 0.68, 1.0])
 WOOD_RGBA = np.array([0.72, 0.53, 0.33, 1.0])
@@ -55,53 +54,42 @@ BOX_CORNER_SPHERE_RADIUS = 0.003
 
 
 def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
-    """Welds the scenario's (true) tool to the right gripper (`robot.model.add_tool_body`) and
-    gives it its geometry: a rod from TOOL_HANDLE_DEPTH behind the grasp point to `length` in
-    front of it, with orange marker bands at the grip end and at the tip. Returns the body."""
+    """Welds the scenario's (true) tool (`ToolConfig.description`) to the right gripper at its
+    grasp (`robot.model.add_tool_body`) and gives it its geometry (`add_tool_geometry`): for
+    the straight rod, a rod from TOOL_HANDLE_DEPTH behind the grasp point to `length` in front
+    of it, with orange marker bands at the grip end and at the tip. Returns the body."""
     t = scenario.tool
-    L = t.length
-    tool = add_tool_body(
+    tool = t.description()
+    body = add_tool_body(
         plant,
         instance,
-        L,
+        tool,
         grasp_across=t.grasp_offset_across,
         grasp_along=t.grasp_offset_along,
-        radius=t.radius,
-        mass=t.mass,
     )
-    center = tool_center(L)
-    total = L + TOOL_HANDLE_DEPTH
-    plant.RegisterVisualGeometry(
-        tool, RigidTransform(center), Cylinder(t.radius, total), "tool_visual", TOOL_RGBA
-    )
-    m = t.marker_length
-    for name, z in (("grip_marker", m / 2), ("tip_marker", L - m / 2)):
+    add_tool_geometry(plant, body, tool)
+    return body
+
+
+def add_tool_geometry(plant: MultibodyPlant, body, tool: Tool) -> None:
+    """Registers a tool's geometry on its body, each piece at X_HP in the body frame H: the
+    solid pieces as visuals (their colour, or TOOL_RGBA), the marker bands (ORANGE, visual
+    only), then the collision pieces (Coulomb friction 0.4)."""
+    for piece in tool.pieces():
+        rgba = TOOL_RGBA if piece.rgba is None else np.array(piece.rgba)
         plant.RegisterVisualGeometry(
-            tool, RigidTransform([0, 0, z]), Cylinder(t.radius * 1.15, m), name, ORANGE
+            body, rigid_transform(piece.X_HP), drake_shape(piece.shape), piece.name, rgba
+        )
+    for piece in tool.marker_pieces():
+        plant.RegisterVisualGeometry(
+            body, rigid_transform(piece.X_HP), drake_shape(piece.shape), piece.name, ORANGE
         )
     props = ProximityProperties()
     AddContactMaterial(friction=CoulombFriction(0.4, 0.4), properties=props)
-    # Collision only in front of the fingers: the handle part is inside the hand. The tip
-    # end, which does the pushing, is a short cylinder of its own: a single long thin
-    # cylinder gives FCL's penetration query wrong normals (a 0.40 m tool pressed into
-    # the box's side came out through its top face and pinned the box to the table).
-    tip = min(L, TIP_COLLISION_LENGTH)
-    plant.RegisterCollisionGeometry(
-        tool,
-        RigidTransform([0, 0, L - tip / 2]),
-        Cylinder(t.radius, tip),
-        "tool_tip_collision",
-        props,
-    )
-    if L > tip:
+    for piece in tool.collision_pieces():
         plant.RegisterCollisionGeometry(
-            tool,
-            RigidTransform([0, 0, (L - tip) / 2]),
-            Cylinder(t.radius, L - tip),
-            "tool_collision",
-            props,
+            body, rigid_transform(piece.X_HP), drake_shape(piece.shape), piece.name, props
         )
-    return tool
 
 
 def add_table(plant: MultibodyPlant, scenario: Scenario):

@@ -126,6 +126,20 @@ def test_estimator_output_is_nan_before_the_first_capture():
 # -- the measured length in use --------------------------------------------------------------
 
 
+def test_belief_holds_a_straight_tool_of_the_measured_length(rendered, monkeypatch):
+    from drake_tooluse.builders import measurement
+    from drake_tooluse.robot.tool import StraightTool
+
+    result = rendered[0.175]
+    monkeypatch.setattr(measurement, "measure_tool", lambda scenario, **kwargs: result)
+    belief, same = measurement.measure_belief(Scenario())
+    assert same is result
+    assert belief.tool == StraightTool(result.length) and belief.tool_length == result.length
+    assert belief.grasp_offset == (0.0, result.grasp_along)
+    nominal, _ = measurement.measure_belief(Scenario(), use_grasp_estimate=False)
+    assert nominal.tool == belief.tool and nominal.grasp_offset == (0.0, 0.0)
+
+
 def test_measured_length_gives_an_ik_that_reaches_the_target(rendered):
     true_length = 0.175
     measured = rendered[true_length].length
