@@ -26,7 +26,8 @@ class EvalResult:
     metrics: dict
     # Episodes the simulation failed in (truncated with finite values; counted as failures).
     sim_errors: int = 0
-    # Each episode ran on past its success to the step limit (see `run_episode`).
+    # Each episode ran to its step limit and was judged where it ended: the env runs to its
+    # limit, or `to_time_limit` ran it on past an early end at success (see `run_episode`).
     to_time_limit: bool = False
     per_episode: list = field(default_factory=list)
 
@@ -97,7 +98,10 @@ def evaluate(
     check_int(episodes, 1, 1_000_000, "episodes")
     check_seed(seed, "seed", episodes)
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
-    task_metrics = type(env.unwrapped).EPISODE_METRICS
+    task_env = type(env.unwrapped)
+    task_metrics = task_env.EPISODE_METRICS
+    kwargs = env.spec.kwargs if env.spec is not None else {}
+    to_time_limit = to_time_limit or not task_env.ends_at_success(kwargs)
     rows = []
     bar = tqdm(
         total=episodes,

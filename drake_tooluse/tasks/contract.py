@@ -76,6 +76,12 @@ class TaskEnv:
         raise NotImplementedError
 
     @classmethod
+    def ends_at_success(cls, kwargs) -> bool:
+        """Whether an episode of the env these keyword arguments make terminates at its
+        first success (else it runs to its step limit and is judged where it ends)."""
+        return False
+
+    @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:
         """(observation shape, action shape) of the env these keyword arguments make."""
         raise NotImplementedError

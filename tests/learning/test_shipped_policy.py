@@ -52,10 +52,18 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
     assert metrics["final_box_to_goal_mean_m"] <= 0.04 and metrics["success_rate"] >= 0.8
 
 
+def _protocol(metrics) -> dict:
+    """The env kwargs of the protocol a shipped evaluation used: the early end at success for
+    one that did not run each episode to its step limit."""
+    return {} if metrics.get("to_time_limit") else {"end_at_success": True}
+
+
 @pytest.mark.parametrize("name", SHIPPED)
 def test_evaluate_reproduces_the_first_shipped_episodes(name):
     metrics = _metrics(name)
-    result = evaluate(POLICIES / name, episodes=3, seed=metrics["seed"])
+    result = evaluate(
+        POLICIES / name, episodes=3, seed=metrics["seed"], env_kwargs=_protocol(metrics)
+    )
     for ours, shipped in zip(result.per_episode, metrics["per_episode"][:3]):
         assert ours["seed"] == shipped["seed"] and ours["success"] == shipped["success"]
         assert ours["final_box_to_goal_m"] == pytest.approx(
@@ -67,7 +75,12 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
 @pytest.mark.parametrize("name", SHIPPED)
 def test_evaluate_reproduces_all_shipped_metrics(name):
     metrics = _metrics(name)
-    result = evaluate(POLICIES / name, episodes=metrics["episodes"], seed=metrics["seed"])
+    result = evaluate(
+        POLICIES / name,
+        episodes=metrics["episodes"],
+        seed=metrics["seed"],
+        env_kwargs=_protocol(metrics),
+    )
     assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
         metrics["final_box_to_goal_mean_m"], abs=1e-6
     )
@@ -80,11 +93,15 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
 
 def test_to_the_time_limit_each_episode_runs_on_past_its_success():
     tip = POLICIES / "ppo_toolpush_tip"
-    ended = evaluate(tip, episodes=2, seed=1000)
+    early_end = {"end_at_success": True}
+    ended = evaluate(tip, episodes=2, seed=1000, env_kwargs=early_end)
     assert ended.success_rate == 1.0 and all(r["length"] < 100 for r in ended.per_episode)
     assert not ended.to_time_limit
-    full = evaluate(tip, episodes=2, seed=1000, to_time_limit=True)
+    full = evaluate(tip, episodes=2, seed=1000, env_kwargs=early_end, to_time_limit=True)
     assert full.to_time_limit and [r["length"] for r in full.per_episode] == [100, 100]
+    # The default env runs to its limit: the same episodes, judged the same way.
+    default = evaluate(tip, episodes=2, seed=1000)
+    assert default.to_time_limit and default.per_episode == full.per_episode
     # Judged where it ends: the box is wherever the policy left it at the limit.
     assert [r["final_box_to_goal_m"] for r in full.per_episode] != [
         r["final_box_to_goal_m"] for r in ended.per_episode

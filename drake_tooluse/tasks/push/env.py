@@ -13,9 +13,12 @@ Registered ids (on `import drake_tooluse`), each truncated at 100 steps of 40 ms
 | `drake_tooluse/ToolPushBoxReward-v0` | Env2 | −d(x, x*) |
 | `drake_tooluse/ToolPushFar-v0` | Env3 | as Env1, the goal 0.10 m further |
 
-x: box centre, x*: goal, y: the true tool tip. Success (terminated) when d(x, x*) + d(x, y)
-≤ 0.05 m. The box starts at (0.70, −0.25) on the table and is pushed along +y: the goal is
-0.20 m away (Env3: 0.30 m).
+x: box centre, x*: goal, y: the true tool tip. Success when d(x, x*) + d(x, y) ≤ 0.05 m,
+reported every step as `info["is_success"]`. Episodes run to their step limit, as Gym's Fetch
+envs and the paper's env do: an episode is judged where it ends, so a policy must push the box
+to the goal and hold it there. `end_at_success=True` is the earlier protocol: the episode
+terminates at the first success (the paper study's first table used it). The box starts at
+(0.70, −0.25) on the table and is pushed along +y: the goal is 0.20 m away (Env3: 0.30 m).
 
 A simulation failure (a `RuntimeError` from Drake, or a state that is no longer finite)
 truncates the episode with `info["sim_error"] = True` and finite values: the last finite
@@ -78,6 +81,8 @@ class EnvConfig:
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
+    # The earlier protocol: terminate at the first success (default: run to the step limit).
+    end_at_success: bool = False
 
 
 # Values earlier versions wrote into policy files and run configurations, read as today's.
@@ -121,6 +126,7 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
     check_bool(config.randomize, "randomize")
+    check_bool(config.end_at_success, "end_at_success")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
@@ -149,7 +155,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
 
     Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
     "box"), goal_extra, action_mode ("position_quaternion", "pose", "position"),
-    include_tool_length, observation_mode ("gripper_joints", "tip"),
+    include_tool_length, observation_mode ("gripper_joints", "tip"), end_at_success,
     randomize, render_mode (None, "rgb_array", "human"), meshcat.
     """
 
@@ -160,6 +166,10 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
         _config(kwargs, name)
         return current_kwargs(kwargs or {})
+
+    @classmethod
+    def ends_at_success(cls, kwargs) -> bool:
+        return _config(kwargs).end_at_success
 
     @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:
@@ -265,8 +275,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         """DrakeGymEnv's step, but for three things it cannot do: it would evaluate the
         observation before advancing too (a second evaluation each step, for its failure
         path), it keeps no last finite state (NaN would reach the learner), and it checks no
-        action. The episode ends on the `success` port, read once per control step: a
-        simulator monitor would run every plant step and end an episode mid-period."""
+        action. With `end_at_success` the episode ends on the `success` port, read once per
+        control step: a simulator monitor would run every plant step and end an episode
+        mid-period."""
         self._check_open()
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
@@ -293,7 +304,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         else:
             self._last = (observation, m)
             self._last_reward = self._reward()
-            terminated = bool(self._success_port.Eval(context)[0] > 0.5)
+            terminated = self.config.end_at_success and bool(
+                self._success_port.Eval(context)[0] > 0.5
+            )
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
 
     def close(self) -> None:

@@ -82,8 +82,8 @@ def _scripted_episode(env):
     return terminated, truncated, info
 
 
-def test_scripted_push_reaches_the_goal_and_terminates():
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+def test_scripted_push_reaches_the_goal_and_terminates_in_the_early_end_protocol():
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", end_at_success=True)
     terminated, truncated, info = _scripted_episode(env)
     assert terminated and not truncated and info["is_success"]
     assert info["box_to_goal"] + info["tip_to_box"] <= 0.05
@@ -91,12 +91,33 @@ def test_scripted_push_reaches_the_goal_and_terminates():
     assert info["tool_touched_box_in_episode"] and not info["gripper_touched_box_in_episode"]
 
 
+def test_episodes_run_to_the_step_limit_by_default_reporting_success_every_step():
+    """The paper's protocol: no early end; `is_success` says, each step, whether the box is
+    at the goal now (the scripted push arrives, drifts off and comes back)."""
+    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
+    obs, _ = env.reset(seed=0)
+    successes, terminated, truncated = [], False, False
+    while not (terminated or truncated):
+        obs, _, terminated, truncated, info = env.step(policy(obs))
+        successes.append(info["is_success"])
+    assert len(successes) == 100 and truncated and not terminated
+    first = successes.index(True)
+    assert not all(successes[first:]) and successes[-1]
+    env.close()
+
+
 @pytest.mark.parametrize("tool_length", [0.125, 0.40, 0.55])
 def test_scripted_push_works_with_short_and_long_tools(tool_length):
     """Any tool the arm can hold down to the box: a long rod used to be pushed into the box
     and out through its top face by the contact query (one long thin collision cylinder),
     pinning the box to the table."""
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", tool_length=tool_length)
+    env = gym.make(
+        "drake_tooluse/ToolPush-v0",
+        action_mode="position",
+        tool_length=tool_length,
+        end_at_success=True,
+    )
     _, _, info = _scripted_episode(env)
     assert info["is_success"] and info["box_travel"] > 0.15
 
