@@ -28,7 +28,7 @@ from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_target import TipTargetSystem, Workspace
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
 from drake_tooluse.world.scenario import tool_length_or_none
-from drake_tooluse.world.scene import World, add_world, home_tip_pose
+from drake_tooluse.world.scene import World, add_world, home_tip_pose, true_tool
 
 # The IK in the loop, per control step: the warm start (the last answer) nearly always holds;
 # if not, a few fast-path starts from each seed library, then one SNOPT solve from the warm
@@ -65,7 +65,10 @@ class TipControl:
 
 
 def nominal_belief(scenario) -> RobotBelief:
-    """A robot told its tool's length and nothing else (the nominal grasp)."""
+    """A robot told its tool's length (or, for a tool model file, its geometry) and nothing
+    else (the nominal grasp)."""
+    if scenario.tool.attached and scenario.tool.model:
+        return RobotBelief(true_tool(scenario))
     return RobotBelief(tool_length_or_none(scenario))
 
 

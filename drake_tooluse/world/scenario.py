@@ -39,10 +39,14 @@ MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
 
 @dc.dataclass
 class ToolConfig:
-    """A straight rod gripped at one end.
+    """The tool in the hand: a straight rod gripped at one end, or a tool model file.
 
     `length` runs from the grasp point (the `right_gripper` frame origin, between the fingertips)
     to the tip. With zero grasp offsets the tool axis is +z of `right_gripper`.
+    `model`, when given, is an SDFormat or URDF file (a path, relative to the scenario file
+    that names it, or a `package://` URL) of one body with a `tool_tip` frame and any other
+    named frames (`robot.model.load_tool_model`); it replaces the rod (`length`, `radius`,
+    `mass` and `marker_length` are then not used), welded at the same grasp.
     """
 
     length: float = 0.175
@@ -56,6 +60,7 @@ class ToolConfig:
     grasp_offset_across: float = 0.0
     # Length of each orange marker band, at the grip end and at the tip (m).
     marker_length: float = 0.012
+    model: str = ""
 
     def description(self) -> StraightTool:
         """The tool this describes, as geometry (`robot.tool`): the rod, its frames and
@@ -186,6 +191,14 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(s.tool.grasp_offset_along, -0.03, 0.03, "tool.grasp_offset_along", unit="m")
     check_in_range(s.tool.grasp_offset_across, -0.01, 0.01, "tool.grasp_offset_across", unit="m")
     check_in_range(s.tool.marker_length, 0.004, 0.03, "tool.marker_length", unit="m")
+    if s.tool.model:
+        model = s.tool.model
+        if not model.endswith((".sdf", ".urdf")):
+            raise ValueError(
+                f"tool.model={model!r} must be an SDFormat (.sdf) or URDF (.urdf) file"
+            )
+        if not model.startswith("package://") and not Path(model).is_file():
+            raise ValueError(f"tool.model={model!r} is not a file")
     if s.tool.marker_length * 2 >= s.tool.length:
         raise ValueError(
             f"tool.length={s.tool.length} m must exceed twice tool.marker_length="
@@ -318,10 +331,14 @@ def _load_layers(path: Path, seen: tuple) -> Scenario:
         _load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name else Scenario()
     )
     try:
-        return yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
+        scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
     except (RuntimeError, ValueError, TypeError, AssertionError, KeyError) as e:
         # Drake's loader names an unknown key; the types were checked above.
         raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
+    model = ((raw or {}).get("tool") or {}).get("model")
+    if model and not str(model).startswith("package://"):  # relative to the file naming it
+        scenario.tool.model = str((path.parent / model).resolve())
+    return scenario
 
 
 def _kind(t) -> str:

@@ -37,6 +37,7 @@ from drake_tooluse.robot.model import (
     add_tip_at_gripper,
     add_tool_body,
     drake_shape,
+    load_tool_model,
     rigid_transform,
     tool_grasp_pose,
 )
@@ -53,13 +54,26 @@ FLOOR_Z = -0.95  # the floor under Baxter's pedestal, in W (m)
 BOX_CORNER_SPHERE_RADIUS = 0.003
 
 
+def true_tool(scenario: Scenario) -> Tool | None:
+    """The scenario's (true) tool as geometry: its model file's tool, or the rod its
+    `ToolConfig` describes; None when no tool is attached."""
+    t = scenario.tool
+    if not t.attached:
+        return None
+    if not t.model:
+        return t.description()
+    if t.model.startswith("package://"):
+        return load_tool_model(url=t.model)
+    return load_tool_model(t.model)
+
+
 def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
     """Welds the scenario's (true) tool (`ToolConfig.description`) to the right gripper at its
     grasp (`robot.model.add_tool_body`) and gives it its geometry (`add_tool_geometry`): for
     the straight rod, a rod from TOOL_HANDLE_DEPTH behind the grasp point to `length` in front
     of it, with orange marker bands at the grip end and at the tip. Returns the body."""
     t = scenario.tool
-    tool = t.description()
+    tool = true_tool(scenario)
     body = add_tool_body(
         plant,
         instance,

@@ -6,6 +6,8 @@ in the project's namespace, so learning/ trains and evaluates it like the push t
 Task description: the tool tip starts at the scenario's home pose; a target point hangs 5 cm
 to its left and 3 cm below it (`target_offset` changes it). Action: tool-tip position changes
 (3, the push task's `position` mode). Observation: the target and the tip (6, m, W).
+The world is the push task's scenario (`diagrams/push.yaml`) or `scenario` (a YAML file),
+whatever tool it holds (tests/tasks/test_add_a_tool.py gives it a toy L-shaped tool).
 Reward: minus the tip's distance from the target (m). Success: the tip within 2 cm of the
 target; the episode ends there (a simulator monitor, the Drake way) or after 20 steps.
 """
@@ -21,7 +23,7 @@ from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, 
 from drake_tooluse.builders.control import add_tip_control, add_world_at_home
 from drake_tooluse.learning.task_envs import task_env_ids
 from drake_tooluse.tasks.contract import EpisodeMetric, TaskEnv, TaskParts
-from drake_tooluse.world.scenario import Scenario
+from drake_tooluse.world.scenario import Scenario, load_scenario
 from drake_tooluse.world.scene import home_tip_pose
 
 ENV_ID = "drake_tooluse/ToyTouch-v0"
@@ -97,7 +99,7 @@ class ToyTouchEnv(TaskEnv, DrakeGymEnv):
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
         kwargs = dict(kwargs or {})
-        unknown = sorted(set(kwargs) - {"target_offset"})
+        unknown = sorted(set(kwargs) - {"target_offset", "scenario"})
         if unknown:
             raise ValueError(f"unknown argument(s) {unknown} for {ENV_ID} ({name})")
         offset = np.asarray(kwargs.get("target_offset", (0, 0, 0)), float)
@@ -109,9 +111,9 @@ class ToyTouchEnv(TaskEnv, DrakeGymEnv):
     def spaces(cls, kwargs) -> tuple[list, list]:
         return [6], [3]
 
-    def __init__(self, **kwargs):
+    def __init__(self, scenario=None, **kwargs):
         self.check_kwargs(kwargs)
-        scenario = Scenario()
+        scenario = Scenario() if scenario is None else load_scenario(scenario)
         builder = DiagramBuilder()
         parts, self._outcome = add_touch_task(builder, scenario, **kwargs)
         parts.export(builder)

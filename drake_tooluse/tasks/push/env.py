@@ -73,6 +73,9 @@ class EnvConfig:
 
     scenario: object = None  # a Scenario, a YAML path, or None for diagrams/push.yaml defaults
     tool_length: float | None = None  # overrides the scenario's (m)
+    # [lo, hi] m: each episode's tool length drawn uniformly from it (the world's true tool and
+    # the robot's belief both; `include_tool_length` puts it in the observation). None: one tool.
+    tool_length_range: list | None = None
     reward_type: str = "tool_and_box"
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "position_quaternion"  # see systems.tip_target
@@ -129,11 +132,26 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_bool(config.end_at_success, "end_at_success")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
+    if config.tool_length_range is not None:
+        config.tool_length_range = _check_length_range(config)
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
         )
     return config
+
+
+def _check_length_range(config: EnvConfig) -> list[float]:
+    r = config.tool_length_range
+    if not isinstance(r, (list, tuple)) or len(r) != 2:
+        raise ValueError(f"tool_length_range={r!r} must be [lo, hi] (m)")
+    if config.tool_length is not None:
+        raise ValueError("give tool_length or tool_length_range, not both")
+    lo = check_tool_length(r[0], "tool_length_range[0]")
+    hi = check_tool_length(r[1], "tool_length_range[1]")
+    if not lo < hi:
+        raise ValueError(f"tool_length_range={[lo, hi]} must have lo < hi")
+    return [lo, hi]
 
 
 def _scenario(config: EnvConfig) -> Scenario:
@@ -180,13 +198,18 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     def __init__(self, **kwargs):
         config = _config(kwargs)
         self.config = config
-        self.scenario = _scenario(config)
-        self._build(config)
+        self.scenario = self._base_scenario = _scenario(config)
+        self.diagram = None
+        if config.tool_length_range is None:
+            self._build(config)
+            simulator = self._simulator
+        else:  # DrakeGymEnv makes each episode's simulator (`_next_tool`) at its reset
+            simulator = self._next_tool
         n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
         # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
         self.metadata = dict(type(self).metadata)
         super().__init__(
-            simulator=self._simulator,
+            simulator=simulator,
             time_step=self.scenario.control.control_period,
             action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],), np.float32),
             observation_space=gym.spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
@@ -236,6 +259,18 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         self._metrics_port = task.outcome.GetOutputPort("metrics")
         self._success_port = self.diagram.GetOutputPort("success")
         self._simulator = Simulator(self.diagram)
+
+    def _next_tool(self, generator) -> Simulator:
+        """The next episode's world: a tool of a length drawn from `tool_length_range` with
+        the env's seeded generator (Drake's `generator` is not used: `np_random` is the one
+        the env's `reset(seed=...)` seeds, before this is called)."""
+        lo, hi = self.config.tool_length_range
+        length = float(self.np_random.uniform(lo, hi))
+        if self.diagram is not None:
+            release_diagram(self.diagram)
+        self.scenario = with_tool_length(self._base_scenario, length)
+        self._build(self.config)
+        return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------
     def _reset_handler(self, simulator, context, seed) -> None:

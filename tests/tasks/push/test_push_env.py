@@ -259,3 +259,39 @@ def test_the_recorded_goal_marker_is_this_episodes_goal():
         ]
         goal = env.unwrapped._episode["goal"]
         np.testing.assert_allclose(moves[-1]["matrix"][12:14], goal[:2], atol=1e-12)
+
+
+def test_a_tool_length_range_draws_each_episodes_tool_from_the_seed():
+    """One env, a distribution of tools: each episode's world and belief hold a tool drawn
+    from the range with the env's seeded generator; the observation carries its length."""
+    env = gym.make(
+        "drake_tooluse/ToolPush-v0",
+        action_mode="position",
+        observation_mode="tip",
+        include_tool_length=True,
+        tool_length_range=[0.125, 0.25],
+    )
+    lengths = []
+    for seed in (0, 1, 0):
+        obs, _ = env.reset(seed=seed)
+        length = env.unwrapped.scenario.tool.length
+        assert 0.125 <= length <= 0.25 and obs[-1] == np.float32(length)
+        assert env.unwrapped.control.ik.tool_length == length  # the robot believes it
+        env.step(np.zeros(3))
+        lengths.append(length)
+    assert lengths[0] == lengths[2] != lengths[1]
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"tool_length_range": [0.2, 0.1]}, r"must have lo < hi"),
+        ({"tool_length_range": [0.1, 0.9]}, r"tool_length_range\[1\]=0.9 m is outside"),
+        ({"tool_length_range": 0.2}, r"must be \[lo, hi\]"),
+        ({"tool_length_range": [0.1, 0.2], "tool_length": 0.15}, "not both"),
+    ],
+)
+def test_bad_tool_length_ranges_are_refused(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
