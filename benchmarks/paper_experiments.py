@@ -1,8 +1,11 @@
 """The paper's study at its scale, several seeds per cell, as a job that survives the machine:
 each run is a `drake-tooluse train` command (continued with `train --resume` when a run was
 stopped), its best policy evaluated with `drake-tooluse evaluate` over 100 seeded episodes (seeds
-1000-1099) twice: the episodes ending at their success (the env's), and run on to the 100-step
-limit (`--to-time-limit`: where the box ends, as a protocol without an early end judges it).
+1000-1099) twice: in the cell's protocol, and run on to the 100-step limit (`--to-time-limit`:
+where the box ends, the paper's protocol). Two protocols: the first study's cells trained and
+were judged with an early end at success (`end_at_success`); the `hold_*` cells train and are
+judged in the paper's, every episode to its limit (the envs' default), so a policy learns to
+push the box to the goal and hold it there.
 
     python benchmarks/paper_experiments.py [--runs-dir runs/paper] [--only CELL ...]
                                            [--seeds N ...] [--parallel N] [--commit] [--status]
@@ -33,6 +36,10 @@ made, record a lower steps/s and a longer wall time than a run alone.
 
 Cells, cheapest evidence first (the order they run in, but for DDPG's: a run whose replay
 buffer makes its checkpoint too big to archive goes first, to finish within the job):
+  hold_ppo_env1_paper, hold_ppo_env1, hold_trpo_env1, hold_a2c_env1
+                     the paper's protocol (to the step limit): the paper's 7-d action (3 seeds,
+                     500k steps), then PPO, TRPO and A2C at the paper's 1.25 M steps
+the first study, in the early-end protocol:
   ppo_env1_paper     PPO, Env1, the paper's 7-d action (tip position + quaternion change) and
                      observation, exploration noise std e^-1 (log_std_init -1); tuned on seed 0
                      at 300k steps, run on seeds 1-3
@@ -81,7 +88,31 @@ PAPER_ACTION = {
     "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0},
 }
 PAPER_STEPS = 1_250_000
+# The protocols: "to-limit", the paper's (every episode runs to its 100-step limit and is
+# judged where the box ends; the envs' default), and "early-end", the first study's (an
+# episode ends at its first success: `end_at_success`). A cell without one is "early-end".
+EARLY_END = {"end_at_success": True}
 CELLS = {
+    # The paper's protocol, cheapest evidence first: the paper's 7-d action, then PPO at the
+    # paper's budget, then TRPO and A2C.
+    "hold_ppo_env1_paper": dict(
+        env=ENV1,
+        algo="ppo",
+        timesteps=500_000,
+        seeds=(1, 2, 3),
+        hyperparams=PAPER_ACTION,
+        protocol="to-limit",
+    ),
+    "hold_ppo_env1": dict(
+        env=ENV1, algo="ppo", timesteps=PAPER_STEPS, seeds=(0, 1, 2, 3, 4), protocol="to-limit"
+    ),
+    "hold_trpo_env1": dict(
+        env=ENV1, algo="trpo", timesteps=PAPER_STEPS, seeds=(0, 1, 2), protocol="to-limit"
+    ),
+    "hold_a2c_env1": dict(
+        env=ENV1, algo="a2c", timesteps=PAPER_STEPS, seeds=(0, 1, 2), protocol="to-limit"
+    ),
+    # The first study, in the earlier protocol.
     "ppo_env1_paper": dict(
         env=ENV1, algo="ppo", timesteps=500_000, seeds=(1, 2, 3), hyperparams=PAPER_ACTION
     ),
@@ -153,6 +184,11 @@ def run_dir(runs_dir: Path, cell: str, seed: int) -> Path:
     return runs_dir / cell / f"s{seed}"
 
 
+def protocol_env_kwargs(cell: str) -> dict:
+    """The env kwargs of the cell's protocol (the early end, or none: the envs' default)."""
+    return {} if CELLS[cell].get("protocol") == "to-limit" else EARLY_END
+
+
 def train_command(cell: str, seed: int, runs_dir: Path, resume: bool) -> list[str]:
     c = CELLS[cell]
     out = run_dir(runs_dir, cell, seed)
@@ -161,13 +197,15 @@ def train_command(cell: str, seed: int, runs_dir: Path, resume: bool) -> list[st
     cmd += ["--resume" if resume else "--out", str(out)]
     if "hyperparams" in c:
         cmd += ["--hyperparams", json.dumps(c["hyperparams"])]
+    if protocol_env_kwargs(cell):
+        cmd += ["--env-kwargs", json.dumps(protocol_env_kwargs(cell))]
     if "init_from" in c:
         cmd += ["--init-from", str(run_dir(runs_dir, c["init_from"], seed) / "best")]
     return cmd
 
 
-# Each run's best policy is evaluated twice: episodes ending at their success (the env's), and
-# run on to the 100-step limit, judged where the box ends (a protocol without an early end).
+# Each run's best policy is evaluated twice: in its cell's protocol, and run on to the 100-step
+# limit, judged where the box ends (the paper's protocol; the same for a "to-limit" cell).
 # result key -> (key of its command, extra arguments)
 EVALUATIONS = {
     "evaluate_best": ("evaluate_command", []),
@@ -373,7 +411,10 @@ def run_one(
                 entry[key],
             )  # evaluated already
             continue
+        protocol = protocol_env_kwargs(cell) if not extra else {}
         cmd = evaluate_command(out / "best", c["env"], extra)
+        if protocol:
+            cmd += ["--env-kwargs", json.dumps(protocol)]
         finished = _run(cmd)
         if finished.returncode != 0:
             error = _last_line(finished)
