@@ -320,11 +320,7 @@ def run_demo(
         scene_view = scene_camera_view(built.diagram, built.world.plant)
         release_diagram(built.diagram)  # its Python systems would keep it alive
         times["push_s"] = time.perf_counter() - t0
-        log(
-            f"      {'reached the goal' if run.success else 'did not reach the goal'} after "
-            f"{run.steps} steps ({run.steps * scenario.control.control_period:.2f} s simulated)"
-            f" in {times['push_s']:.1f} s"
-        )
+        log(f"      {push_text(run.as_dict())} in {times['push_s']:.1f} s")
 
         log("[3/3] writing figures and metrics …")
         figures = write_figures(work, run, scenario, measurement, run.final_image, scene_view)
@@ -361,6 +357,17 @@ def run_demo(
     return metrics
 
 
+def push_text(push: dict) -> str:
+    """Where the push left the box, and when it first reached the goal."""
+    first = push["first_success_step"]
+    arrived = "never at the goal" if first is None else f"first at the goal at step {first}"
+    end = "at the goal" if push["success"] else "not at the goal"
+    return (
+        f"box {end} after {push['steps']} steps, {push['final_box_to_goal_m'] * 100:.1f} cm "
+        f"from it ({arrived}); it moved {push['box_travel_m'] * 100:.1f} cm"
+    )
+
+
 def format_demo(m: dict) -> str:
     push, tool = m["push"], m["tool"]
     return "\n".join(
@@ -369,9 +376,7 @@ def format_demo(m: dict) -> str:
             f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm); "
             f"held {tool['measured_grasp_along_m'] * 1000:+.1f} mm along it (truth "
             f"{tool['true_grasp_along_m'] * 1000:+.1f} mm)",
-            f"push: {'success' if push['success'] else 'no success'} in {push['steps']} steps; box "
-            f"moved {push['box_travel_m'] * 100:.1f} cm, ends {push['final_box_to_goal_m'] * 100:.1f} cm "
-            f"from the goal",
+            f"push: {push_text(push)}",
             f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
             f"({m['times']['total_s']:.0f} s)",
         ]

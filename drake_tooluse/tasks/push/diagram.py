@@ -113,6 +113,9 @@ class PolicyDiagram:
     observation: ToolPushObservation
     policy_system: PolicySystem
     visualizer: object = None
+    # The policy was trained with the early end at success (`end_at_success`): its runs end
+    # there too; else they run to their step limit.
+    end_at_success: bool = False
 
 
 def policy_observation(policy) -> tuple[str, bool]:
@@ -162,7 +165,13 @@ def build_policy_diagram(
     diagram = builder.Build()
     diagram.set_name("policy_control")
     return PolicyDiagram(
-        diagram, task.world, task.control, task.observation, policy_system, visualizer
+        diagram,
+        task.world,
+        task.control,
+        task.observation,
+        policy_system,
+        visualizer,
+        end_at_success=bool(policy.meta.env_kwargs.get("end_at_success", False)),
     )
 
 
@@ -188,11 +197,15 @@ class PushRun:
     # figures are those of the last finite state.
     sim_error: bool = False
     error: str | None = None
+    # The control step the box first reached the goal (None: never): with `success` at the
+    # end, the push arrived then and held the box there.
+    first_success_step: int | None = None
 
     def as_dict(self) -> dict:
         return {
             "steps": self.steps,
             "success": self.success,
+            "first_success_step": self.first_success_step,
             "final_box_to_goal_m": self.final_box_to_goal,
             "box_travel_m": self.box_travel,
             "tool_touched": self.tool_touched,
@@ -234,7 +247,7 @@ def run_push(
     metrics = reader.read(plant_context, goal, box_start)
     tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
     box = world.box.EvalPoseInWorld(plant_context).translation()
-    step, error = 0, None
+    step, error, first_success = 0, None, None
     for step in range(1, max_steps + 1):
         tips.append(tip)
         boxes.append(box)
@@ -260,6 +273,8 @@ def run_push(
         gripper_touched |= metrics.gripper_touches_box
         if on_step is not None:
             on_step(step)
+        if metrics.is_success and first_success is None:
+            first_success = step
         if stop_at_success and metrics.is_success:
             break
     tips.append(tip)
@@ -279,19 +294,23 @@ def run_push(
         image,
         sim_error=error is not None,
         error=error,
+        first_success_step=first_success,
     )
 
 
 def run_policy(
     built: PolicyDiagram, max_steps: int = 100, record: bool = False, on_step=None
 ) -> PushRun:
-    """Runs the policy diagram from its default state until success (as the env terminates)
-    or `max_steps`; recorded if `record` and the diagram has a visualizer."""
+    """Runs the policy diagram from its default state for `max_steps`, judged where the box
+    ends (the envs' protocol), or until its first success for a policy trained with the early
+    end (`end_at_success` in its env kwargs); recorded if `record` and the diagram has a
+    visualizer."""
     return run_push(
         built.diagram,
         built.world,
         built.control,
         max_steps,
+        stop_at_success=built.end_at_success,
         visualizer=built.visualizer if record else None,
         on_step=on_step,
     )
