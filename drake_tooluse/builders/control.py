@@ -65,9 +65,9 @@ class TipControl:
 
 
 def nominal_belief(scenario) -> RobotBelief:
-    """A robot told its tool's length (or, for a tool model file, its geometry) and nothing
-    else (the nominal grasp)."""
-    if scenario.tool.attached and scenario.tool.model:
+    """A robot told its tool's length (or, for a hook or a tool model file, its geometry) and
+    nothing else (the nominal grasp)."""
+    if scenario.tool.attached and (scenario.tool.model or scenario.tool.kind != "straight"):
         return RobotBelief(true_tool(scenario))
     return RobotBelief(tool_length_or_none(scenario))
 

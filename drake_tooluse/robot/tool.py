@@ -375,3 +375,101 @@ class CompositeTool(Tool):
 
     def mass_properties(self) -> MassProperties | None:
         return self.inertia
+
+
+# A hook's ranges (handle and hook lengths in m, the angle in degrees).
+HOOK_HANDLE_RANGE = (0.15, 0.35)
+HOOK_LENGTH_RANGE = (0.03, 0.08)
+HOOK_ANGLE_RANGE = (60.0, 120.0)
+HOOK_CORNER = "hook_corner"
+
+
+@dataclass(frozen=True)
+class HookTool(Tool):
+    """A hook: a straight handle `handle_length` m from the grasp point along +z of H (reaching
+    TOOL_HANDLE_DEPTH behind it into the hand, as a straight tool does), and at its end a hook
+    `hook_length` m long at `angle` degrees to the handle, in the x–z plane of H: 90° is an L
+    (the hook along +x), less bends it back towards the hand (a J, which holds what it pulls),
+    more opens it. Both are cylinders of `radius`; `mass` is spread over them by volume.
+
+    Frames: `grasp`; `hook_corner` at [0, 0, handle_length], the inside of the bend, where a
+    pulled object rests; `tool_tip` at the hook's end, [sin a, 0, −cos a] · hook_length from
+    the corner. All keep H's orientation (a tip target's orientation is the handle's). Marker
+    bands: at the grip end, at the corner and at the hook's end (what the camera finds)."""
+
+    handle_length: float
+    hook_length: float
+    angle: float = 90.0
+    radius: float = DEFAULT_TOOL_RADIUS
+    mass: float = DEFAULT_TOOL_MASS
+    marker_length: float = DEFAULT_MARKER_LENGTH
+
+    def __post_init__(self):
+        check = check_in_range
+        object.__setattr__(
+            self,
+            "handle_length",
+            check(self.handle_length, *HOOK_HANDLE_RANGE, "hook handle length", unit="m"),
+        )
+        object.__setattr__(
+            self,
+            "hook_length",
+            check(self.hook_length, *HOOK_LENGTH_RANGE, "hook length", unit="m"),
+        )
+        object.__setattr__(
+            self, "angle", check(self.angle, *HOOK_ANGLE_RANGE, "hook angle", unit="°")
+        )
+        object.__setattr__(self, "radius", check_positive(self.radius, "tool radius", "m"))
+        object.__setattr__(self, "mass", check_positive(self.mass, "tool mass", "kg"))
+        object.__setattr__(
+            self, "marker_length", check_positive(self.marker_length, "tool marker length", "m")
+        )
+
+    def direction(self) -> np.ndarray:
+        """The unit vector from the corner to the hook's end, in H."""
+        a = math.radians(self.angle)
+        return np.array([math.sin(a), 0.0, -math.cos(a)])
+
+    def _hook_pose(self, along: float) -> Pose:
+        """A pose on the hook `along` m from the corner, its +z along the hook."""
+        d = self.direction()
+        phi = math.atan2(d[0], d[2])  # the rotation about y that takes +z onto d
+        c, s = math.cos(phi), math.sin(phi)
+        p = np.array([0.0, 0.0, self.handle_length]) + along * d
+        return Pose(tuple(p), ((c, 0.0, s), (0.0, 1.0, 0.0), (-s, 0.0, c)))
+
+    def frames(self) -> dict[str, Pose]:
+        corner = (0.0, 0.0, self.handle_length)
+        tip = tuple(np.array(corner) + self.hook_length * self.direction())
+        return {GRASP: Pose(), TOOL_TIP: Pose(tip), HOOK_CORNER: Pose(corner)}
+
+    def pieces(self) -> tuple[Piece, ...]:
+        handle = CylinderShape(self.radius, self.handle_length + TOOL_HANDLE_DEPTH)
+        hook = CylinderShape(self.radius, self.hook_length)
+        return (
+            Piece(
+                "tool_handle", handle, Pose((0, 0, (self.handle_length - TOOL_HANDLE_DEPTH) / 2))
+            ),
+            Piece("tool_hook", hook, self._hook_pose(self.hook_length / 2)),
+        )
+
+    def collision_pieces(self) -> tuple[Piece, ...]:
+        # The handle from the grasp point (the part behind it is inside the hand).
+        L = self.handle_length
+        return (
+            Piece("tool_collision", CylinderShape(self.radius, L), Pose((0, 0, L / 2))),
+            Piece(
+                "tool_hook_collision",
+                CylinderShape(self.radius, self.hook_length),
+                self._hook_pose(self.hook_length / 2),
+            ),
+        )
+
+    def marker_pieces(self) -> tuple[Piece, ...]:
+        m = self.marker_length
+        shape = CylinderShape(self.radius * MARKER_RADIUS_SCALE, m)
+        return (
+            Piece("grip_marker", shape, Pose((0, 0, m / 2))),
+            Piece("corner_marker", shape, Pose((0, 0, self.handle_length - m / 2))),
+            Piece("tip_marker", shape, self._hook_pose(self.hook_length - m / 2)),
+        )

@@ -23,7 +23,14 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
-from drake_tooluse.robot.tool import StraightTool, check_tool_length
+from drake_tooluse.robot.tool import (
+    HOOK_ANGLE_RANGE,
+    HOOK_HANDLE_RANGE,
+    HOOK_LENGTH_RANGE,
+    HookTool,
+    StraightTool,
+    check_tool_length,
+)
 from drake_tooluse.validation import (
     check_finite_vector,
     check_in_range,
@@ -61,10 +68,24 @@ class ToolConfig:
     # Length of each orange marker band, at the grip end and at the tip (m).
     marker_length: float = 0.012
     model: str = ""
+    # "straight" (a rod) or "hook" (`robot.tool.HookTool`: `length` is then its handle's, with
+    # a hook `hook_length` m long at `hook_angle` degrees to it).
+    kind: str = "straight"
+    hook_length: float = 0.05
+    hook_angle: float = 90.0
 
-    def description(self) -> StraightTool:
-        """The tool this describes, as geometry (`robot.tool`): the rod, its frames and
-        pieces (whether or not it is `attached`)."""
+    def description(self) -> StraightTool | HookTool:
+        """The tool this describes, as geometry (`robot.tool`): the rod or the hook, its frames
+        and pieces (whether or not it is `attached`)."""
+        if self.kind == "hook":
+            return HookTool(
+                self.length,
+                self.hook_length,
+                self.hook_angle,
+                self.radius,
+                self.mass,
+                self.marker_length,
+            )
         return StraightTool(self.length, self.radius, self.mass, self.marker_length)
 
 
@@ -191,6 +212,13 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(s.tool.grasp_offset_along, -0.03, 0.03, "tool.grasp_offset_along", unit="m")
     check_in_range(s.tool.grasp_offset_across, -0.01, 0.01, "tool.grasp_offset_across", unit="m")
     check_in_range(s.tool.marker_length, 0.004, 0.03, "tool.marker_length", unit="m")
+    check_one_of(s.tool.kind, ("straight", "hook"), "tool.kind")
+    if s.tool.kind == "hook":
+        check_in_range(
+            s.tool.length, *HOOK_HANDLE_RANGE, "tool.length (the hook's handle)", unit="m"
+        )
+        check_in_range(s.tool.hook_length, *HOOK_LENGTH_RANGE, "tool.hook_length", unit="m")
+        check_in_range(s.tool.hook_angle, *HOOK_ANGLE_RANGE, "tool.hook_angle", unit="°")
     if s.tool.model:
         model = s.tool.model
         if not model.endswith((".sdf", ".urdf")):
