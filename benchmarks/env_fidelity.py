@@ -13,12 +13,14 @@ import argparse
 import copy
 import dataclasses as dc
 import platform
+import sys
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 
 import drake_tooluse  # noqa: F401
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.tasks.push.scripted import ScriptedPush
 from drake_tooluse.world.scenario import Scenario
@@ -86,4 +88,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

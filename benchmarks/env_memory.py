@@ -19,6 +19,7 @@ import argparse
 import gc
 import os
 import platform
+import sys
 import time
 import tracemalloc
 from pathlib import Path
@@ -27,6 +28,7 @@ import gymnasium as gym
 from pydrake.systems.framework import LeafSystem
 
 import drake_tooluse  # noqa: F401
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "results"
@@ -163,4 +165,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

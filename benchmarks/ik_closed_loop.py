@@ -18,6 +18,7 @@ docs/figures/ik_closed_loop.png (or --figure).
 import argparse
 import dataclasses as dc
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -29,6 +30,7 @@ import numpy as np  # noqa: E402
 from pydrake.math import RigidTransform, RollPitchYaw  # noqa: E402
 
 from drake_tooluse.builders.trajectory_diagram import simulate_waypoints  # noqa: E402
+from drake_tooluse.cli.common import run_script  # noqa: E402
 from drake_tooluse.files import atomic_write_json  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief  # noqa: E402
 from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
@@ -183,4 +185,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

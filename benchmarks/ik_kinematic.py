@@ -9,11 +9,13 @@ figures as JSON to docs/results/ik_kinematic.json.
 
 import argparse
 import platform
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.robot.baxter_model import Q_LOWER, Q_MID, Q_UPPER
 from drake_tooluse.robot.ik import ToolTipIK
@@ -91,4 +93,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

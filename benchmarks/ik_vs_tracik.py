@@ -28,6 +28,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -35,6 +36,7 @@ import numpy as np
 import pytracik
 from pydrake.math import RigidTransform
 
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.paths import BAXTER_URDF
 from drake_tooluse.robot.baxter_model import Q_LOWER, Q_MID, Q_UPPER
@@ -213,4 +215,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

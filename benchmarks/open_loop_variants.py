@@ -48,6 +48,7 @@ docs/results/open_loop_variants.json (or --out).
 """
 
 import argparse
+import sys
 import time
 from pathlib import Path
 from typing import NamedTuple
@@ -56,6 +57,7 @@ import numpy as np
 
 from drake_tooluse.builders.box_measurement import measure_box_start
 from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.choices import CALIBRATION_DRAWS, MAX_CALIBRATION_DRAWS
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
@@ -369,4 +371,4 @@ def study(args) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

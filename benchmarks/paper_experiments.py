@@ -66,6 +66,7 @@ import time
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -683,4 +684,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_script(main))

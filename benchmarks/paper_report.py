@@ -25,6 +25,7 @@ import argparse
 import csv
 import json
 import os
+import sys
 from pathlib import Path
 
 import matplotlib
@@ -49,6 +50,7 @@ from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
 from rliable import library as rly  # noqa: E402
 from rliable import metrics  # noqa: E402
 
+from drake_tooluse.cli.common import run_script  # noqa: E402
 from drake_tooluse.experiments.trajectory_extraction import record_episodes  # noqa: E402
 from drake_tooluse.files import atomic_write_figure, atomic_write_text  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
@@ -630,4 +632,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -12,8 +12,11 @@ import argparse
 import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
+from drake_tooluse import compat
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -62,6 +65,8 @@ def main() -> None:
             "trained_timesteps": meta["trained_timesteps"],
             "training_wall_time_s": summary["wall_time_s"],
             "evaluated_with": " ".join(evaluate),
+            # Reproduced exactly on this release only (tests/learning/test_shipped_policy.py).
+            "evaluated_with_drake": compat.DRAKE_VERSION,
             "evaluation": metrics,
         },
     )
@@ -73,4 +78,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -24,6 +24,8 @@ import os
 import sys
 from pathlib import Path
 
+from drake_tooluse.cli.common import run_script
+
 ROOT = Path(__file__).resolve().parent.parent
 # Relative to ROOT (the script runs there), so the JSON files hold repo paths.
 OUT = Path("docs") / "results" / "transfer"
@@ -123,4 +125,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -16,12 +16,14 @@ figures as JSON to docs/results/vision_accuracy.json. Errors are measured minus 
 import argparse
 import dataclasses as dc
 import platform
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from drake_tooluse.builders.measurement import measure_tool
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.world.scenario import Scenario, validate_scenario, with_tool_length
 
@@ -165,4 +167,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -34,7 +34,7 @@ import cv2
 import numpy as np
 import yaml
 
-from drake_tooluse.validation import EnvironmentProblem
+from drake_tooluse.validation import EnvironmentProblem, clipped, shown
 
 _HOST = re.sub(r"[^A-Za-z0-9_-]", "_", socket.gethostname()) or "host"
 # .<name>.tmp-<pid>@<host>.<random>: the random part is mkstemp/mkdtemp's (8 of [a-z0-9_]).
@@ -172,6 +172,43 @@ def atomic_write_figure(path: str | Path, figure, dpi: int = 120) -> Path:
     return atomic_write_bytes(path, buffer.getvalue())
 
 
+_OS_ERROR = re.compile(r"\bos error (\d+)\b")
+_NEARLY_FULL = 1 << 20  # bytes: a disk with less free space than this is full for a writer
+
+
+def _disk_full(path: Path) -> bool:
+    folder = path if path.is_dir() else path.parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    try:
+        stats = os.statvfs(folder)
+    except OSError:
+        return False
+    return stats.f_bavail * stats.f_frsize < _NEARLY_FULL
+
+
+@contextlib.contextmanager
+def library_write(path: str | Path):
+    """A library (torch, safetensors) writes `path` in the block: when it fails for a reason of
+    the system (a full disk, a quota, an I/O error), which it reports as an error of its own
+    kind (torch's RuntimeError, safetensors' SafetensorError), that is raised as the OSError it
+    is, naming `path` (a command's exit 2, not a bug). Its other errors pass as they are."""
+    path = Path(path)
+    try:
+        yield
+    except OSError:
+        raise
+    except Exception as e:
+        match = _OS_ERROR.search(str(e))
+        if match is not None:
+            code = int(match[1])
+        elif _disk_full(path):
+            code = errno.ENOSPC
+        else:
+            raise
+        raise OSError(code, os.strerror(code), str(path)) from e
+
+
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 
@@ -297,7 +334,8 @@ class _StrictLoader(yaml.SafeLoader):
 
 def read_yaml(path: str | Path, what: str = "YAML file", max_bytes: int = MAX_YAML_BYTES):
     """Parses a YAML file safely (no tags that build Python objects), refusing files larger than
-    `max_bytes` before reading them and duplicate keys; errors name the file."""
+    `max_bytes` before reading them, duplicate keys, keys that are not names (`1:`, `true:`)
+    and nesting deeper than `MAX_NESTING`; errors name the file."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{what} not found: {str(path)!r}")
@@ -307,12 +345,87 @@ def read_yaml(path: str | Path, what: str = "YAML file", max_bytes: int = MAX_YA
             f"{what} {str(path)!r} is {size / 2**20:.1f} MB; at most {max_bytes / 2**20:g} MB "
             "is allowed"
         )
+    where = f"invalid {what} {str(path)!r}"
     try:
-        return yaml.load(path.read_text(), Loader=_StrictLoader)  # noqa: S506 (a SafeLoader)
+        value = yaml.load(path.read_text(), Loader=_StrictLoader)  # noqa: S506 (a SafeLoader)
     except UnicodeDecodeError as e:
-        raise ValueError(f"invalid {what} {str(path)!r}: not text ({e})") from None
+        raise ValueError(f"{where}: not text ({e})") from None
     except yaml.YAMLError as e:
-        raise ValueError(f"invalid {what} {str(path)!r}: not YAML: {_yaml_error(e)}") from None
+        raise ValueError(f"{where}: not YAML: {_yaml_error(e)}") from None
+    except RecursionError:
+        raise ValueError(f"{where} is nested more than {MAX_NESTING} levels deep") from None
+    except ValueError as e:  # a number Python refuses to read (an integer of 4300+ digits)
+        raise ValueError(f"{where}: {_number_error(e)}") from None
+    check_plain_data(value, where, names_only=True)
+    return value
+
+
+# -- reading JSON -------------------------------------------------------------------------
+
+MAX_JSON_BYTES = 1 << 20  # a policy.json, a run configuration or a checkpoint's state: kB
+MAX_NESTING = 32  # levels of lists and mappings in a file or option a person writes
+
+
+def _number_error(e: ValueError) -> str:
+    if "integer string conversion" in str(e):
+        return "a number has more than 4300 digits"
+    return clipped(e)
+
+
+def check_plain_data(value, where: str, names_only: bool = False):
+    """`value` (parsed JSON or YAML) nested at most `MAX_NESTING` levels deep; with
+    `names_only`, every mapping's keys strings. Else a ValueError starting with `where`."""
+    stack = [(value, 1, "")]
+    while stack:
+        item, depth, at = stack.pop()
+        if isinstance(item, dict):
+            children = item.items()
+        elif isinstance(item, list):
+            children = enumerate(item)
+        else:
+            continue
+        if depth > MAX_NESTING:
+            raise ValueError(f"{where} is nested more than {MAX_NESTING} levels deep (at {at})")
+        for key, child in children:
+            if isinstance(item, dict) and names_only and not isinstance(key, str):
+                raise ValueError(
+                    f"{where}: the key {shown(key)} {f'in {at} ' if at else ''}is not a name "
+                    "(write it as a string)"
+                )
+            stack.append((child, depth + 1, f"{at}.{key}" if at else str(key)))
+    return value
+
+
+def parse_json(text: str, where: str):
+    """JSON `text` as Python values; bad JSON, an integer of more than 4300 digits and nesting
+    deeper than `MAX_NESTING` are a ValueError starting with `where` (the file or option:
+    "--hyperparams", "corrupt policy metadata 'DIR/policy.json'")."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{where} is not valid JSON ({e})") from None
+    except RecursionError:
+        raise ValueError(f"{where} is nested more than {MAX_NESTING} levels deep") from None
+    except ValueError as e:
+        raise ValueError(f"{where}: {_number_error(e)}") from None
+    return check_plain_data(value, where)
+
+
+def read_json(path: str | Path, what: str, max_bytes: int = MAX_JSON_BYTES):
+    """A JSON file's values; a file larger than `max_bytes` is refused before it is read, and
+    every error (`parse_json`'s, not text) names `what` and the file."""
+    path = Path(path)
+    size = path.stat().st_size
+    if size > max_bytes:
+        raise ValueError(
+            f"{what} {str(path)!r} is {size / 2**20:.1f} MB; at most {max_bytes / 2**20:g} MB "
+            "is allowed"
+        )
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError as e:
+        raise ValueError(f"corrupt {what} {str(path)!r}: not text ({e})") from None
+    return parse_json(text, f"corrupt {what} {str(path)!r}")
 
 
 def _yaml_error(e: yaml.YAMLError) -> str:

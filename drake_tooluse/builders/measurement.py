@@ -57,7 +57,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial, PiecewisePose
 
-from drake_tooluse.files import atomic_write_image
+from drake_tooluse.files import atomic_dir, atomic_write_image, remove_orphans
 from drake_tooluse.perception.markers import (
     LIGHTINGS,
     METHODS,
@@ -433,6 +433,29 @@ def estimate_grasp_along(views, X_GC) -> float:
     return float(np.mean(along)) if along else math.nan
 
 
+IMAGE_NAME = "measure_{view}.png"
+
+
+def check_images_dir(path, option: str = "save_images_dir") -> Path:
+    """The directory `measure_tool` writes its views into, as one set that replaces the one
+    there: absent, empty, or holding only an earlier measurement's views (its other files would
+    go with them: refused, naming one)."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise FileExistsError(f"{option} {str(path)!r} is a file; give a directory")
+    if path.is_dir():
+        remove_orphans(path)
+        pattern = IMAGE_NAME.format(view="*")
+        others = sorted(p.name for p in path.iterdir() if not p.match(pattern) or p.is_dir())
+        if others:
+            raise FileExistsError(
+                f"{option} {str(path)!r} holds files other than a measurement's views "
+                f"({', '.join(others[:3])}{', ...' if len(others) > 3 else ''}), which the new "
+                "views would replace; give a new directory"
+            )
+    return path
+
+
 def measure_tool(
     scenario: Scenario,
     save_images_dir=None,
@@ -453,7 +476,8 @@ def measure_tool(
         scenario: the world; its tool is the truth the camera sees (the robot never reads
             its length). `scenario.camera` sets the intrinsics.
         save_images_dir: if given, each view is written there annotated (mask, boxes, the
-            measured segment) as `measure_<view>.png`.
+            measured segment) as `measure_<view>.png`, all of them as one set that replaces
+            the views there (`check_images_dir`: the directory holds nothing else).
         noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
         method: "depth" (default) or "pixel" (the paper's fixed metres per pixel).
         lighting: "default" or "dim_side" (see systems.camera.lighting_params).
@@ -466,6 +490,8 @@ def measure_tool(
     Dropped views are in `result.dropped` with the reason.
     """
     start = time.perf_counter()
+    if save_images_dir is not None:
+        check_images_dir(save_images_dir)
     built = build_measurement_diagram(
         scenario,
         plan,
@@ -500,17 +526,14 @@ def measure_tool(
         simulator.AdvanceTo(t_end)
         measurement: ToolLengthMeasurement = diagram.GetOutputPort("measurement").Eval(context)
         files = []
-        if save_images_dir is not None:
+        if save_images_dir is not None:  # one set: all the new views, or the old ones
             out_dir = Path(save_images_dir)
             info = camera_info(scenario.camera)
-            for view, (color, _) in zip(measurement.views, images):
-                files.append(
-                    atomic_write_image(
-                        out_dir / f"measure_{view.view}.png",
-                        annotate_view(color, view, info),
-                        bgr=True,
-                    )
-                )
+            with atomic_dir(out_dir, replace=True) as tmp:
+                for view, (color, _) in zip(measurement.views, images):
+                    name = IMAGE_NAME.format(view=view.view)
+                    atomic_write_image(tmp / name, annotate_view(color, view, info), bgr=True)
+                    files.append(out_dir / name)
         result = MeasurementResult(
             length=measurement.length(),
             spread=measurement.spread(),

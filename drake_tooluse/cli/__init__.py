@@ -19,8 +19,12 @@ Chromium or Graphviz missing; a run directory locked by another process): these 
 Any other RuntimeError (from Drake's C++, torch, or a bug of ours) is exit 1.
 
 Every command prints human-readable text by default and JSON with `--json` (strict JSON: a
-non-finite number is `null`); every `--help` shows the options' defaults and these exit codes.
-Nothing in the library imports this package.
+non-finite number is `null`), an argument error included; every `--help` shows the options'
+defaults and these exit codes. Options are never abbreviated (`--tool` is not `--tool-length`).
+A failed Drake precondition (which pydrake raises as SystemExit) is a bug's exit 1 like any
+other: the library checks every value before it reaches Drake. The warnings a command raises
+(torch's, Drake's) are shown after its result, and not at all when it fails: the error is the
+one line. Nothing in the library imports this package.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import json
 import math
 import os
 import sys
+import warnings
 
 from drake_tooluse.cli import experiments, learning, maintenance, measure, robot
 from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition, exported here)
@@ -39,7 +44,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
     EXIT_OK,
     EXIT_USAGE,
 )
-from drake_tooluse.validation import EnvironmentProblem
+from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
 GROUPS = (robot, learning, experiments, measure, maintenance)
 DESCRIPTION = (
@@ -67,9 +72,32 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+MAX_MESSAGE = 1000  # characters of an error's one line
+
+
+class ArgumentsRefused(Exception):
+    """argparse's refusal of the command line (its `error`), for `main` to report."""
+
+    def __init__(self, parser: argparse.ArgumentParser, message: str):
+        super().__init__(message)
+        self.parser = parser
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser that raises its errors for `main` to report (as JSON too, with
+    `--json`) instead of printing them and exiting."""
+
+    def error(self, message):
+        raise ArgumentsRefused(self, message)
+
+
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="drake-tooluse", description=DESCRIPTION, epilog=EPILOG, formatter_class=HelpFormatter
+    parser = Parser(
+        prog="drake-tooluse",
+        description=DESCRIPTION,
+        epilog=EPILOG,
+        formatter_class=HelpFormatter,
+        allow_abbrev=False,
     )
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
@@ -77,6 +105,7 @@ def make_parser() -> argparse.ArgumentParser:
     for p in sub.choices.values():
         p.formatter_class = HelpFormatter
         p.epilog = EPILOG
+        p.allow_abbrev = False  # `--tool 0.2` is an error, not --tool-length
         p.add_argument(
             "--json", action="store_true", help="print JSON (default: human-readable text)"
         )
@@ -95,7 +124,7 @@ def _strict(value):
 
 
 def _one_line(text: str) -> str:
-    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+    return clipped(text, MAX_MESSAGE)
 
 
 def _message(e: BaseException) -> str:
@@ -113,7 +142,17 @@ def _usage_error(e: Exception) -> bool:
 
 
 def main(argv=None) -> int:
-    args = make_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        args = make_parser().parse_args(argv)
+    except ArgumentsRefused as e:
+        text = _one_line(e)
+        if "--json" in argv:
+            print(json.dumps({"error": text, "exit_code": EXIT_USAGE}))
+        else:
+            e.parser.print_usage(sys.stderr)
+        print(f"{e.parser.prog}: error: {text}", file=sys.stderr)
+        return EXIT_USAGE
 
     def fail(code: int, text: str) -> int:
         if args.json:
@@ -121,20 +160,30 @@ def main(argv=None) -> int:
         print(f"drake-tooluse {args.command}: error: {text}", file=sys.stderr)
         return code
 
-    try:
-        out = args.run(args)
-    except KeyboardInterrupt:
-        return fail(EXIT_INTERRUPTED, "interrupted")
-    except Exception as e:
-        if _usage_error(e):
-            return fail(EXIT_USAGE, _message(e))
-        if os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):  # a bug: one line, the traceback on request
-            raise
+    def bug(kind: str, text: str) -> int:
         return fail(
             EXIT_INTERNAL,
-            f"internal error {type(e).__name__}: {_message(e)} (a bug; set "
-            "DRAKE_TOOLUSE_TRACEBACK=1 to see where)",
+            f"internal error {kind}: {text} (a bug; set DRAKE_TOOLUSE_TRACEBACK=1 to see where)",
         )
+
+    with warnings.catch_warnings(record=True) as raised:  # (the filters as they are)
+        try:
+            out = args.run(args)
+        except KeyboardInterrupt as e:  # (the library's may say how to continue)
+            return fail(EXIT_INTERRUPTED, "interrupted" + (f": {_one_line(e)}" if str(e) else ""))
+        except SystemExit as e:  # pydrake raises a failed Drake precondition as one
+            condition = drake_failure(e)
+            if condition is None or os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):
+                raise
+            return bug("(a Drake precondition failed)", _one_line(condition))
+        except Exception as e:
+            if _usage_error(e):
+                return fail(EXIT_USAGE, _message(e))
+            if os.environ.get("DRAKE_TOOLUSE_TRACEBACK"):  # a bug: one line, the traceback
+                raise
+            return bug(type(e).__name__, _message(e))
+    for w in raised:  # the command succeeded: its warnings, after the work
+        sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
     show = getattr(args, "show", None)
     if args.json or show is None:
         print(json.dumps(_strict(out), indent=2, allow_nan=False))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from drake_tooluse.paths import DEFAULT_SCENARIO
@@ -94,17 +95,19 @@ def pose_dict(X) -> dict:
 def parse_json_arg(text: str | None, name: str) -> dict | None:
     """A JSON object option's value (None if not given); bad JSON, or JSON that is not an
     object of names to values, is a usage error naming the option."""
-    import json
+    from drake_tooluse.files import parse_json
+    from drake_tooluse.validation import shown
 
     if not text:
         return None
     try:
-        value = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise UsageError(f"{name} is not valid JSON ({e}): {text!r}") from None
+        value = parse_json(text, name)
+    except ValueError as e:
+        raise UsageError(f"{e}: {shown(text)}") from None  # (the option's text, shortened)
     if not isinstance(value, dict):
         raise UsageError(
-            f"{name} must be a JSON object of names to values, e.g. '{{\"key\": 1}}'; got {text!r}"
+            f"{name} must be a JSON object of names to values, e.g. '{{\"key\": 1}}'; got "
+            f"{shown(text)}"
         )
     return value
 
@@ -169,3 +172,15 @@ def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:
         "its files can run code when loaded: only for files you trust. Convert it once with "
         "`drake-tooluse convert-policy` instead",
     )
+
+
+def run_script(main) -> int:
+    """Runs a script's `main()` (the benchmarks'): Ctrl-C ends it with one line on stderr and
+    exit code 130, not a traceback; returns the exit code (`main`'s, 0 for None)."""
+    try:
+        code = main()
+    except KeyboardInterrupt:
+        name = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "script"
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return code or 0

@@ -50,7 +50,9 @@ def cmd_train(args) -> dict:
         out_dir = output_dir_arg(args.out, "--out", must_be_new=False)
     choice_arg(args.algo, ALGOS, "--algo", "algorithm")
     choice_arg(args.env, task_env_ids(), "--env", "env")
-    count_arg(args.timesteps, "--timesteps", 1, MAX_TIMESTEPS)
+    saved = saved_timesteps(out_dir) if args.resume is not None else None
+    timesteps = args.timesteps if args.timesteps is not None else saved or DEFAULT_TIMESTEPS
+    count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
     seed_arg(args.seed)
     if args.n_envs is not None:
         count_arg(args.n_envs, "--n-envs", 1, 64)
@@ -66,7 +68,7 @@ def cmd_train(args) -> dict:
     config = resolve_config(
         args.env,
         args.algo,
-        args.timesteps,
+        timesteps,
         args.n_envs,
         args.seed,
         init_from=str(args.init_from) if args.init_from else None,
@@ -76,8 +78,9 @@ def cmd_train(args) -> dict:
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
     command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
+    new_dir = not Path(out_dir).exists()
     try:
-        return train(
+        summary = train(
             config,
             out_dir,
             resume=args.resume is not None,
@@ -89,6 +92,34 @@ def cmd_train(args) -> dict:
         if args.resume is not None:
             raise
         raise in_cli_words(e, out_dir, "run") from None
+    except Exception:
+        if new_dir:  # a run refused before it began leaves no directory (its lock only)
+            _remove_if_only_lock(Path(out_dir))
+        raise
+    if saved is not None and timesteps != saved:
+        summary["budget_changed_from"] = saved
+    return summary
+
+
+DEFAULT_TIMESTEPS = 1_250_000
+
+
+def saved_timesteps(out_dir) -> int | None:
+    """The budget of the run in `out_dir` (its config.json), or None where there is none (the
+    library then says there is nothing to resume)."""
+    from drake_tooluse.files import read_json
+
+    path = Path(out_dir) / "config.json"
+    if not path.is_file():
+        return None
+    timesteps = (read_json(path, "run configuration") or {}).get("timesteps")
+    return count_arg(timesteps, f"{str(path)!r}: timesteps", 1, MAX_TIMESTEPS)
+
+
+def _remove_if_only_lock(out_dir: Path) -> None:
+    if out_dir.is_dir() and [p.name for p in out_dir.iterdir()] == [".lock"]:
+        (out_dir / ".lock").unlink()
+        out_dir.rmdir()
 
 
 def train_env_kwargs(args) -> dict:
@@ -108,9 +139,14 @@ def train_env_kwargs(args) -> dict:
 def format_train(out: dict) -> str:
     rate = "" if out.get("steps_per_s") is None else f" ({out['steps_per_s']:.0f} steps/s)"
     resumed = f", {out['sessions']} sessions" if out.get("sessions", 1) > 1 else ""
+    changed = (
+        f"; its budget changed from {out['budget_changed_from']} steps (--timesteps)"
+        if "budget_changed_from" in out
+        else ""
+    )
     return (
         f"trained {out['timesteps']} steps in {out['wall_time_s'] / 60:.1f} min{rate}{resumed}: "
-        f"{out['out']} (final/, best/, logs/, eval/, summary.json)"
+        f"{out['out']} (final/, best/, logs/, eval/, summary.json){changed}"
     )
 
 
@@ -236,7 +272,12 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
     p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {task_env_ids()}")
     p.add_argument("--algo", default="ppo", help=f"one of {list(ALGOS)}")
-    p.add_argument("--timesteps", type=int, default=1_250_000, help="environment steps in all")
+    p.add_argument(
+        "--timesteps",
+        type=int,
+        help=f"environment steps in all (default: {DEFAULT_TIMESTEPS}; with --resume, the "
+        "run's own: another budget is applied, and the result says so)",
+    )
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
     p.add_argument("--seed", type=int, default=0, help="seed of the envs and the policy")
     p.add_argument(

@@ -11,10 +11,11 @@ from drake_tooluse.perception.markers import LIGHTINGS, METHODS
 
 def cmd_measure(args) -> dict:
     """The result as a dict (see MeasurementResult.as_dict)."""
-    from drake_tooluse.builders.measurement import measure_tool
+    from drake_tooluse.builders.measurement import check_images_dir, measure_tool
 
     if args.save_images is not None:
         output_dir_arg(args.save_images, "--save-images", must_be_new=False)
+        check_images_dir(args.save_images, "--save-images")
     scenario = scenario_from_args(args)
     result = measure_tool(
         scenario,
@@ -84,7 +85,8 @@ def add_parsers(sub) -> None:
         "--save-images",
         type=Path,
         metavar="DIR",
-        help="write each view annotated as DIR/measure_<view>.png",
+        help="write each view annotated as DIR/measure_<view>.png, all of them at once in "
+        "place of the views there (DIR holds nothing else)",
     )
     p.add_argument(
         "--noise",

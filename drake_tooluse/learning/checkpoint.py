@@ -21,7 +21,6 @@ Old checkpoints must stay loadable: change this format only with `CHECKPOINT_FOR
 
 from __future__ import annotations
 
-import json
 import random
 import re
 import shutil
@@ -31,7 +30,14 @@ import numpy as np
 import torch
 from stable_baselines3.common.vec_env import VecNormalize
 
-from drake_tooluse.files import atomic_dir, atomic_write_json, discard_dir, to_json
+from drake_tooluse.files import (
+    atomic_dir,
+    atomic_write_json,
+    discard_dir,
+    library_write,
+    read_json,
+    to_json,
+)
 from drake_tooluse.learning.sb3_state import (
     algorithm_counters,
     episode_statistics,
@@ -46,6 +52,8 @@ CHECKPOINTS = "checkpoints"
 CHECKPOINT_FORMAT = 1
 LEGACY_CHECKPOINT = Path(CHECKPOINTS) / "latest.zip"  # before this format: SB3 zip + pickles
 _CKPT = re.compile(r"^ckpt-(\d{12})$")
+# checkpoint.json: counters, random states, every evaluation so far (a long run: a few MB).
+MAX_STATE_BYTES = 1 << 26
 
 
 def checkpoint_dirs(out) -> list[Path]:
@@ -63,14 +71,15 @@ def latest_checkpoint(out) -> tuple[Path, dict] | None:
     if not dirs:
         return None
     path = dirs[-1] / "checkpoint.json"
+    instead = f"remove {str(dirs[-1])!r} to resume from an older one, if any, or start a new run"
     try:
-        state = json.loads(path.read_text())
+        state = read_json(path, "checkpoint", max_bytes=MAX_STATE_BYTES)  # names the file
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{e}; {instead}") from None
+    try:
         check_int(state["timesteps"], 0, 10**12, "timesteps")
-    except (OSError, ValueError, KeyError, TypeError) as e:
-        raise ValueError(
-            f"corrupt checkpoint {str(path)!r}: {e}; remove {str(dirs[-1])!r} to resume from "
-            "an older one, if any, or start a new run"
-        ) from None
+    except (ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"corrupt checkpoint {str(path)!r}: {e}; {instead}") from None
     return dirs[-1], state
 
 
@@ -109,10 +118,11 @@ def write_checkpoint(
     name = f"ckpt-{steps:012d}"
     with atomic_dir(folder / name, replace=True) as tmp:
         # SB3's public API for the tensors; a dict of tensors, so no pickle is needed to read it.
-        torch.save(
-            {"parameters": model.get_parameters(), "torch_rng": torch.get_rng_state()},
-            tmp / "parameters.pt",
-        )
+        with library_write(folder / name / "parameters.pt"):  # a full disk: an OSError naming it
+            torch.save(
+                {"parameters": model.get_parameters(), "torch_rng": torch.get_rng_state()},
+                tmp / "parameters.pt",
+            )
         if vec_normalize is not None:
             (tmp / "vecnormalize.json").write_text(to_json(_vecnormalize_state(vec_normalize)))
         if getattr(model, "replay_buffer", None) is not None:
@@ -141,7 +151,7 @@ def restore_checkpoint(
     if vec_normalize is not None:
         norm = folder / "vecnormalize.json"
         try:
-            _restore_vecnormalize(vec_normalize, json.loads(norm.read_text()), norm)
+            _restore_vecnormalize(vec_normalize, read_json(norm, "normalisation"), norm)
         except (OSError, ValueError, KeyError) as e:
             raise ValueError(f"cannot restore the normalisation {str(norm)!r}: {e}") from None
     buffer = folder / "replay_buffer.npz"

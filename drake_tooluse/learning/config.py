@@ -16,11 +16,18 @@ from dataclasses import asdict, dataclass
 import stable_baselines3 as sb3
 from sb3_contrib import TRPO
 
-from drake_tooluse.files import read_yaml
+from drake_tooluse.files import read_json, read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs
 from drake_tooluse.paths import HYPERPARAMS_DIR
-from drake_tooluse.validation import check_bool, check_int, check_mapping, check_seed
+from drake_tooluse.validation import (
+    check_bool,
+    check_in_range,
+    check_int,
+    check_mapping,
+    check_seed,
+    shown,
+)
 
 ALGORITHMS = dict(zip(ALGOS, (sb3.PPO, sb3.A2C, sb3.DDPG, TRPO)))
 OFF_POLICY = ("ddpg",)
@@ -51,6 +58,10 @@ _NOT_HYPERPARAMETERS = {
     "replay_buffer_class",
 }
 MAX_TIMESTEPS = 10**10
+# A network's layers: at most this many, each at most this wide (4096 x 4096: 17M parameters).
+MAX_LAYERS, MAX_WIDTH = 16, 4096
+# The policy_kwargs whose values are checked here; SB3 checks the others when it builds.
+NET_ARCH_KEYS = ("pi", "vf", "qf")  # the policy's, the value function's, the Q function's
 
 
 def check_algo(algo: str) -> str:
@@ -64,6 +75,49 @@ def algorithm_arguments(algo: str) -> list[str]:
     set itself)."""
     parameters = inspect.signature(ALGORITHMS[check_algo(algo)].__init__).parameters
     return sorted(set(parameters) - _NOT_HYPERPARAMETERS)
+
+
+def net_arch_lists(net_arch) -> list[list]:
+    """The layer widths of each network a (checked) `net_arch` gives: SB3 takes a list for all
+    of them, or a mapping of "pi", "vf" (on-policy) or "qf" (DDPG) to a list each."""
+    if net_arch is None:
+        return []
+    return list(net_arch.values()) if isinstance(net_arch, dict) else [net_arch]
+
+
+def check_net_arch(value, name: str = "net_arch") -> list | dict:
+    """A network's layers, as SB3 takes them: a list of at most `MAX_LAYERS` widths, each an
+    integer in [1, `MAX_WIDTH`], or a mapping of "pi", "vf" or "qf" to such a list."""
+    allowed = (
+        f"a list of at most {MAX_LAYERS} layer widths, integers in [1, {MAX_WIDTH}], or a "
+        f"mapping of {list(NET_ARCH_KEYS)} to such lists"
+    )
+    if isinstance(value, dict):
+        unknown = sorted(map(str, set(value) - set(NET_ARCH_KEYS)))
+        if unknown:
+            raise ValueError(f"{name} has unknown networks {shown(unknown)}; it must be {allowed}")
+        for key, layers in value.items():
+            check_net_arch(layers, f"{name}.{key}")
+        return value
+    if not isinstance(value, list) or len(value) > MAX_LAYERS:
+        raise ValueError(f"{name}={shown(value)} must be {allowed}")
+    for i, width in enumerate(value):
+        check_int(width, 1, MAX_WIDTH, f"{name}[{i}]")
+    return value
+
+
+def check_policy_kwargs(kwargs, name: str = "policy_kwargs") -> dict:
+    """The policy's keyword arguments: a mapping; `net_arch` (`check_net_arch`), `log_std_init`
+    (the log of the initial action noise, in [-20, 2]) and `n_critics` (in [1, 10]) checked
+    here, the others by SB3 when it builds the policy."""
+    kwargs = check_mapping(kwargs, name)
+    if "net_arch" in kwargs:
+        check_net_arch(kwargs["net_arch"], f"{name}.net_arch")
+    if "log_std_init" in kwargs:
+        check_in_range(kwargs["log_std_init"], -20.0, 2.0, f"{name}.log_std_init")
+    if "n_critics" in kwargs:
+        check_int(kwargs["n_critics"], 1, 10, f"{name}.n_critics")
+    return kwargs
 
 
 def check_hyperparams(algo: str, env_id: str, hp, name: str = "hyperparameters") -> dict:
@@ -95,7 +149,7 @@ def check_hyperparams(algo: str, env_id: str, hp, name: str = "hyperparameters")
     if "env_kwargs" in hp:
         hp["env_kwargs"] = check_env_kwargs(env_id, hp["env_kwargs"], f"{name}: env_kwargs")
     if "policy_kwargs" in hp:
-        check_mapping(hp["policy_kwargs"], f"{name}: policy_kwargs")
+        check_policy_kwargs(hp["policy_kwargs"], f"{name}: policy_kwargs")
     try:
         json.dumps(hp, allow_nan=False)
     except (TypeError, ValueError) as e:
@@ -134,6 +188,19 @@ class TrainConfig:
         d = asdict(self)
         d.pop("timesteps")
         return d
+
+
+def read_run_config(path) -> TrainConfig:
+    """A run's configuration from its config.json (the command that started it left out);
+    errors name the file."""
+    raw = read_json(path, "run configuration")
+    if not isinstance(raw, dict):
+        raise ValueError(f"corrupt run configuration {str(path)!r}: not a JSON object")
+    raw.pop("command", None)
+    try:
+        return TrainConfig(**raw)
+    except TypeError as e:
+        raise ValueError(f"corrupt run configuration {str(path)!r}: {e}") from None
 
 
 def config_differences(saved: dict, asked: dict, prefix: str = "") -> list[str]:

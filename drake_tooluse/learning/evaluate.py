@@ -70,13 +70,16 @@ def run_episode(env, policy, seed: int, on_step=None, to_time_limit: bool = Fals
     obs, info = env.reset(seed=seed)
     if on_step is not None:
         on_step(0, info)
+    # The step limit counted here too: a TimeLimit patched not to truncate a terminated step
+    # (rl_zoo3's, once imported) would otherwise let a held success run on forever.
+    limit = env.spec.max_episode_steps if env.spec is not None else None
     steps = 0
     while True:
         obs, _, terminated, truncated, info = env.step(policy.act(obs))
         steps += 1
         if on_step is not None:
             on_step(steps, info)
-        if truncated or (terminated and not to_time_limit):
+        if truncated or (terminated and not to_time_limit) or steps == limit:
             return info, steps
 
 

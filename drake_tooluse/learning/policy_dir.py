@@ -8,6 +8,15 @@ A policy directory holds:
 | `policy.json` | `PolicyMeta`: env id and kwargs, algorithm, policy class and kwargs, spaces, normalised or not, the command that trained it |
 | `policy.safetensors` | the policy network's weights (safetensors: tensors and a JSON header, nothing executable) |
 | `normalization.json` | the observation normalisation (`VecNormalize`'s running mean and variance, clip, epsilon), when normalised |
+| `scenario.yaml` | the env's scenario (`env_kwargs.scenario`), when it is not one the package ships |
+
+A policy directory reads nothing but its own files and the package's data: its
+`env_kwargs.scenario` is a file name, of a file in the directory or of a scenario the package
+ships (`paths.SCENARIOS_DIR`), and that scenario's own files (its bases, its tool model) lie
+there too (`resolve_scenario`, the one place its paths are resolved). Before any network is
+built, the weights file's header is read and checked against `policy.json`: the spaces and
+algorithm it was saved for, and `policy_kwargs.net_arch` against the number of parameters it
+holds — a 1 kB file cannot ask for a network of gigabytes.
 
 Loading rebuilds the stable-baselines3 model from the algorithm's class and the spaces in
 `policy.json` and loads the weights into it; it checks the files against each other (the
@@ -23,27 +32,49 @@ from __future__ import annotations
 import copy
 import dataclasses as dc
 import json
+import math
 import pickle
 import zipfile
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import torch
+from pydrake.common.yaml import yaml_dump_typed
 from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-from drake_tooluse.files import atomic_dir, to_json
-from drake_tooluse.learning.config import ALGORITHMS, OFF_POLICY, check_algo
+from drake_tooluse.files import (
+    MAX_JSON_BYTES,
+    atomic_dir,
+    library_write,
+    parse_json,
+    read_json,
+    to_json,
+)
+from drake_tooluse.learning.config import (
+    ALGORITHMS,
+    OFF_POLICY,
+    POLICIES,
+    check_algo,
+    check_policy_kwargs,
+    net_arch_lists,
+)
 from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs, env_spaces
+from drake_tooluse.paths import SCENARIOS_DIR
+from drake_tooluse.validation import check_one_of, refused_by_library, shown
+from drake_tooluse.world.scenario import Scenario, load_scenario
 
 FORMAT = 2
 META = "policy.json"
 WEIGHTS = "policy.safetensors"
 NORMALIZATION = "normalization.json"
+SCENARIO = "scenario.yaml"  # the env's scenario, when it is not one the package ships
 LEGACY_MODEL = "policy.zip"
 LEGACY_NORMALIZATION = "vecnormalize.pkl"
-MAX_JSON_BYTES = 1 << 20  # a policy.json or normalization.json is a few kB
+# A policy's weights: the shipped ones are 0.1 MB; a network of 4096 x 4096 layers is 0.2 GB.
+MAX_WEIGHTS_BYTES = 1 << 28
 TRUST_HINT = (
     "convert it once (convert_policy(DIR, NEW, trust_pickle=True); on the command line "
     "`drake-tooluse convert-policy --policy DIR --out NEW --trust-pickle`), or load it with "
@@ -73,14 +104,53 @@ class PolicyMeta:
     format: int = FORMAT
 
 
-def _read_json(path: Path, what: str):
-    size = path.stat().st_size
-    if size > MAX_JSON_BYTES:
-        raise ValueError(f"{what} {str(path)!r} is {size / 2**20:.1f} MB; it is at most 1 MB")
+# -- the scenario: the one place a policy directory's paths are resolved ------------------
+
+
+def shipped_scenarios() -> list[str]:
+    """The names of the scenarios the package ships (`paths.SCENARIOS_DIR`)."""
+    return sorted(p.name for p in SCENARIOS_DIR.glob("*.yaml"))
+
+
+def resolve_scenario(name, directory: Path, where: str = "") -> str:
+    """The file a policy directory's `env_kwargs.scenario` names: a file name (no folder), of
+    a file in `directory` or else of a scenario the package ships; that scenario loads with
+    every file it reads inside those two folders (`load_scenario(within=...)`). Returns its
+    path; anything else is a ValueError starting with `where`."""
+    directory = Path(directory)
+    allowed = (
+        f"the name of a scenario file in the policy directory ({SCENARIO}) or of one the "
+        f"package ships ({', '.join(shipped_scenarios())})"
+    )
+    if not isinstance(name, str) or name in ("", ".", "..") or Path(name).name != name:
+        raise ValueError(f"{where}env_kwargs.scenario={shown(name)} must be {allowed}")
+    path = directory / name if (directory / name).is_file() else SCENARIOS_DIR / name
+    if not path.is_file():
+        raise ValueError(f"{where}env_kwargs.scenario={name!r} is not {allowed}")
     try:
-        return json.loads(path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        raise ValueError(f"corrupt {what} {str(path)!r}: {e}") from None
+        load_scenario(path, within=(directory, SCENARIOS_DIR))
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{where}env_kwargs.scenario={name!r}: {e}") from None
+    return str(path.resolve())
+
+
+def _scenario_files(scenario) -> tuple[str, dict]:
+    """What a saved policy directory holds of the env's scenario (a Scenario, or a YAML file
+    as the env reads one): (its `env_kwargs.scenario`, {file name: bytes}). A scenario the
+    package ships is named; any other is written whole (its bases merged in, its tool model
+    beside it) as `scenario.yaml`."""
+    if not isinstance(scenario, Scenario):
+        path = Path(scenario).resolve()
+        if path.parent == SCENARIOS_DIR.resolve():
+            return path.name, {}
+        scenario = load_scenario(path)
+    files = {}
+    model = scenario.tool.model
+    if model and not model.startswith("package://"):
+        files[Path(model).name] = Path(model).read_bytes()
+        scenario = dc.replace(scenario, tool=dc.replace(scenario.tool, model=Path(model).name))
+    files[SCENARIO] = yaml_dump_typed(dc.replace(scenario, base=""), schema=Scenario).encode()
+    return SCENARIO, files
 
 
 def _shape(value, name: str, path: Path) -> list:
@@ -89,7 +159,9 @@ def _shape(value, name: str, path: Path) -> list:
         or len(value) != 1
         or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
     ):
-        raise ValueError(f"{str(path)!r}: {name}={value!r} must be a list of one positive integer")
+        raise ValueError(
+            f"{str(path)!r}: {name}={shown(value)} must be a list of one positive integer"
+        )
     return value
 
 
@@ -104,7 +176,7 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
         raise ValueError(
             f"corrupt policy metadata {str(path)!r}: "
             + "; ".join(
-                ([f"unknown keys {unknown}"] if unknown else [])
+                ([f"unknown keys {shown(unknown)}"] if unknown else [])
                 + ([f"missing keys {missing}"] if missing else [])
             )
             + f" (keys: {names})"
@@ -117,26 +189,32 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
         check_env_id(meta.env_id)
         check_algo(meta.algo)
         meta.env_kwargs = check_env_kwargs(meta.env_id, meta.env_kwargs, "env_kwargs")
+        check_one_of(meta.policy, POLICIES, "policy")
+        meta.policy_kwargs = check_policy_kwargs(meta.policy_kwargs, "policy_kwargs")
     except ValueError as e:
         raise ValueError(where + str(e)) from None
+    if meta.env_kwargs.get("scenario") is not None:
+        meta.env_kwargs["scenario"] = resolve_scenario(
+            meta.env_kwargs["scenario"], path.parent, where
+        )
     _shape(meta.observation_shape, "observation_shape", path)
     _shape(meta.action_shape, "action_shape", path)
     for name in ("normalized",):
         if not isinstance(getattr(meta, name), bool):
-            raise ValueError(where + f"{name}={getattr(meta, name)!r} must be true or false")
+            raise ValueError(where + f"{name}={shown(getattr(meta, name))} must be true or false")
     if not isinstance(meta.trained_timesteps, int) or meta.trained_timesteps < 0:
-        raise ValueError(where + f"trained_timesteps={meta.trained_timesteps!r} must be >= 0")
-    if not isinstance(meta.command, str) or not isinstance(meta.policy, str):
-        raise ValueError(where + "command and policy must be strings")
-    if not isinstance(meta.policy_kwargs, dict):
-        raise ValueError(where + f"policy_kwargs={meta.policy_kwargs!r} must be a mapping")
+        raise ValueError(where + f"trained_timesteps={shown(meta.trained_timesteps)} must be >= 0")
+    if not isinstance(meta.command, str):
+        raise ValueError(where + f"command={shown(meta.command)} must be a string")
     if meta.format not in (1, FORMAT):
-        raise ValueError(where + f"format={meta.format!r} is not one this version reads (1, 2)")
+        raise ValueError(
+            where + f"format={shown(meta.format)} is not one this version reads (1, 2)"
+        )
     obs, act = env_spaces(meta.env_id, meta.env_kwargs)
     if meta.observation_shape != obs or meta.action_shape != act:
         raise ValueError(
             where + f"observation_shape {meta.observation_shape} and action_shape "
-            f"{meta.action_shape} do not fit its env_kwargs {meta.env_kwargs}, whose env "
+            f"{meta.action_shape} do not fit its env_kwargs {shown(meta.env_kwargs)}, whose env "
             f"observes {obs} and acts {act}"
         )
     return meta
@@ -172,12 +250,10 @@ def build_model(meta: PolicyMeta):
     )
     model.observation_space, model.action_space = spaces_of(meta)
     model.n_envs = 1
-    try:
+    with refused_by_library(
+        f"cannot build a {meta.algo} {meta.policy} with policy_kwargs {shown(meta.policy_kwargs)}"
+    ):
         model._setup_model()
-    except (TypeError, ValueError, KeyError) as e:
-        raise ValueError(
-            f"cannot build a {meta.algo} {meta.policy} with policy_kwargs {meta.policy_kwargs}: {e}"
-        ) from None
     return model
 
 
@@ -204,9 +280,15 @@ def save_policy(
     model, vec_normalize, meta: PolicyMeta, directory: Path, extra_files: dict | None = None
 ) -> Path:
     """Writes a policy directory atomically (into a temporary sibling, then renamed or swapped
-    in): `policy.json`, `policy.safetensors` and, normalised, `normalization.json`, and the
-    `extra_files` ({name: bytes}) beside them."""
+    in): `policy.json`, `policy.safetensors`, normalised `normalization.json`, with a scenario
+    the package does not ship `scenario.yaml` (and its tool model), and the `extra_files`
+    ({name: bytes}) beside them. Its `env_kwargs.scenario` is stored by file name."""
     meta = dc.replace(meta, format=FORMAT, normalized=vec_normalize is not None)
+    files = dict(extra_files or {})
+    if meta.env_kwargs.get("scenario") is not None:
+        name, scenario_files = _scenario_files(meta.env_kwargs["scenario"])
+        meta = dc.replace(meta, env_kwargs={**meta.env_kwargs, "scenario": name})
+        files.update(scenario_files)
     tensors = {
         k: v.detach().cpu().clone().contiguous() for k, v in model.policy.state_dict().items()
     }
@@ -218,11 +300,12 @@ def save_policy(
         "action_shape": json.dumps(meta.action_shape),
     }
     with atomic_dir(directory, replace=True) as tmp:
-        save_file(tensors, str(tmp / WEIGHTS), metadata=header)
+        with library_write(Path(directory) / WEIGHTS):  # a full disk: an OSError naming it
+            save_file(tensors, str(tmp / WEIGHTS), metadata=header)
         if vec_normalize is not None:
             (tmp / NORMALIZATION).write_text(to_json(_normalization_dict(vec_normalize)) + "\n")
         (tmp / META).write_text(to_json(dc.asdict(meta)) + "\n")
-        for name, data in (extra_files or {}).items():
+        for name, data in files.items():
             (tmp / name).write_bytes(data)
     return Path(directory)
 
@@ -256,7 +339,7 @@ class LoadedPolicy:
 
 
 def _read_normalization(path: Path, meta: PolicyMeta):
-    raw = _read_json(path, "normalisation")
+    raw = read_json(path, "normalisation")
     try:
         mean = np.asarray(raw["obs_mean"], float)
         var = np.asarray(raw["obs_var"], float)
@@ -281,26 +364,113 @@ def _read_normalization(path: Path, meta: PolicyMeta):
     return rms, clip_obs, epsilon
 
 
+_DTYPE_BYTES = {"F64": 8, "F32": 4, "F16": 2, "BF16": 2, "I64": 8, "I32": 4, "BOOL": 1}
+
+
+def read_weights_header(path: Path) -> tuple[dict, dict]:
+    """({tensor name: shape}, {metadata name: value}) from a safetensors file's header (8 bytes
+    of length, then JSON), read before any tensor: every entry checked (a shape of
+    non-negative integers, a known dtype, byte ranges that fit the file), the file at most
+    `MAX_WEIGHTS_BYTES`, and the metadata the policy writes (JSON strings) parsed. Errors name
+    the file and the entry."""
+    size = path.stat().st_size
+    if size > MAX_WEIGHTS_BYTES:
+        raise ValueError(
+            f"{str(path)!r} is {size / 2**20:.0f} MB; a policy's weights are at most "
+            f"{MAX_WEIGHTS_BYTES / 2**20:.0f} MB"
+        )
+    with open(path, "rb") as f:
+        n = int.from_bytes(f.read(8), "little")
+        if not 2 <= n <= min(MAX_JSON_BYTES, size - 8):
+            raise ValueError(f"cannot load {str(path)!r}: its header length {n} does not fit")
+        raw = parse_json(f.read(n).decode("utf-8", "replace"), f"cannot load {str(path)!r}")
+    if not isinstance(raw, dict):
+        raise ValueError(f"cannot load {str(path)!r}: its header is not a JSON object")
+    metadata = raw.pop("__metadata__", None) or {}
+    shapes = {}
+    for name, entry in raw.items():
+        ok = (
+            isinstance(entry, dict)
+            and entry.get("dtype") in _DTYPE_BYTES
+            and isinstance(entry.get("shape"), list)
+            and all(
+                isinstance(d, int) and not isinstance(d, bool) and d >= 0 for d in entry["shape"]
+            )
+            and isinstance(entry.get("data_offsets"), list)
+            and len(entry["data_offsets"]) == 2
+            and all(isinstance(o, int) and o >= 0 for o in entry["data_offsets"])
+        )
+        if ok:
+            start, stop = entry["data_offsets"]
+            need = math.prod(entry["shape"]) * _DTYPE_BYTES[entry["dtype"]]
+            ok = stop - start == need and stop <= size - 8 - n
+        if not ok:
+            raise ValueError(
+                f"cannot load {str(path)!r}: its header's entry {shown(name)} = {shown(entry)} "
+                "is not a tensor stored in the file"
+            )
+        shapes[name] = entry["shape"]
+    if not isinstance(metadata, dict) or not all(isinstance(v, str) for v in metadata.values()):
+        raise ValueError(f"cannot load {str(path)!r}: its metadata must map names to strings")
+    parsed = {}
+    for name in ("observation_shape", "action_shape"):
+        if name in metadata:
+            parsed[name] = parse_json(metadata[name], f"{str(path)!r}: metadata {name}")
+    return shapes, {**metadata, **parsed}
+
+
+def _net_arch_parameters(meta: PolicyMeta) -> int:
+    """The fewest parameters a network of `meta`'s `policy_kwargs.net_arch` has: each of its
+    layer stacks (policy, value or Q) takes the observation and multiplies it through its
+    layers. (SB3's networks hold more: biases, output layers, target copies.)"""
+    least = 0
+    for layers in net_arch_lists(meta.policy_kwargs.get("net_arch")):
+        widths = [meta.observation_shape[0], *layers]
+        least += sum(a * b for a, b in zip(widths, widths[1:]))
+    return least
+
+
+def _check_header(meta: PolicyMeta, directory: Path, shapes: dict, metadata: dict) -> None:
+    """The weights file's header against policy.json, before any network is built."""
+    path, meta_path = directory / WEIGHTS, directory / META
+    saved_algo = metadata.get("algo")
+    if saved_algo is not None and saved_algo != meta.algo:
+        raise ValueError(
+            f"{str(meta_path)!r} says algo {meta.algo!r} but {str(path)!r} holds a "
+            f"{shown(saved_algo)} policy"
+        )
+    for name in ("observation_shape", "action_shape"):
+        if name in metadata and metadata[name] != getattr(meta, name):
+            raise ValueError(
+                f"{str(meta_path)!r} says {name} {getattr(meta, name)} but "
+                f"{str(path)!r} was saved for {shown(metadata[name])}"
+            )
+    held = sum(math.prod(shape) for shape in shapes.values())
+    least = _net_arch_parameters(meta)
+    if least > held:
+        raise ValueError(
+            f"{str(meta_path)!r}: policy_kwargs.net_arch="
+            f"{shown(meta.policy_kwargs.get('net_arch'))} makes a network of at least "
+            f"{least:,} parameters, but {str(path)!r} holds {held:,}"
+        )
+
+
 def _load_weights(directory: Path, meta: PolicyMeta):
     path = directory / WEIGHTS
     try:
+        shapes, metadata = read_weights_header(path)
+    except OSError as e:
+        raise ValueError(f"cannot load {str(path)!r}: {e}") from None
+    _check_header(meta, directory, shapes, metadata)
+    try:
         tensors = load_file(str(path), device="cpu")
-        with open(path, "rb") as f:  # the header: 8 bytes of length, then JSON
-            n = int.from_bytes(f.read(8), "little")
-            header = json.loads(f.read(n)).get("__metadata__", {}) if n < MAX_JSON_BYTES else {}
     except (SafetensorError, OSError, ValueError) as e:
         raise ValueError(f"cannot load {str(path)!r}: {e}") from None
-    saved_algo = header.get("algo")
-    if saved_algo is not None and saved_algo != meta.algo:
-        raise ValueError(
-            f"{str(directory / META)!r} says algo {meta.algo!r} but {str(path)!r} holds a "
-            f"{saved_algo!r} policy"
-        )
-    for name in ("observation_shape", "action_shape"):
-        if name in header and json.loads(header[name]) != getattr(meta, name):
+    for name, tensor in tensors.items():
+        if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all()):
             raise ValueError(
-                f"{str(directory / META)!r} says {name} {getattr(meta, name)} but "
-                f"{str(path)!r} was saved for {json.loads(header[name])}"
+                f"{str(path)!r}: the weights {name!r} hold NaN or infinite values; a policy's "
+                "weights must be finite"
             )
     model = build_model(meta)
     _set_weights(model, tensors, path, meta)
@@ -324,7 +494,7 @@ def _set_weights(model, tensors: dict, path, meta: PolicyMeta) -> None:
         )
         raise ValueError(
             f"the weights in {str(path)!r} do not fit a {meta.algo} {meta.policy} "
-            f"(policy_kwargs {meta.policy_kwargs}) for observations {meta.observation_shape} "
+            f"(policy_kwargs {shown(meta.policy_kwargs)}) for observations {meta.observation_shape} "
             f"and actions {meta.action_shape}: {detail}"
         )
     model.policy.load_state_dict(tensors, strict=True)
@@ -425,7 +595,7 @@ def load_policy(directory, trust_pickle: bool = False) -> LoadedPolicy:
             f"{str(directory)!r} is not a policy directory (it needs {META}, {WEIGHTS} and, if "
             f"normalised, {NORMALIZATION})"
         )
-    meta = parse_meta(_read_json(meta_path, "policy metadata"), meta_path)
+    meta = parse_meta(read_json(meta_path, "policy metadata"), meta_path)
     if not (directory / WEIGHTS).is_file():
         legacy = pickle_files(directory)
         if not legacy:

@@ -27,21 +27,28 @@ and would be refused again: it ends at once as a `failed` row with the refusal.
 **Resume.** `sweep(resume=True)` (`drake-tooluse sweep --resume OUT`) reads
 `sweep_config.json`, keeps every finished cell and runs the others again, each continuing from its
 last checkpoint (`train(resume=True)`). It reads only JSON and the pickle-free checkpoints, never
-Tune's pickled experiment state.
+Tune's pickled experiment state. A cell whose run the (edited) configuration no longer matches
+is refused before Ray starts, naming the settings that differ.
 
-Every argument is checked before Ray starts (`check_sweep`), and the CPUs Ray sees before Tune
-starts: a cell's env processes must fit on one node (else Ray would wait for the lease
-forever). One sweep process at a time holds `OUT` (`files.run_lock`). The driver must run on a
+**Interrupts.** Ctrl-C stops the sweep at once (Tune's own handler, which would end the
+fit as if it were done, is off): the table lists the cells that had started as `interrupted`
+(each resumes from its last checkpoint), the others as `pending`, and the sweep raises
+KeyboardInterrupt, which the command line reports (exit 130) with the command that resumes it.
+
+Every argument is checked before Ray starts (`check_sweep`, in time linear in the grid's cells,
+at most `MAX_CELLS`), and the CPUs Ray sees before Tune starts: a cell's env processes must fit
+on one node (else Ray would wait for the lease forever). One sweep process at a time holds `OUT` (`files.run_lock`). The driver must run on a
 node of the cluster (Ray Client `ray://` addresses are refused): that node's disk holds `OUT`.
 A cell is retried on any failure, a deterministic one included (Tune cannot tell them apart).
 """
 
 from __future__ import annotations
 
+import collections
 import contextlib
+import dataclasses as dc
 import io
 import itertools
-import json
 import logging
 import os
 import shutil
@@ -58,18 +65,32 @@ from drake_tooluse.files import (
     atomic_write_json,
     atomic_write_text,
     check_output_dir,
+    read_json,
     recover_dir,
     run_lock,
 )
-from drake_tooluse.learning.config import check_algo, resolve_config
+from drake_tooluse.learning.config import (
+    check_algo,
+    config_differences,
+    read_run_config,
+    resolve_config,
+)
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.task_envs import check_env_id
 from drake_tooluse.learning.train import train
-from drake_tooluse.validation import EnvironmentProblem, check_int, check_mapping, check_seed
+from drake_tooluse.validation import (
+    EnvironmentProblem,
+    check_int,
+    check_mapping,
+    check_seed,
+    clipped,
+    shown,
+)
 
 EVALUATION_SEED = 1000
 MAX_EPISODES = 100_000
 MAX_FAILURES = 100
+MAX_CELLS = 10_000  # runs in one grid: past this Tune's own bookkeeping takes minutes
 CONFIG_FILE = "sweep_config.json"
 CELL_FILE = "cell.json"  # in a cell's run directory once it has finished
 REFUSED = "refused"  # the metric a refused cell reports to Tune instead of its evaluation
@@ -247,20 +268,25 @@ def _cell_name(config: dict) -> str:
 
 @contextlib.contextmanager
 def _quiet_tune():
-    """While the sweep runs: no console tables from Tune (the table is ours) and none of its
-    tracebacks (each failed cell is one line in the table); both restored after."""
+    """While the sweep runs: no console tables from Tune (the table is ours), none of its
+    tracebacks (each failed cell is one line in the table) and not its SIGINT handler; all
+    restored after."""
     tune_logger = logging.getLogger("ray.tune")
-    level, output = tune_logger.level, os.environ.get("RAY_AIR_NEW_OUTPUT")
-    os.environ["RAY_AIR_NEW_OUTPUT"] = "0"
+    level = tune_logger.level
+    # No Tune SIGINT handler: Ctrl-C is a KeyboardInterrupt here, not a fit that looks done.
+    settings = {"RAY_AIR_NEW_OUTPUT": "0", "TUNE_DISABLE_SIGINT_HANDLER": "1"}
+    saved = {name: os.environ.get(name) for name in settings}
+    os.environ.update(settings)
     tune_logger.setLevel(logging.CRITICAL)
     try:
         yield
     finally:
         tune_logger.setLevel(level)
-        if output is None:
-            os.environ.pop("RAY_AIR_NEW_OUTPUT", None)
-        else:
-            os.environ["RAY_AIR_NEW_OUTPUT"] = output
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def _one_line(error) -> str:
@@ -376,7 +402,15 @@ def sweep(
                 callbacks=[_table_writer(out, grid, errors)],
             ),
         )
-        for result in tuner.fit():
+        try:
+            results = tuner.fit()
+        except KeyboardInterrupt:
+            write_table(out, grid, errors, interrupted=True)
+            raise KeyboardInterrupt(
+                f"the sweep in {str(out)!r} stopped; its finished cells are kept, and "
+                f"`{command}` continues the others from their last checkpoints"
+            ) from None
+        for result in results:
             if result.error is not None:
                 errors[_cell_name(result.config)] = _one_line(result.error)
             elif _refusal(result.metrics):
@@ -400,12 +434,14 @@ def read_sweep_config(out) -> dict:
 
 def _read_json(path: Path):
     try:
-        return json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        return read_json(path, "sweep file")
+    except OSError as e:
         raise ValueError(f"cannot read {str(path)!r}: {e}") from None
 
 
-def _rows(out: Path, grid: list, errors: dict) -> list[dict]:
+def _rows(out: Path, grid: list, errors: dict, interrupted: bool = False) -> list[dict]:
+    """The table's rows: each cell finished (its cell.json), failed (with its error), or not
+    yet: `interrupted` when the sweep was and the cell's run had started, else `pending`."""
     rows = []
     for algo, env_id, seed in grid:
         name = _run_name(algo, env_id, seed)
@@ -413,7 +449,11 @@ def _rows(out: Path, grid: list, errors: dict) -> list[dict]:
         if cell.is_file():
             rows.append(_read_json(cell))
         else:
-            status = "failed" if name in errors else "pending"
+            status = "pending"
+            if name in errors:
+                status = "failed"
+            elif interrupted and (out / "runs" / name / "config.json").is_file():  # started
+                status = "interrupted"
             rows.append(
                 {"algo": algo, "env": env_id, "seed": seed, "status": status, "run": f"runs/{name}"}
                 | ({"error": errors[name]} if name in errors else {})
@@ -421,21 +461,24 @@ def _rows(out: Path, grid: list, errors: dict) -> list[dict]:
     return rows
 
 
-def write_table(out: Path, grid: list, errors: dict) -> None:
-    rows = _rows(out, grid, errors)
+def write_table(out: Path, grid: list, errors: dict, interrupted: bool = False) -> None:
+    rows = _rows(out, grid, errors, interrupted)
     atomic_write_json(out / "sweep.json", rows)
     atomic_write_text(out / "sweep.md", results_table(rows))
 
 
 def _list(values, name: str) -> list:
     if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-        raise ValueError(f"{name}={values!r} must be a list")
+        raise ValueError(f"{name}={shown(values)} must be a list")
     values = list(values)
     if not values:
         raise ValueError(f"{name} is empty; give at least one")
-    repeated = sorted({repr(v) for v in values if values.count(v) > 1})
+    if len(values) > MAX_CELLS:
+        raise ValueError(f"{name} has {len(values)} values; a grid has at most {MAX_CELLS} runs")
+    counts = collections.Counter(repr(v) for v in values)  # (linear: 10,000 seeds in ms)
+    repeated = sorted(v for v, n in counts.items() if n > 1)
     if repeated:
-        raise ValueError(f"{name} repeats {', '.join(repeated)}: each run needs its own")
+        raise ValueError(f"{name} repeats {clipped(', '.join(repeated))}: each run needs its own")
     return values
 
 
@@ -476,16 +519,28 @@ def check_sweep(
         raise FileExistsError(
             f"{str(out)!r} already holds a sweep; resume it (resume=True) or give a new directory"
         )
+    if len(algos) * len(envs) * len(seeds) > MAX_CELLS:
+        raise ValueError(
+            f"the grid of {len(algos)} algos x {len(envs)} envs x {len(seeds)} seeds has "
+            f"{len(algos) * len(envs) * len(seeds)} runs; at most {MAX_CELLS} are allowed"
+        )
     grid = list(itertools.product(algos, envs, seeds))
-    cpus = {}
+    configs = {  # the seed changes nothing else of a run's configuration
+        (a, e): resolve_config(e, a, timesteps, None, seeds[0], overrides=overrides)
+        for a in algos
+        for e in envs
+    }
+    cpus = {key: config.n_envs for key, config in configs.items()}  # a CPU per env process
     for a, e, s in grid:
-        config = resolve_config(e, a, timesteps, None, s, overrides=overrides)
-        cpus[(a, e)] = config.n_envs  # a trial reserves a CPU per env process
         run_dir = out / "runs" / _run_name(a, e, s)
-        if not resume and (run_dir / "config.json").exists():
+        if not (run_dir / "config.json").exists():
+            continue
+        if not resume:
             raise FileExistsError(
                 f"{str(run_dir)!r} already holds a run; give the sweep a new directory"
             )
+        if not (run_dir / CELL_FILE).exists():  # a cell to continue: the same settings
+            _check_same_run(run_dir, dc.replace(configs[(a, e)], seed=s))
     if address is not None and address.startswith("ray://"):
         raise ValueError(
             f"address={address!r} is a Ray Client address, which is not supported: start the "
@@ -501,6 +556,19 @@ def check_sweep(
             "num_cpus (--num-cpus) gives" if num_cpus is not None else "this machine has",
         )
     return grid, cpus
+
+
+def _check_same_run(run_dir: Path, config) -> None:
+    """A cell's run (started) continues only with the settings it started with (as `train`
+    checks, but before Ray starts: an edited sweep_config.json is refused at once)."""
+    saved = read_run_config(run_dir / "config.json")
+    differences = config_differences(saved.comparable(), config.comparable())
+    if differences:
+        raise ValueError(
+            f"the sweep's configuration no longer matches its run {str(run_dir)!r}: "
+            + "; ".join(differences)
+            + " (was sweep_config.json edited? put it back, or start a new sweep)"
+        )
 
 
 def _headline(row: dict) -> str:

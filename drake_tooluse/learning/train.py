@@ -46,6 +46,7 @@ import dataclasses
 import io
 import json
 import shutil
+import signal
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -99,16 +100,33 @@ from drake_tooluse.learning.task_envs import env_spaces, episode_metrics
 from drake_tooluse.validation import check_int, check_seed
 
 
-def _make_env(env_id: str, env_kwargs: dict):
+def _make_env(env_id: str, env_kwargs: dict, worker: bool = False):
     def thunk():
+        if worker:  # (the thunk runs in a SubprocVecEnv's env process)
+            # Ctrl-C reaches the whole process group: the training process stops the run and
+            # then closes its env processes, which must still be there to answer it.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
         # "module:id": a fresh worker process imports the package and its registrations.
         return gym.make(f"drake_tooluse:{env_id}", **env_kwargs)
 
     return thunk
 
 
+def close_envs(venv) -> None:
+    """Closes a vectorized env, its env processes joined. Where they are gone already (killed,
+    crashed), SubprocVecEnv's close fails on their pipes: that error is not raised in place of
+    the one that ended the run, and the processes left are terminated."""
+    try:
+        venv.close()
+    except (EOFError, BrokenPipeError, ConnectionResetError):
+        for process in getattr(venv, "processes", []):
+            if process.is_alive():
+                process.terminate()
+            process.join(timeout=5)
+
+
 def make_vec_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict):
-    fns = [_make_env(env_id, env_kwargs) for _ in range(n_envs)]
+    fns = [_make_env(env_id, env_kwargs, worker=n_envs > 1) for _ in range(n_envs)]
     vec = SubprocVecEnv(fns) if n_envs > 1 else DummyVecEnv(fns)
     vec.seed(seed)
     # Each finished episode's success and the task's headline figure (the push task: the
@@ -321,9 +339,9 @@ def _open_run(out: Path, config: TrainConfig, resume: bool, command: str):
 def _make_envs(config: TrainConfig, env_kwargs: dict, normalize: bool, stack):
     """The training and the evaluation envs (closed by `stack`)."""
     venv = make_vec_env(config.env_id, config.n_envs, config.seed, env_kwargs)
-    stack.callback(venv.close)
+    stack.callback(close_envs, venv)
     eval_env = make_vec_env(config.env_id, 1, config.seed + 10_000, env_kwargs)
-    stack.callback(eval_env.close)
+    stack.callback(close_envs, eval_env)
     if normalize:
         gamma = float(config.hyperparams.get("gamma", 0.99))
         venv = VecNormalize(venv, norm_obs=True, norm_reward=True, gamma=gamma)

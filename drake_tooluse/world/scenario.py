@@ -19,10 +19,12 @@ import typing
 from pathlib import Path
 
 from pydrake.common.yaml import yaml_load_typed
-from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.files import read_yaml
-from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED
+from drake_tooluse.paths import BAXTER_URL
+from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED, Q_LOWER, Q_UPPER
 from drake_tooluse.robot.tool import (
     HOOK_ANGLE_RANGE,
     HOOK_HANDLE_RANGE,
@@ -32,16 +34,43 @@ from drake_tooluse.robot.tool import (
     check_tool_length,
 )
 from drake_tooluse.validation import (
+    check_bool,
     check_finite_vector,
     check_in_range,
     check_one_of,
     check_positive,
+    refused_by_library,
+    shown,
 )
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS  # noqa: F401  (part of the schema's API)
 
 TOOL_RADIUS_RANGE = (0.002, 0.0125)  # the closed fingers leave 12.5 mm either side (m)
 CONTACT_MODELS = ("point", "hydroelastic_with_fallback")
 MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
+# Every position in W (the box, the goal, the table's centre, the home tip) lies within this
+# of the robot's base per coordinate (m): Baxter reaches about 1.3 m with its tool.
+WORKSPACE = 2.0
+# Drake's MultibodyPlantConfig, each field's allowed values: its own preconditions (strictly
+# positive penetration allowance and stiction tolerance, a non-negative near-rigid threshold)
+# bounded by what this world can use: (low, high, unit, low allowed).
+PLANT_RANGES = {
+    # Discrete (the in-plant PD needs it) and stable up to 20 ms.
+    "time_step": (1e-4, 0.02, "s", True),
+    # Drake's default is 1 mm; past 1 cm the 4 cm box sinks visibly into the table.
+    "penetration_allowance": (0.0, 0.01, "m", False),
+    "stiction_tolerance": (0.0, 0.1, "m/s", False),  # Drake's default 1e-4 m/s
+    # Drake: "non-negative, typically in [0, 1], though larger values are allowed".
+    "sap_near_rigid_threshold": (0.0, 10.0, "", True),
+}
+PLANT_CHOICES = {
+    "contact_model": CONTACT_MODELS,
+    # The in-plant PD controllers of the arm need a discrete plant solved with SAP.
+    "discrete_contact_approximation": ("sap",),
+    "contact_surface_representation": ("triangle", "polygon"),
+}
+PLANT_FLAGS = ("use_sampled_output_ports", "adjacent_bodies_collision_filters")
+# The models this project ships: "package://drake_tooluse/".
+PACKAGE_URL = BAXTER_URL[: BAXTER_URL.index("/", len("package://")) + 1]
 
 
 @dc.dataclass
@@ -237,21 +266,17 @@ def validate_scenario(s: Scenario) -> Scenario:
         check_in_range(v, 0.01, 0.30, f"box.size[{i}]", unit="m")
     check_in_range(s.box.mass, 0.01, 10.0, "box.mass", unit="kg")
     check_in_range(s.box.friction, 0.0, 2.0, "box.friction")
-    check_finite_vector(s.box.position, 3, "box.position")
+    box = check_position(s.box.position, 3, "box.position")
     check_in_range(s.box.yaw, -math.pi, math.pi, "box.yaw", unit="rad")
-    check_finite_vector(s.goal_offset, 3, "goal_offset")
+    goal = check_finite_vector(s.goal_offset, 3, "goal_offset")
+    check_position(box + goal, 3, "the goal (box.position + goal_offset)")
     check_in_range(s.table.top_z, -1.0, 0.5, "table.top_z", unit="m")
-    check_finite_vector(s.table.center_xy, 2, "table.center_xy")
+    check_position(s.table.center_xy, 2, "table.center_xy")
     for i, v in enumerate(check_finite_vector(s.table.size_xy, 2, "table.size_xy")):
         check_in_range(v, 0.1, 3.0, f"table.size_xy[{i}]", unit="m")
     check_in_range(s.table.thickness, 0.005, 0.5, "table.thickness", unit="m")
     check_in_range(s.table.friction, 0.0, 2.0, "table.friction")
-    check_in_range(s.plant.time_step, 1e-4, 0.02, "plant.time_step", unit="s")
-    check_one_of(s.plant.contact_model, CONTACT_MODELS, "plant.contact_model")
-    # The in-plant PD controllers of the arm need a discrete plant solved with SAP.
-    check_one_of(
-        s.plant.discrete_contact_approximation, ("sap",), "plant.discrete_contact_approximation"
-    )
+    check_plant(s.plant)
     for name in ("kp", "kd"):
         gains = check_finite_vector(getattr(s.control, name), 7, f"control.{name}")
         for i, g in enumerate(gains):
@@ -266,10 +291,12 @@ def validate_scenario(s: Scenario) -> Scenario:
             f"control.actuation_delay={delay} s must be a multiple of "
             f"plant.time_step={s.plant.time_step} s"
         )
-    check_finite_vector(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
+    check_position(s.robot.home_tip_xy, 2, "robot.home_tip_xy")
     check_in_range(s.robot.home_tip_height, 0.0, 0.5, "robot.home_tip_height", unit="m")
-    check_finite_vector(s.robot.posture_seed, 7, "robot.posture_seed")
-    check_finite_vector(s.robot.left_arm_q, 7, "robot.left_arm_q")
+    for name in ("posture_seed", "left_arm_q"):  # in Baxter's joint limits
+        q = check_finite_vector(getattr(s.robot, name), 7, f"robot.{name}")
+        for i, (v, lo, hi) in enumerate(zip(q, Q_LOWER, Q_UPPER)):
+            check_in_range(v, lo, hi, f"robot.{name}[{i}]", unit="rad")
     r = s.randomization
     check_in_range(r.box_xy, 0.0, 0.10, "randomization.box_xy", unit="m")
     check_in_range(r.box_yaw, 0.0, math.pi, "randomization.box_yaw", unit="rad")
@@ -333,20 +360,59 @@ def validate_scenario(s: Scenario) -> Scenario:
     return s
 
 
+def check_position(values, size: int, name: str):
+    """A position in W: `size` finite coordinates, each within `WORKSPACE` m of the base."""
+    p = check_finite_vector(values, size, name)
+    for i, v in enumerate(p):
+        check_in_range(v, -WORKSPACE, WORKSPACE, f"{name}[{i}]", unit="m")
+    return p
+
+
+def check_plant(plant: MultibodyPlantConfig) -> MultibodyPlantConfig:
+    """Every field of Drake's MultibodyPlantConfig in its range (`PLANT_RANGES`, `PLANT_CHOICES`,
+    `PLANT_FLAGS`), then Drake's own preconditions, met by a plant made with it (0.1 ms; they
+    cover a field a newer Drake adds): a value Drake refuses is a ValueError naming the
+    plant's settings, never Drake's abort."""
+    for name, (lo, hi, unit, low_allowed) in PLANT_RANGES.items():
+        check_in_range(getattr(plant, name), lo, hi, f"plant.{name}", unit, low_allowed)
+    for name, allowed in PLANT_CHOICES.items():
+        check_one_of(getattr(plant, name), allowed, f"plant.{name}")
+    for name in PLANT_FLAGS:
+        check_bool(getattr(plant, name), f"plant.{name}")
+    settings = ", ".join(f"{f.name}={shown(getattr(plant, f.name))}" for f in plant.__fields__)
+    with refused_by_library(f"plant settings ({settings})"):
+        AddMultibodyPlant(plant, DiagramBuilder())
+    return plant
+
+
 def check_noise_sigma(sigma, name: str = "noise sigma") -> float:
     """The camera's colour noise: a standard deviation in [0, 50] grey levels."""
     return check_in_range(sigma, 0.0, MAX_NOISE_SIGMA, name, unit="grey levels")
 
 
-def load_scenario(filename) -> Scenario:
-    """Loads and validates a scenario YAML file, on top of its `base` file if it names one."""
-    return validate_scenario(_load_layers(Path(filename), ()))
+def load_scenario(filename, within=()) -> Scenario:
+    """Loads and validates a scenario YAML file, on top of its `base` file if it names one.
+    With `within` (folders), every file the scenario reads — itself, each base, its tool
+    model — must lie inside one of them (symbolic links followed), and a tool model's
+    `package://` URL must be this package's: a scenario from elsewhere (a policy directory)
+    reads nothing outside the folders it is given."""
+    roots = tuple(Path(r).resolve() for r in within)
+    return validate_scenario(_load_layers(Path(filename), (), roots))
 
 
-def _load_layers(path: Path, seen: tuple) -> Scenario:
+def _check_inside(path: Path, roots: tuple, name: str) -> None:
+    if roots and not any(path.resolve().is_relative_to(r) for r in roots):
+        raise ValueError(
+            f"{name} {str(path)!r} is outside {' and '.join(repr(str(r)) for r in roots)}, "
+            "the folders this scenario may read from"
+        )
+
+
+def _load_layers(path: Path, seen: tuple, roots: tuple = ()) -> Scenario:
     if path.resolve() in seen:
         chain = " -> ".join(str(p) for p in (*seen, path.resolve()))
         raise ValueError(f"scenario bases form a cycle: {chain}")
+    _check_inside(path, roots, f"the scenario {'base ' if seen else ''}file")
     raw = read_yaml(path, "scenario file")  # size-limited, duplicate keys refused
     if raw is not None and not isinstance(raw, dict):
         raise ValueError(
@@ -356,7 +422,9 @@ def _load_layers(path: Path, seen: tuple) -> Scenario:
     _check_types(raw or {}, Scenario, "", path)
     base_name = (raw or {}).get("base") or ""
     defaults = (
-        _load_layers(path.parent / base_name, (*seen, path.resolve())) if base_name else Scenario()
+        _load_layers(path.parent / base_name, (*seen, path.resolve()), roots)
+        if base_name
+        else Scenario()
     )
     try:
         scenario = yaml_load_typed(schema=Scenario, filename=str(path), defaults=defaults)
@@ -366,6 +434,12 @@ def _load_layers(path: Path, seen: tuple) -> Scenario:
     model = ((raw or {}).get("tool") or {}).get("model")
     if model and not str(model).startswith("package://"):  # relative to the file naming it
         scenario.tool.model = str((path.parent / model).resolve())
+        _check_inside(Path(scenario.tool.model), roots, f"{str(path)!r}: tool.model")
+    elif model and roots and not str(model).startswith(PACKAGE_URL):
+        raise ValueError(
+            f"{str(path)!r}: tool.model={shown(model)} may only name this package's models "
+            f"({PACKAGE_URL}...)"
+        )
     return scenario
 
 
@@ -406,7 +480,7 @@ def _check_types(raw: dict, schema, where: str, path: Path) -> None:
             expected = _kind(t)
         if expected is not None:
             raise ValueError(
-                f"invalid scenario {str(path)!r}: {name}={value!r} must be {expected}"[:400]
+                f"invalid scenario {str(path)!r}: {name}={shown(value)} must be {expected}"
             )
 
 
@@ -415,8 +489,12 @@ def _is(value, t) -> bool:
     Python's number parsers, and takes a float for an int when it is whole)."""
     if isinstance(value, bool):
         return t is bool
-    if t is float:
-        return isinstance(value, (int, float)) or (isinstance(value, str) and _parses(float, value))
+    if t is float:  # (an integer past 1.8e308 is no float)
+        return (
+            isinstance(value, float)
+            or (isinstance(value, int) and value.bit_length() <= 1023)
+            or (isinstance(value, str) and _parses(float, value))
+        )
     if t is int:
         return (
             isinstance(value, int)

@@ -27,11 +27,10 @@ ZOO_FLAGS = {
 
 
 def _train_default_timesteps() -> int:
-    from drake_tooluse.cli import make_parser
+    """`train --timesteps`' default for a new run."""
+    from drake_tooluse.cli.learning import DEFAULT_TIMESTEPS
 
-    sub = next(a for a in make_parser()._actions if isinstance(a, argparse._SubParsersAction))
-    (action,) = [a for a in sub.choices["train"]._actions if a.dest == "timesteps"]
-    return action.default
+    return DEFAULT_TIMESTEPS
 
 
 def _expected(env_id: str) -> dict:

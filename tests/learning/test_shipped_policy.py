@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from drake_tooluse import compat
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import load_policy
 
@@ -55,16 +56,33 @@ def _protocol(metrics) -> dict:
     return {} if metrics.get("to_time_limit") else {"end_at_success": True}
 
 
+def _evaluated_with_drake(name) -> str:
+    """The Drake release a shipped evaluation ran on: metrics.json's `evaluated_with_drake`
+    (benchmarks/ship_policy.py records it); the policies shipped before it did ran on 1.51.1."""
+    shipped = json.loads((POLICIES / name / "metrics.json").read_text())
+    return shipped.get("evaluated_with_drake", "1.51.1")
+
+
+# On another Drake release the episodes come out slightly differently. Measured with Drake
+# 1.58.0 against the shipped evaluations (100 episodes each): 9, 13 and 17 episodes differ, by
+# up to 3.9 mm at the end; the means moved by at most 0.08 mm; one success of 100 flipped.
+# There the checks compare within these tolerances:
+OTHER_DRAKE_EPISODE_M = 0.005  # one episode's final box-to-goal distance
+OTHER_DRAKE_MEAN_M = 0.0005  # the mean of that over the 100 episodes
+OTHER_DRAKE_SUCCESS_RATE = 0.03  # the success rate over the 100 episodes
+
+
 @pytest.mark.parametrize("name", SHIPPED)
 def test_evaluate_reproduces_the_first_shipped_episodes(name):
     metrics = _metrics(name)
+    exact = compat.reproduces_exactly(_evaluated_with_drake(name))
     result = evaluate(
         POLICIES / name, episodes=3, seed=metrics["seed"], env_kwargs=_protocol(metrics)
     )
     for ours, shipped in zip(result.per_episode, metrics["per_episode"][:3]):
         assert ours["seed"] == shipped["seed"] and ours["success"] == shipped["success"]
         assert ours["final_box_to_goal_m"] == pytest.approx(
-            shipped["final_box_to_goal_m"], abs=1e-6
+            shipped["final_box_to_goal_m"], abs=1e-6 if exact else OTHER_DRAKE_EPISODE_M
         )
 
 
@@ -78,6 +96,14 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
         seed=metrics["seed"],
         env_kwargs=_protocol(metrics),
     )
+    if not compat.reproduces_exactly(_evaluated_with_drake(name)):
+        assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
+            metrics["final_box_to_goal_mean_m"], abs=OTHER_DRAKE_MEAN_M
+        )
+        assert result.success_rate == pytest.approx(
+            metrics["success_rate"], abs=OTHER_DRAKE_SUCCESS_RATE
+        )
+        return
     assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
         metrics["final_box_to_goal_mean_m"], abs=1e-6
     )

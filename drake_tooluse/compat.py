@@ -1,0 +1,79 @@
+"""What differs between the Drake releases the project supports: 1.51.1 (the last one for
+Python 3.11) up to the newest (Python 3.12+). Everything that depends on the Drake release goes
+through this module.
+
+Checked on Drake 1.58.0 (Python 3.13, `.ci/py313_check.sh`): the Drake names the project calls
+are all still there (it already uses the 1.54 names `SetDefaultFloatingBaseBodyPose` and
+`is_floating_base_body`; `SetFreeBodyPose` stayed). What differs:
+
+- the bindings: pybind11 up to 1.57, nanobind from 1.58 (`BINDINGS`). A Python system's
+  overrides are looked up differently (`NO_WITNESS_FUNCTIONS`);
+- block diagrams: 1.56 added the plant ports `surface_speeds` (input) and
+  `surface_displacements` (output), so a diagram's Graphviz text changes with the release;
+- simulated episodes: on 1.58 the shipped policies' evaluations differ slightly (9–17 of 100
+  episodes, by up to 3.9 mm at the end).
+
+So files that record what Drake computed (the committed block diagrams, the shipped policies'
+metrics) record the release that made them, and are reproduced exactly only on that release
+(`reproduces_exactly`); elsewhere their checks compare what the project owns within stated
+tolerances.
+"""
+
+from __future__ import annotations
+
+import re
+from importlib.metadata import PackageNotFoundError, version
+
+from pydrake.systems.framework import LeafSystem
+
+__all__ = [
+    "BINDINGS",
+    "DRAKE_VERSION",
+    "NO_WITNESS_FUNCTIONS",
+    "drake_version",
+    "reproduces_exactly",
+]
+
+
+def _installed_drake() -> str:
+    try:
+        return version("drake")
+    except PackageNotFoundError:  # a Drake built from source or unpacked from a tarball
+        return "unknown"
+
+
+# The installed Drake release, as pip names it ("1.51.1"), or "unknown".
+DRAKE_VERSION: str = _installed_drake()
+
+
+def drake_version(text: str = DRAKE_VERSION) -> tuple[int, ...]:
+    """A release as numbers, for ordering: "1.58.0" -> (1, 58, 0); () for an unknown one."""
+    match = re.match(r"\d+(?:\.\d+)*", text)
+    return tuple(int(p) for p in match.group(0).split(".")) if match else ()
+
+
+def reproduces_exactly(recorded: str | None) -> bool:
+    """Whether a result recorded with Drake `recorded` must come out bit for bit (to rounding)
+    on the installed Drake: only on that same release. Another release may move simulated
+    episodes by millimetres and draws other plant ports."""
+    return recorded is not None and recorded != "unknown" and recorded == DRAKE_VERSION
+
+
+# How pydrake is bound to C++: "pybind11" (up to Drake 1.57) or "nanobind" (from 1.58).
+BINDINGS: str = "nanobind" if type(LeafSystem).__module__ == "nanobind" else "pybind11"
+
+
+def _no_witness_functions(self, context) -> list:
+    """Drake's default for a system: no witness functions."""
+    return []
+
+
+# For a Python LeafSystem's class body, `DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS`: the
+# simulator asks every system for its witness functions whenever the state changes, and this
+# makes the answer "none" cheap (systems/tool_tip_ik.py says why). pybind11 takes a C++ function
+# under the name for "not overridden" (it remembers that per class) and runs Drake's default;
+# nanobind calls whatever is there with the context (a C++ function fails), so there it is a
+# Python function giving no witness functions (on 1.58 as fast as having none: ~1 µs a step).
+NO_WITNESS_FUNCTIONS = (
+    LeafSystem.MakeWitnessFunction if BINDINGS == "pybind11" else _no_witness_functions
+)

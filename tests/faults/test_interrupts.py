@@ -1,0 +1,141 @@
+"""Interrupts and a full disk: Ctrl-C to `train`'s process group (its env processes included)
+is exit 130 with one line, never a bug's EOFError; Ctrl-C to `sweep` is exit 130 with the
+command that resumes it, and the cell that was training is listed `interrupted`, not
+`pending`; the benchmark scripts end on Ctrl-C with one line; a disk that fills under `train`
+is exit 2 naming the file (the slow ones run in .ci/run)."""
+
+import ast
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from drake_tooluse.cli.common import EXIT_INTERRUPTED, run_script
+from drake_tooluse.learning.checkpoint import latest_checkpoint
+from tests.faults.common import TINY
+
+ROOT = Path(__file__).resolve().parents[2]
+CLI = [sys.executable, "-m", "drake_tooluse.cli"]
+ENV = {**os.environ, "PYTHONUNBUFFERED": "1"}
+
+
+def _start(argv, **kwargs):
+    return subprocess.Popen(
+        [*CLI, *map(str, argv)],
+        env=ENV,
+        start_new_session=True,  # its own process group, as a terminal's Ctrl-C reaches it
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
+
+
+def _wait_for(path: Path, proc, timeout_s=300):
+    deadline = time.monotonic() + timeout_s
+    while not path.is_file():
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, f"timed out waiting for {path}"
+        time.sleep(0.1)
+
+
+def _interrupt(proc, timeout_s=120):
+    """Ctrl-C as a terminal sends it: SIGINT to the whole process group."""
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        out, err = proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        raise
+    return proc.returncode, out, err
+
+
+@pytest.mark.slow  # ~1.5 min: three training runs interrupted
+@pytest.mark.parametrize("delay_s", [0.0, 0.7, 1.9])
+def test_ctrl_c_to_train_s_process_group_is_exit_130(tmp_path, delay_s):
+    out = tmp_path / "run"
+    hp = json.dumps({**TINY, "eval_freq": 10_000_000})
+    proc = _start(
+        ["train", "--out", out, "--n-envs", "2", "--timesteps", "100000", "--no-progress"]
+        + ["--hyperparams", hp]
+    )
+    _wait_for(out / "checkpoints" / "latest.json", proc)
+    time.sleep(delay_s)  # at another moment of the rollout each time
+    code, _, err = _interrupt(proc)
+    assert code == EXIT_INTERRUPTED, err
+    assert err.strip().splitlines()[-1] == "drake-tooluse train: error: interrupted", err
+    assert "Traceback" not in err and "EOFError" not in err and "internal error" not in err
+    assert latest_checkpoint(out) is not None  # a resume starts from it
+
+
+@pytest.mark.slow  # ~1 min: a Ray sweep interrupted
+def test_ctrl_c_to_a_sweep_is_exit_130_and_lists_the_cell_as_interrupted(tmp_path):
+    pytest.importorskip("ray.tune")
+    out = tmp_path / "sweep"
+    hp = json.dumps({**TINY, "n_envs": 1, "eval_freq": 10_000_000})
+    proc = _start(
+        ["sweep", "--timesteps", "100000", "--out", out, "--num-cpus", "2", "--episodes", "1"]
+        + ["--hyperparams", hp]
+    )
+    cell = out / "runs" / "ppo_ToolPush-v0_s0"
+    _wait_for(cell / "checkpoints" / "latest.json", proc)
+    code, _, err = _interrupt(proc)
+    assert code == EXIT_INTERRUPTED, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("drake-tooluse sweep: error: interrupted: the sweep in"), err
+    assert f"drake-tooluse sweep --resume {out}" in last
+    (row,) = json.loads((out / "sweep.json").read_text())
+    assert row["status"] == "interrupted"
+    assert "Traceback" not in err
+
+
+BENCHMARKS = sorted(
+    p
+    for p in (ROOT / "benchmarks").glob("*.py")
+    if p.name not in ("env_throughput.py", "behaviour_snapshot.py")
+)
+
+
+@pytest.mark.parametrize("script", BENCHMARKS, ids=lambda p: p.name)
+def test_a_benchmark_script_ends_on_ctrl_c_with_one_line(script):
+    """Each script's entry point runs its main through `run_script`."""
+    tree = ast.parse(script.read_text())
+    (block,) = [n for n in tree.body if isinstance(n, ast.If) and "__main__" in ast.unparse(n.test)]
+    assert ast.unparse(block.body[0]) == "sys.exit(run_script(main))", script
+
+
+def test_run_script_turns_ctrl_c_into_one_line_and_130(capsys):
+    def interrupted():
+        raise KeyboardInterrupt
+
+    assert run_script(interrupted) == EXIT_INTERRUPTED
+    assert capsys.readouterr().err.strip().endswith(": interrupted")
+    assert run_script(lambda: None) == 0 and run_script(lambda: 3) == 3
+
+
+@pytest.mark.slow  # ~30 s: a training run on a disk that fills
+def test_a_full_disk_under_train_is_exit_2_naming_the_file(tmp_path):
+    if os.geteuid() != 0 or shutil.which("unshare") is None:
+        pytest.skip("needs root and unshare(1) to mount a small file system")
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    hp = json.dumps({**TINY, "eval_freq": 10_000_000})
+    train = [*CLI, "train", "--out", str(disk / "run"), "--n-envs", "1", "--timesteps", "384"]
+    train += ["--no-progress", "--hyperparams", hp]
+    script = f"mount -t tmpfs -o size=600k tmpfs {disk} && exec {' '.join(map(repr, train))}"
+    probe = subprocess.run(["unshare", "-m", "true"], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"unshare -m is not permitted here: {probe.stderr.decode().strip()}")
+    done = subprocess.run(
+        ["unshare", "-m", "sh", "-c", script], env=ENV, capture_output=True, text=True
+    )
+    assert done.returncode == 2, done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert "No space left on device" in last and str(disk / "run") in last, done.stderr
+    assert "internal error" not in done.stderr
