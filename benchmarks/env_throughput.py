@@ -64,20 +64,81 @@ class _Timer:
 
 
 def breakdown(steps: int) -> dict:
-    """Per-step time of each part, in ms: the IK (its solve), tip target, observation, metrics
-    (reward/info), and the rest (plant, Drake framework, the env's step, random actions)."""
+    """Per-step time of each part, in ms, with the timers on: the tip target, the IK (its
+    solve), the observation, the metrics (reward, info); the world alone on the same joint
+    commands (`world_on_commands_ms`); and the rest: Drake's framework around the Python
+    systems (events, ports), the IK system's update beyond the solve, the env's step and
+    checks, resets, the random actions."""
     env = gym.make("drake_tooluse/ToolPush-v0")
     u = env.unwrapped
     timers = {
         "tip target": _Timer(u.target_system, "_target"),
-        "observation": _Timer(u.observation_system, "observation"),
-        "metrics (reward, info)": _Timer(u, "_read_metrics"),
         "IK (solve)": _Timer(u.ik_system.ik, "solve"),
+        "observation": _Timer(u.observation_system, "finite_observation"),
+        "metrics (reward, info)": _Timer(u, "_read_metrics"),
     }
     total = run_random(env, steps)
     parts = {name: t.total / steps * 1e3 for name, t in timers.items()}
-    parts["plant, framework, rest"] = total * 1e3 - sum(parts.values())
+    parts["world alone, same joint commands"] = world_on_commands_ms(joint_commands(steps))
+    parts["framework, env step, rest"] = total * 1e3 - sum(parts.values())
     return parts
+
+
+def joint_commands(steps: int) -> list:
+    """The IK's joint command [q*, 0] after each step of `run_random(env, steps)` (the same
+    seed, so the same steps), one list per episode."""
+    env = gym.make("drake_tooluse/ToolPush-v0")
+    u = env.unwrapped
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    port = u.ik_system.GetOutputPort("desired_state")
+    episodes = [[]]
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        ik_context = u.ik_system.GetMyContextFromRoot(u.simulator.get_context())
+        episodes[-1].append(port.Eval(ik_context).copy())
+        if terminated or truncated:
+            env.reset()
+            episodes.append([])
+    env.close()
+    return [e for e in episodes if e]
+
+
+def world_on_commands_ms(episodes: list) -> float:
+    """One 40 ms control period of the world alone (its plant and scene graph, no Python
+    system), each episode started as the env starts it and driven by the env's joint
+    commands, in ms. (The command reaches the plant one 20 ms plant step sooner than the
+    IK's update gives it in the env: the motion is the env's to within that.)"""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_tooluse.builders.control import add_world_at_home
+    from drake_tooluse.world.scenario import Scenario
+    from drake_tooluse.world.scene import set_randomized_state
+
+    s = Scenario()
+    builder = DiagramBuilder()
+    world, _, _ = add_world_at_home(builder, s)
+    builder.ExportInput(world.plant.get_desired_state_input_port(world.baxter), "command")
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    period, total, steps = s.control.control_period, 0.0, 0
+    for commands in episodes:
+        context.SetTime(0.0)
+        diagram.SetDefaultContext(context)
+        set_randomized_state(world, context, s)
+        fixed = diagram.get_input_port().FixValue(context, commands[0])
+        command = fixed.GetMutableData().get_mutable_value()
+        simulator.Initialize()
+        start = time.perf_counter()
+        for q in commands:
+            fixed.GetMutableData()
+            command.SetFromVector(q)
+            simulator.AdvanceTo(context.get_time() + period)
+        total += time.perf_counter() - start
+        steps += len(commands)
+    return total / steps * 1e3
 
 
 def plant_only_ms(steps: int = 500) -> float:
@@ -161,8 +222,8 @@ def main() -> None:
     plant = plant_only_ms()
     parts = breakdown(max(args.steps // 2, 200))
     print(
-        f"\nWhere a step's time goes (ms per step, action_mode=paper, timers on; the world "
-        f"alone: {plant:.3f} ms per 40 ms control period):\n"
+        f"\nWhere a step's time goes (ms per step, action_mode=position_quaternion, timers on; "
+        f"the world alone, constant joint targets: {plant:.3f} ms per 40 ms control period):\n"
     )
     print("| part | ms per step |")
     print("| --- | --- |")

@@ -58,10 +58,7 @@ class TipControl:
 
     def ik_ok(self, root_context) -> bool:
         """Whether the IK's last solve succeeded (it holds its last answer where not)."""
-        status = self.ik_system.GetOutputPort("status").Eval(
-            self.ik_system.GetMyContextFromRoot(root_context)
-        )
-        return bool(status[0] > 0.5)
+        return self.ik_system.ok(self.ik_system.GetMyContextFromRoot(root_context))
 
 
 def nominal_belief(scenario) -> RobotBelief:

@@ -17,13 +17,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis, Quaternion
 from pydrake.math import RotationMatrix
 from pydrake.systems.framework import LeafSystem
 
-from drake_tooluse.robot.kinematics import ArmChain
+from drake_tooluse.robot.kinematics import ArmChain, fk_jacobian
 from drake_tooluse.systems.lifetime import weak_method
+from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.validation import all_finite
 
 ACTION_MODES = {"position_quaternion": 7, "pose": 6, "position": 3}
@@ -52,7 +54,9 @@ def check_action(action, mode: str) -> np.ndarray:
     size = ACTION_MODES[mode]
     if a.size != size:
         raise ValueError(f"action has {a.size} values; action_mode={mode!r} needs {size}")
-    if not all_finite(a):
+    # A finite dot product proves every value finite in one C call (`all_finite`'s sum goes
+    # through numpy's Python code); only where it is not does `all_finite` decide.
+    if not (math.isfinite(a.dot(a)) or all_finite(a)):
         raise ValueError(
             f"action {a.tolist()} holds NaN or infinite values; actions must be "
             "finite (they are clipped to [-1, 1])"
@@ -64,14 +68,18 @@ def apply_action(
     target: np.ndarray, action: np.ndarray, mode: str, workspace: Workspace
 ) -> np.ndarray:
     """The tool-tip target [p (3), quaternion wxyz (4)] moved by a (clipped) action."""
+    return np.concatenate(_moved(target[:3], target[3:], action, mode, workspace))
+
+
+def _moved(p, quat, action, mode: str, workspace: Workspace) -> tuple:
+    """`apply_action` of the target's position p and quaternion: (p, quaternion) moved."""
     p = np.minimum(
-        np.maximum(target[:3] + MAX_TRANSLATION_STEP * action[:3], workspace.lower), workspace.upper
+        np.maximum(p + MAX_TRANSLATION_STEP * action[:3], workspace.lower), workspace.upper
     )
-    quat = target[3:]
     if mode == "position_quaternion":
-        quat = quat + MAX_QUATERNION_STEP * action[3:7]
-        norm = math.sqrt(quat.dot(quat))  # np.linalg.norm's own arithmetic, without its dispatch
-        quat = quat / norm if norm > 1e-6 else target[3:]
+        moved = quat + MAX_QUATERNION_STEP * action[3:7]
+        norm = math.sqrt(moved.dot(moved))  # np.linalg.norm's own arithmetic, without its dispatch
+        quat = moved / norm if norm > 1e-6 else quat
     elif mode == "pose":
         rotvec = MAX_ROTATION_STEP * action[3:6]
         angle = float(np.linalg.norm(rotvec))
@@ -79,7 +87,28 @@ def apply_action(
             dq = Quaternion(AngleAxis(angle, rotvec / angle).rotation())
             quat = (dq.multiply(Quaternion(quat))).wxyz()
             quat = quat / np.linalg.norm(quat)
-    return np.concatenate([p, quat])
+    return p, quat
+
+
+@numba.njit(cache=True)
+def _step(p, quat, action, lower, upper, moves_quaternion, p_out, quat_out) -> bool:
+    """`apply_action`'s arithmetic for the `position` and `position_quaternion` modes in one
+    compiled call (a dozen numpy calls on 3- and 4-vectors otherwise), with the same IEEE
+    operations in the same order, so the same bits: the action clipped to [-1, 1], p_out = p +
+    MAX_TRANSLATION_STEP a kept in [lower, upper] (NaN passes, as through numpy's clip), and
+    where `moves_quaternion`, quat_out = quat + MAX_QUATERNION_STEP a (not yet normalized:
+    numpy's dot does that, as in `apply_action`). False, with nothing written, where the
+    action is not finite."""
+    for i in range(action.shape[0]):
+        if not math.isfinite(action[i]):
+            return False
+    for i in range(3):
+        t = p[i] + MAX_TRANSLATION_STEP * min(max(action[i], -1.0), 1.0)
+        p_out[i] = t if t != t else min(max(t, lower[i]), upper[i])
+    if moves_quaternion:
+        for i in range(4):
+            quat_out[i] = quat[i] + MAX_QUATERNION_STEP * min(max(action[3 + i], -1.0), 1.0)
+    return True
 
 
 class TipTargetSystem(LeafSystem):
@@ -107,6 +136,8 @@ class TipTargetSystem(LeafSystem):
             the action (`position` mode holds the initial orientation instead).
     """
 
+    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
+
     def __init__(
         self, mode: str, chain: ArmChain, initial_target: np.ndarray, workspace: Workspace
     ):
@@ -114,23 +145,43 @@ class TipTargetSystem(LeafSystem):
         self._mode = mode
         self._workspace = workspace
         self._chain = chain
+        # The forward kinematics' outputs (R_WT, p_WT, J), reused: `ArmChain.pose` would
+        # allocate them at every call.
+        self._fk = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
         self._held_quaternion = np.asarray(initial_target, float)[3:]
         self._action = self.DeclareVectorInputPort("action", ACTION_MODES[mode])
         self._arm_state = self.DeclareVectorInputPort("arm_state", 14)
         self.DeclareVectorOutputPort("tip_pose_desired", 7, weak_method(self._calc_target))
 
     def _target(self, context) -> np.ndarray:
-        R_WT, p_WT = self._chain.pose(self._arm_state.Eval(context)[:7])
-        quat = (
-            self._held_quaternion
-            if self._mode == "position"
-            else RotationMatrix(R_WT).ToQuaternion().wxyz()
-        )
-        current = np.concatenate([p_WT, quat])
+        # `ArmChain.pose`, into this system's arrays (read, or copied, before the next call).
+        R_WT, p_WT, J = self._fk
+        q = self._arm_state.Eval(context)[:7]
+        fk_jacobian(self._chain.fixed, self._chain.axes, q, R_WT, p_WT, J)
+        if self._mode == "position":
+            quat = self._held_quaternion
+        else:  # MakeUnchecked: the constructor's rotation (it checks nothing in release builds)
+            quat = RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz()  # without its dispatch
         if not self._action.HasValue(context):
-            return current
-        action = check_action(self._action.Eval(context), self._mode)
-        return apply_action(current, action, self._mode, self._workspace)
+            return np.concatenate([p_WT, quat])
+        # The port holds its size of floats: what `check_action` checks beyond that is their
+        # finiteness (it raises, naming them), then the clip.
+        action = self._action.Eval(context)
+        if self._mode == "pose":
+            if not all_finite(action):
+                check_action(action, self._mode)
+            action = np.minimum(np.maximum(action, -1.0), 1.0)
+            return np.concatenate(_moved(p_WT, quat, action, self._mode, self._workspace))
+        # `apply_action` of [p_WT, quat], its arithmetic compiled (`_step`).
+        p, moved = np.empty(3), np.empty(4)
+        moves_quaternion = self._mode == "position_quaternion"
+        w = self._workspace
+        if not _step(p_WT, quat, action, w.lower, w.upper, moves_quaternion, p, moved):
+            check_action(action, self._mode)  # raises, naming the values
+        if moves_quaternion:
+            norm = math.sqrt(moved.dot(moved))  # as `apply_action` normalizes it
+            quat = moved / norm if norm > 1e-6 else quat
+        return np.concatenate((p, quat))
 
     def _calc_target(self, context, output):
         output.SetFromVector(self._target(context))

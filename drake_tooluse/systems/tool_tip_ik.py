@@ -5,8 +5,18 @@ from __future__ import annotations
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from drake_tooluse import compat
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.systems.lifetime import weak_method
+
+# A marker for Python systems (a class attribute: `DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS`).
+# The simulator asks every system for its witness functions each time the state changes (a
+# few times per control step); for a Python system pydrake's trampoline looks that name up on
+# the object, and without it the lookup fails every time (an AttributeError made and dropped,
+# then a look at the calling Python frame: microseconds each). A C++ function under the name is
+# what pybind11 takes for "not overridden": it remembers that once per class, and Drake's
+# default (no witness functions) runs.
+NO_WITNESS_FUNCTIONS = compat.NO_WITNESS_FUNCTIONS  # pybind11's marker; nanobind's in compat
 
 
 class ToolTipIKSystem(LeafSystem):
@@ -34,6 +44,8 @@ class ToolTipIKSystem(LeafSystem):
             its last valid solution and reports success 0 with the residual of the attempt.
     """
 
+    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
+
     def __init__(self, ik: ToolTipIK, q0, period: float):
         super().__init__()
         self._ik = ik
@@ -42,13 +54,16 @@ class ToolTipIKSystem(LeafSystem):
         # Two state groups, each its own output port: Drake copies them out with no Python call.
         self._desired = self.DeclareDiscreteState(np.concatenate([q0, np.zeros(7)]))
         self._status = self.DeclareDiscreteState(np.array([1.0, 0.0, 0.0, 0.0]))
+        self._desired_group, self._status_group = int(self._desired), int(self._status)
         # Callbacks through weak_method: a released diagram frees this system (lifetime.py).
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_method(self._update))
         self.DeclareVectorOutputPort(
             "q_desired", 7, weak_method(self._calc_q), prerequisites_of_calc={self.xd_ticket()}
         )
         self.DeclareStateOutputPort("desired_state", self._desired)
-        self.DeclareStateOutputPort("status", self._status)
+        # `ok` reads it (a cached copy of the state: cheaper in pydrake than
+        # `get_discrete_state(index).get_value()`).
+        self._status_port = self.DeclareStateOutputPort("status", self._status)
 
     @property
     def ik(self) -> ToolTipIK:
@@ -58,21 +73,26 @@ class ToolTipIKSystem(LeafSystem):
         """The joint targets of the last solve in `context` (this system's context)."""
         return context.get_discrete_state(self._desired).get_value()[:7].copy()
 
+    def ok(self, context) -> bool:
+        """Whether the last solve in `context` (this system's context) succeeded: the
+        `status` port's first value."""
+        return bool(self._status_port.Eval(context)[0] > 0.5)
+
     def _update(self, context, discrete_state):
-        q_last = context.get_discrete_state(self._desired).get_value()[:7]
-        failures = context.get_discrete_state(self._status).get_value()[3]
-        # [p, quaternion]: the solver checks it and normalizes the quaternion.
-        result = self._ik.solve(self._pose_port.Eval(context), q_seed=q_last)
-        status = discrete_state.get_mutable_vector(self._status)
-        if result.success:
-            discrete_state.get_mutable_vector(self._desired).SetFromVector(
-                np.concatenate([result.q, np.zeros(7)])
-            )
-            status.SetFromVector([1.0, result.position_error, result.orientation_error, 0.0])
+        # `discrete_state` starts as a copy of the state (Drake fills it before the update), so
+        # it holds the last solution too; `get_mutable_value(group)` is a view of a group,
+        # pydrake's cheapest way to read and write one.
+        desired = discrete_state.get_mutable_value(self._desired_group)
+        status = discrete_state.get_mutable_value(self._status_group)
+        # [p, quaternion]: the solver checks it and normalizes the quaternion. The seed, the
+        # last solution, is only read (the solver clips a copy of it).
+        result = self._ik.solve(self._pose_port.Eval(context), q_seed=desired[:7])
+        errors = result.position_error, result.orientation_error
+        if result.success:  # q* written; its velocities stay zeros (every write keeps them)
+            desired[:7] = result.q
+            status[:] = (1.0, *errors, 0.0)
         else:  # hold the last valid solution (the desired state is left as it was)
-            status.SetFromVector(
-                [0.0, result.position_error, result.orientation_error, failures + 1]
-            )
+            status[:] = (0.0, *errors, status[3] + 1)
 
     def _calc_q(self, context, output):
         output.SetFromVector(context.get_discrete_state(self._desired).get_value()[:7])

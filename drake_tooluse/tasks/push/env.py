@@ -37,7 +37,7 @@ from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.failures import advance, finite_state
+from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.builders.visualization import (
     add_meshcat_visualizer,
     save_recording,
@@ -52,6 +52,8 @@ from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
     REWARD_TYPES,
+    PushMetricsReader,
+    reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 from drake_tooluse.validation import (
@@ -256,8 +258,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             )
         self.diagram = builder.Build()
         self.diagram.set_name("tool_push_env")
-        self._metrics_port = task.outcome.GetOutputPort("metrics")
-        self._success_port = self.diagram.GetOutputPort("success")
+        # The step reads the task's metrics from the plant with the reader `task.outcome`
+        # uses, and forms the reward and success from them as its ports do (`_read_metrics`).
+        self._metrics_reader = PushMetricsReader(self.world)
         self._simulator = Simulator(self.diagram)
 
     def _next_tool(self, generator) -> Simulator:
@@ -274,6 +277,11 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
 
     # -- Gymnasium API --------------------------------------------------------------------
     def _reset_handler(self, simulator, context, seed) -> None:
+        # What each step reads, looked up once per episode (the simulator may be new).
+        self._context = context
+        self._plant_context = self.world.plant.GetMyContextFromRoot(context)
+        self._ik_context = self.ik_system.GetMyContextFromRoot(context)
+        self._action_value = None  # the action input's fixed value, made by the first step
         s = self.scenario
         if self.config.randomize:
             s = apply_draw(s, draw_randomization(s, self.np_random))
@@ -303,16 +311,18 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             seed = check_seed(seed, "seed")
         observation, info = super().reset(seed=seed)
         observation = np.asarray(observation, np.float32)
-        self._last_reward = self._reward()
+        self._last_reward = reward(self._last[1], self.config.reward_type)
         return observation, info
 
     def step(self, action):
         """DrakeGymEnv's step, but for three things it cannot do: it would evaluate the
         observation before advancing too (a second evaluation each step, for its failure
         path), it keeps no last finite state (NaN would reach the learner), and it checks no
-        action. With `end_at_success` the episode ends on the `success` port, read once per
-        control step: a simulator monitor would run every plant step and end an episode
-        mid-period."""
+        action. With `end_at_success` the episode ends at success, judged once per control
+        step: a simulator monitor would run every plant step and end an episode mid-period.
+
+        The plant's state is read once: its finiteness check and the observation (the
+        `observation` port's, `ToolPushObservation` of the same state and goal) share it."""
         self._check_open()
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
@@ -322,26 +332,34 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             what = "complex" if kind == "c" else f"{values.dtype} (not numbers)"
             raise ValueError(f"action {action!r} is {what}; actions are real numbers in [-1, 1]")
         action = check_action(values, self.config.action_mode)
-        context = self.simulator.get_mutable_context()
-        self.action_port.FixValue(context, action)
+        context = self._context
+        if self._action_value is None:
+            fixed = self.action_port.FixValue(context, action)
+            self._action_value = (fixed, fixed.GetMutableData().get_mutable_value())
+        else:  # the same fixed value rewritten, not a new one each step (FixValue makes one)
+            fixed, vector = self._action_value
+            fixed.GetMutableData()  # tells its dependents that it changes
+            vector.SetFromVector(action)
         # A simulation failure truncates the episode, with a flag (`builders.failures`).
         sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
-        plant_context = self.world.plant.GetMyContextFromRoot(context)
-        sim_error = sim_error or not finite_state(self.world.plant, plant_context)
+        x = None if sim_error else finite_state_vector(self.world.plant, self._plant_context)
+        sim_error = x is None
         observation, m = self._last
         if not sim_error:
-            observation = np.asarray(self.observation_port.Eval(context), np.float32)
+            observation = self.observation_system.finite_observation(x, self._episode["goal"])
+            observation = np.asarray(observation, np.float32)
             m = self._read_metrics()
-            sim_error = not (all_finite(observation) and _finite(m))
+            # A finite dot product proves the observation finite in one C call (`all_finite`'s
+            # sum goes through numpy's Python code); only where it is not does that decide.
+            finite = math.isfinite(observation.dot(observation)) or all_finite(observation)
+            sim_error = not (finite and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
             terminated = False
         else:
             self._last = (observation, m)
-            self._last_reward = self._reward()
-            terminated = self.config.end_at_success and bool(
-                self._success_port.Eval(context)[0] > 0.5
-            )
+            self._last_reward = reward(m, self.config.reward_type)
+            terminated = self.config.end_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
 
     def close(self) -> None:
@@ -367,8 +385,11 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "target_system",
             "observation_system",
             "visualizer",
-            "_metrics_port",
-            "_success_port",
+            "_metrics_reader",
+            "_context",
+            "_plant_context",
+            "_ik_context",
+            "_action_value",
             "task",
         ):
             if hasattr(self, name):
@@ -405,15 +426,14 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         context = self.ik_system.GetMyContextFromRoot(self.simulator.get_context())
         return self.control.ik.fk(self.ik_system.q_desired(context))
 
-    def _reward(self) -> float:
-        """The `reward` port's value (the paper's reward of the env's `reward_type`)."""
-        return float(self.reward(self.diagram, self.simulator.get_context()))
-
     def _read_metrics(self):
-        """The `outcome` system's metrics of the current state, the episode's touches kept."""
-        m = self._metrics_port.Eval(
-            self.task.outcome.GetMyContextFromRoot(self.simulator.get_context())
-        )
+        """The task's metrics of the current state, the episode's touches kept. They are the
+        `outcome` system's (`PushOutcome`: the same reader on the same plant state), read
+        from the plant directly: its ports would copy every body's pose into Python. The
+        reward and success are formed from them as its `reward` and `success` ports form them
+        (`metrics.reward`, `PushMetrics.is_success`)."""
+        episode = self._episode
+        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["box_start"])
         if _finite(m):
             self._episode["tool_touched"] |= m.tool_touches_box
             self._episode["gripper_touched"] |= m.gripper_touches_box
@@ -422,9 +442,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     def _info_handler(self, simulator) -> dict:
         """`info` of a reset state (DrakeGymEnv's reset calls it), which becomes the last
         finite state; `step` makes its own from the metrics it read."""
-        context = simulator.get_context()
         m = self._read_metrics()
-        self._last = (np.asarray(self.observation_port.Eval(context), np.float32), m)
+        self._last = (np.asarray(self.observation_port.Eval(self._context), np.float32), m)
         return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
@@ -437,7 +456,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "gripper_touches_box": m.gripper_touches_box,
             "tool_touched_box_in_episode": self._episode["tool_touched"],
             "gripper_touched_box_in_episode": self._episode["gripper_touched"],
-            "ik_ok": bool(self.control.ik_ok(self.simulator.get_context())) and not sim_error,
+            "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
             "sim_error": sim_error,
         }
 

@@ -15,6 +15,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.systems.lifetime import weak_method
+from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
@@ -50,12 +51,14 @@ class PushMetricsReader:
 
     def __init__(self, world: World):
         plant = world.plant
-        self._plant = plant
+        self._box = world.box
         self._box_index = int(world.box.index())
-        # The tip as a pose on its body: X_WT = X_WB X_BT, as Drake's `CalcPoseInWorld` forms it
-        # (the same arithmetic, so the same bits, from the plant's body-poses port).
-        self._tip_body = int(world.tip_frame.body().index())
+        self._tip_frame = world.tip_frame
+        # `measure`'s tip, a pose on its body: X_WT = X_WB X_BT, as Drake's `CalcPoseInWorld`
+        # (which `read` calls) forms it: the same arithmetic, so the same bits.
+        self._tip_index = int(world.tip_frame.body().index())
         self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
+        self._contacts = plant.get_contact_results_output_port()
         # Body indices as ints: comparing ints is cheaper than comparing pydrake's BodyIndex
         # objects, and this runs every control step.
         self._tool_index = int(world.tool.index()) if world.tool is not None else None
@@ -63,39 +66,59 @@ class PushMetricsReader:
         self._robot_bodies.discard(self._tool_index)
 
     def read(self, plant_context, goal, box_start) -> PushMetrics:
-        """The metrics of the plant's state in `plant_context`."""
-        plant = self._plant
-        return self.measure(
-            plant.get_body_poses_output_port().Eval(plant_context),
-            plant.get_contact_results_output_port().Eval(plant_context),
+        """The metrics of the plant's state in `plant_context`. The two poses it needs are read
+        alone (the plant's body-poses port copies the same cached values for every body, and
+        pydrake makes a Python object of each of its ~30)."""
+        return self._metrics(
+            self._box.EvalPoseInWorld(plant_context).translation(),
+            self._tip_frame.CalcPoseInWorld(plant_context).translation(),
+            # The cached value itself (Eval would copy every contact into Python first).
+            self._contacts.EvalAbstract(plant_context).get_value(),
             goal,
             box_start,
         )
 
     def measure(self, body_poses, contacts, goal, box_start) -> PushMetrics:
         """The metrics of the plant's body poses (X_WB by body index) and contact results."""
-        p_box = body_poses[self._box_index].translation()
-        p_tip = body_poses[self._tip_body].multiply(self._X_BT).translation()
+        return self._metrics(
+            body_poses[self._box_index].translation(),
+            body_poses[self._tip_index].multiply(self._X_BT).translation(),
+            contacts,
+            goal,
+            box_start,
+        )
+
+    def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
+        # Lists: math.dist reads them faster than arrays (the same floats, so the same result).
+        p_box, p_tip = p_box.tolist(), p_tip.tolist()
         tool_touch = gripper_touch = False
-        box = self._box_index
+        box, tool, robot = self._box_index, self._tool_index, self._robot_bodies
+        info_at = contacts.point_pair_contact_info
         for i in range(contacts.num_point_pair_contacts()):
-            info = contacts.point_pair_contact_info(i)
-            a, b = int(info.bodyA_index()), int(info.bodyB_index())
+            info = info_at(i)
+            a = int(info.bodyA_index())
+            # Only the box touching the tool or the robot counts: where body A is none of them
+            # (the table, under the box's corners, nearly every step), B is not read at all.
             if a == box:
-                other = b
-            elif b == box:
+                other = int(info.bodyB_index())
+            elif (a == tool or a in robot) and int(info.bodyB_index()) == box:
                 other = a
             else:
                 continue
-            tool_touch |= other == self._tool_index
-            gripper_touch |= other in self._robot_bodies
+            tool_touch |= other == tool
+            gripper_touch |= other in robot
         return PushMetrics(
-            box_to_goal=math.dist(p_box, goal),
+            box_to_goal=math.dist(p_box, _floats(goal)),
             tip_to_box=math.dist(p_tip, p_box),
-            box_travel=math.dist(p_box[:2], box_start[:2]),
+            box_travel=math.dist(p_box[:2], _floats(box_start)[:2]),
             tool_touches_box=bool(tool_touch),
             gripper_touches_box=bool(gripper_touch),
         )
+
+
+def _floats(values) -> list:
+    """A point as a list of floats (an array's `tolist`, cheaper than math.dist's iteration)."""
+    return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
 
 class PushOutcome(LeafSystem):
@@ -121,6 +144,8 @@ class PushOutcome(LeafSystem):
         success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0].
     Parameters: the goal x* (3, m) and the box's start (3, m), set per episode.
     """
+
+    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
     def __init__(self, world: World, goal, box_start, reward_type: str):
         super().__init__()

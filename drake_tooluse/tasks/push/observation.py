@@ -39,6 +39,7 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
 from drake_tooluse.systems.lifetime import weak_method
+from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.validation import all_finite, check_one_of
 from drake_tooluse.world.scene import World
 
@@ -64,6 +65,8 @@ class ToolPushObservation(LeafSystem):
     Parameters: the goal x* (3, m), set per episode.
     """
 
+    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
+
     def __init__(
         self,
         world: World,
@@ -79,20 +82,22 @@ class ToolPushObservation(LeafSystem):
         plant = world.plant
         nq = plant.num_positions()
         self._nq = nq
-        self._arm_q = np.array([j.position_start() for j in world.arm_joints()])
-        self._arm_v = np.array([nq + j.velocity_start() for j in world.arm_joints()])
+        self._arm_q = _index([j.position_start() for j in world.arm_joints()])
+        self._arm_v = _index([nq + j.velocity_start() for j in world.arm_joints()])
         box_q0 = world.box.floating_positions_start()
-        self._box_p = np.arange(box_q0 + 4, box_q0 + 7)  # after the quaternion
+        self._box_p = _index(range(box_q0 + 4, box_q0 + 7))  # after the quaternion
         self._model = robot_model
         self._model_context = robot_model.CreateDefaultContext()
         self._tip = robot_model.GetFrameByName(TIP_FRAME)
         self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
-        self._tool_length = [] if not include_tool_length else [believed_tool_length or 0.0]
+        # The observation's tail: nothing, or the tool length (no empty piece to join: numpy
+        # would make an array of it every step).
+        self._tail = (np.array([believed_tool_length or 0.0]),) if include_tool_length else ()
         self._state = self.DeclareVectorInputPort(
             "plant_state", plant.num_positions() + plant.num_velocities()
         )
         self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        size = OBSERVATION_SIZES[mode] + len(self._tool_length)
+        size = OBSERVATION_SIZES[mode] + len(self._tail)
         self._size = size
         self.DeclareVectorOutputPort(
             "observation",
@@ -115,6 +120,10 @@ class ToolPushObservation(LeafSystem):
         finite (a failed simulation: the robot model refuses such joint angles)."""
         if not all_finite(x):
             return np.full(self._size, np.nan)
+        return self.finite_observation(x, goal)
+
+    def finite_observation(self, x, goal) -> np.ndarray:
+        """`observation` of a plant state x known to be finite (not checked again)."""
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
         if self._mode == "tip":
@@ -128,18 +137,18 @@ class ToolPushObservation(LeafSystem):
                 world_frame,
             )
             return np.concatenate(
-                [
+                (
                     goal,
                     x[self._box_p],
                     self._tip.CalcPoseInWorld(self._model_context).translation(),
                     J @ x[self._arm_v],
-                    self._tool_length,
-                ]
+                    *self._tail,
+                )
             )
         X_WG = self._gripper.CalcPoseInWorld(self._model_context)
         p_WT = self._tip.CalcPoseInWorld(self._model_context).translation()
         return np.concatenate(
-            [
+            (
                 goal,
                 x[self._box_p],
                 p_WT,
@@ -147,6 +156,15 @@ class ToolPushObservation(LeafSystem):
                 X_WG.rotation().ToQuaternion().wxyz(),
                 q,
                 x[self._arm_v],
-                self._tool_length,
-            ]
+                *self._tail,
+            )
         )
+
+
+def _index(indices):
+    """Indices into the state as a slice where they are consecutive (a view, cheaper than
+    fancy indexing's copy; the same values), else as an array."""
+    indices = [int(i) for i in indices]
+    if indices == list(range(indices[0], indices[0] + len(indices))):
+        return slice(indices[0], indices[0] + len(indices))
+    return np.array(indices)
