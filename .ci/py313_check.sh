@@ -18,8 +18,8 @@
 # wheelhouse keeps superseded releases too (PY313_FRESH=1 starts over).
 #
 # Measured on the CI machine (2 cores shared with a training run), with PY313_WHEEL_CHECK=1:
-# the first run 614 s, 3.4 GB downloaded, 9.9 GB on disk; a later run 348 s (the suite 138 s,
-# the wheel check 175 s), 54 MB downloaded.
+# the first run 614 s, 3.4 GB downloaded, 9.9 GB on disk; a later run 348–549 s (the suite
+# 110–140 s, the wheel check 175–300 s, as loaded as the machine was), ~50 MB downloaded.
 #
 # Prints the time of each stage, the bytes this machine received meanwhile and the disk used;
 # exits non-zero if the suite, the demo or (when asked) the wheel check failed.

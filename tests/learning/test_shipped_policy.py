@@ -64,11 +64,11 @@ def _evaluated_with_drake(name) -> str:
 
 
 # On another Drake release the episodes come out slightly differently. Measured with Drake
-# 1.58.0 against the shipped evaluations (100 episodes each): 9, 13 and 17 episodes differ, by
-# up to 3.9 mm at the end; the means moved by at most 0.08 mm; one success of 100 flipped.
-# There the checks compare within these tolerances:
-OTHER_DRAKE_EPISODE_M = 0.005  # one episode's final box-to-goal distance
-OTHER_DRAKE_MEAN_M = 0.0005  # the mean of that over the 100 episodes
+# 1.58.0 against the evaluations shipped on 2026-12-04 (100 episodes each, to the step limit):
+# 23, 18 and 7 episodes differ, by up to 9.8 mm at the end; the means moved by at most 0.22 mm;
+# one success of 100 flipped. There the checks compare within these tolerances:
+OTHER_DRAKE_EPISODE_M = 0.015  # one episode's final box-to-goal distance
+OTHER_DRAKE_MEAN_M = 0.001  # the mean of that over the 100 episodes
 OTHER_DRAKE_SUCCESS_RATE = 0.03  # the success rate over the 100 episodes
 
 
