@@ -46,15 +46,7 @@ def test_a_scripted_reach_ends_the_episode_through_the_simulator_monitor():
 
 
 def test_learning_trains_and_evaluates_the_toy_task(tmp_path):
-    overrides = {
-        "env_kwargs": {},
-        "n_steps": 64,
-        "batch_size": 32,
-        "n_epochs": 1,
-        "eval_freq": 10_000_000,
-        "checkpoint_freq": 128,
-        "eval_episodes": 1,
-    }
+    overrides = {"env_kwargs": {}, **toy_touch.TINY_PPO}
     config = resolve_config(toy_touch.ENV_ID, "ppo", 256, 1, 0, overrides=overrides)
     train(config, tmp_path / "run", progress_bar=False)
     result = evaluate(tmp_path / "run" / "final", episodes=2, seed=0)

@@ -61,15 +61,7 @@ def test_the_toy_task_trains_with_the_toy_tool(scenario_file, tmp_path):
     env = gym.make(toy_touch.ENV_ID, scenario=str(scenario_file))
     check_env(env.unwrapped, skip_render_check=True)
     env.close()
-    overrides = {
-        "env_kwargs": {"scenario": str(scenario_file)},
-        "n_steps": 64,
-        "batch_size": 32,
-        "n_epochs": 1,
-        "eval_freq": 10_000_000,
-        "checkpoint_freq": 128,
-        "eval_episodes": 1,
-    }
+    overrides = {"env_kwargs": {"scenario": str(scenario_file)}, **toy_touch.TINY_PPO}
     config = resolve_config(toy_touch.ENV_ID, "ppo", 256, 1, 0, overrides=overrides)
     summary = train(config, tmp_path / "run", progress_bar=False)
     assert summary["timesteps"] >= 256 and (tmp_path / "run" / "final").is_dir()

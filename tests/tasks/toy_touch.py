@@ -151,6 +151,17 @@ class ToyTouchEnv(TaskEnv, DrakeGymEnv):
         }
 
 
+# A few hundred steps of PPO: enough to show learning/ trains the toy task, not to learn it.
+TINY_PPO = {
+    "n_steps": 64,
+    "batch_size": 32,
+    "n_epochs": 1,
+    "eval_freq": 10_000_000,
+    "checkpoint_freq": 128,
+    "eval_episodes": 1,
+}
+
+
 def register() -> None:
     if ENV_ID not in task_env_ids():
         gym.register(ENV_ID, entry_point=f"{__name__}:ToyTouchEnv", max_episode_steps=20)
