@@ -67,6 +67,7 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.tasks.push.env import current_kwargs
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -85,7 +86,7 @@ ENV1, ENV2, ENV3 = (
     "drake_tooluse/ToolPushFar-v0",
 )
 PAPER_ACTION = {
-    "env_kwargs": {"action_mode": "paper", "ik_mode": "full", "randomize": True},
+    "env_kwargs": {"action_mode": "position_quaternion", "randomize": True},
     "policy_kwargs": {"net_arch": [128, 128], "log_std_init": -1.0},
 }
 PAPER_STEPS = 1_250_000
@@ -358,7 +359,11 @@ def settings_differ(out: Path, cell: str, seed: int) -> str | None:
         if saved[key] != want
     ]
     for key, want in c.get("hyperparams", {}).items():
-        if saved["hyperparams"].get(key) != want:
+        have = saved["hyperparams"].get(key)
+        if key == "env_kwargs" and isinstance(have, dict):
+            # Runs trained before a mode was renamed stored its old name.
+            have, want = current_kwargs(have), current_kwargs(want)
+        if have != want:
             differences.append(f"{key} {saved['hyperparams'].get(key)!r} (the cell: {want!r})")
     source = saved.get("init_from")
     if "init_from" in c and (
