@@ -38,7 +38,7 @@ autodoc_member_order = "bysource"
 # A method we override without a docstring is not ours to describe (argparse's, Drake's).
 autodoc_inherit_docstrings = False
 autodoc_typehints = "description"
-# Pydrake's types carry module paths Sphinx cannot resolve without Drake's own inventory.
+# `RigidTransform`, not `pydrake.math.RigidTransform`, in signatures.
 autodoc_typehints_format = "short"
 napoleon_google_docstring = True
 napoleon_numpy_docstring = False
@@ -56,15 +56,20 @@ STANDARD_LIBRARY = (
     "abc|argparse|collections|concurrent|dataclasses|enum|io|os|pathlib|subprocess|typing"
 )
 nitpick_ignore_regex = [(r"py:.*", rf"({THIRD_PARTY}|{STANDARD_LIBRARY})(\..*)?")]
-# Type hints autodoc could not evaluate keep their bare names (a module imports them for its
-# annotations only): these are pathlib's and pydrake's.
+# Two third-party names autodoc leaves bare (no module path) in a few signatures, which the
+# pattern above cannot match: pathlib's Path and pydrake's CameraInfo.
 nitpick_ignore = [("py:class", "Path"), ("py:class", "CameraInfo")]
 
 
 def _skip_drake_functions(app, what, name, obj, skip, options):
-    """Skips pydrake's own functions held under our names (compat.NO_WITNESS_FUNCTIONS, which a
-    LeafSystem's class body assigns to DoGetWitnessFunctions): Drake documents them."""
-    if getattr(obj, "__module__", None) and obj.__module__.startswith("pydrake."):
+    """Skips pydrake's own functions held under our names, and the no-witness-functions marker
+    a LeafSystem's class body assigns (compat.NO_WITNESS_FUNCTIONS: Drake's function up to
+    1.57, a one-line one after): Drake documents them, and they are no part of a system's API."""
+    from drake_tooluse.compat import NO_WITNESS_FUNCTIONS
+
+    if what == "class" and obj is NO_WITNESS_FUNCTIONS:
+        return True
+    if (getattr(obj, "__module__", None) or "").startswith("pydrake."):
         return True
     return None
 
