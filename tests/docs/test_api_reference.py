@@ -1,7 +1,7 @@
 """The API reference (docs/api) builds with warnings as errors, and every LeafSystem's
 `.. pydrake_system::` block renders as its port figure.
 
-Needs the `docs` extra (Sphinx). Slow: the whole build imports every module (~25 s here).
+Needs the `docs` extra (Sphinx). Slow: the whole build imports every module (25–55 s here, by the load on the machine).
 """
 
 import html
@@ -116,6 +116,50 @@ def test_every_leaf_system_has_its_port_figure(built):
             [f"{port} →" for port in block_inputs],
             [f"→ {port}" for port in block_outputs],
         ), f"{name}'s port figure is missing or differs from its block"
+
+
+def _leaves(diagram):
+    for system in diagram.GetSystems():
+        if hasattr(system, "GetSystems"):
+            yield from _leaves(system)
+        else:
+            yield system
+
+
+def test_every_port_block_names_the_systems_ports():
+    """The figures tell the truth: each block lists the ports the built system declares, in
+    order (the systems as the policy and measurement diagrams build them)."""
+    from pydrake_system import parse_system_yaml
+
+    from drake_tooluse.builders.measurement import build_measurement_diagram
+    from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.paths import TRANSFER_POLICY
+    from drake_tooluse.tasks.push.diagram import build_policy_diagram
+    from drake_tooluse.world.scenario import Scenario
+
+    scenario = Scenario()
+    diagrams = [
+        build_policy_diagram(scenario, load_policy(TRANSFER_POLICY)).diagram,
+        build_measurement_diagram(scenario, noise_sigma=2.0).diagram,
+    ]
+    checked = set()
+    for diagram in diagrams:
+        for system in _leaves(diagram):
+            cls = type(system)
+            if not cls.__module__.startswith("drake_tooluse."):
+                continue
+            name, inputs, outputs = parse_system_yaml(_block(cls.__doc__ or ""))
+            assert name == cls.__name__
+            ports_in = [
+                system.get_input_port(i).get_name() for i in range(system.num_input_ports())
+            ]
+            ports_out = [
+                system.get_output_port(i).get_name() for i in range(system.num_output_ports())
+            ]
+            assert (inputs, outputs) == (ports_in, ports_out), f"{name}'s block differs"
+            checked.add(name)
+    missing = set(_leaf_systems()) - checked
+    assert not missing, f"no diagram here builds {sorted(missing)}: add one that does"
 
 
 def test_a_markdown_table_becomes_a_list_table():
