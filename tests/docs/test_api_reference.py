@@ -1,7 +1,9 @@
-"""The API reference (docs/api) builds with warnings as errors, and every LeafSystem's
-`.. pydrake_system::` block renders as its port figure.
+"""The API reference (docs/api) builds with warnings as errors, every LeafSystem's
+`.. pydrake_system::` block renders as its port figure, and each block names the ports its
+system declares.
 
-Needs the `docs` extra (Sphinx). Slow: the whole build imports every module (25–55 s here, by the load on the machine).
+Needs the `docs` extra (Sphinx). Slow: the build imports every module (25–55 s here, by the
+load on the machine).
 """
 
 import html

@@ -1,7 +1,8 @@
 """notebooks/getting_started.ipynb runs from top to bottom on a kernel of this Python.
 
-Needs the `docs` extra (nbclient, nbformat, ipykernel). Slow: it measures a tool, solves IK
-and runs the shipped policy for a whole push (about a minute here).
+Running it needs the `docs` extra (nbclient, nbformat, ipykernel) and is slow: it measures a
+tool, solves IK and runs the shipped policy for a whole push (22–60 s here, by the load on the
+machine). That it is committed without outputs is checked in the default suite.
 """
 
 import json
@@ -11,8 +12,6 @@ import time
 from pathlib import Path
 
 import pytest
-
-pytestmark = pytest.mark.slow
 
 NOTEBOOK = Path(__file__).resolve().parents[2] / "notebooks" / "getting_started.ipynb"
 KERNEL = "drake-tooluse-test"
@@ -32,17 +31,16 @@ def kernel_of_this_python(tmp_path, monkeypatch) -> str:
 
 
 def test_committed_without_outputs():
-    import nbformat
-
-    notebook = nbformat.read(NOTEBOOK, as_version=4)
-    nbformat.validate(notebook)
-    for cell in notebook.cells:
-        if cell.cell_type == "code":
-            assert not cell.outputs and cell.execution_count is None, (
-                "clear the notebook's outputs before committing it"
-            )
+    notebook = json.loads(NOTEBOOK.read_text())
+    code = [cell for cell in notebook["cells"] if cell["cell_type"] == "code"]
+    assert code
+    for cell in code:
+        assert not cell["outputs"] and cell["execution_count"] is None, (
+            "clear the notebook's outputs before committing it"
+        )
 
 
+@pytest.mark.slow
 def test_notebook_runs(kernel_of_this_python, tmp_path):
     import nbformat
     from nbclient import NotebookClient
