@@ -17,6 +17,7 @@ a length (m: a straight tool), `frame` any named frame of it:
    holds the fast path to it.
 
 An unreachable target is a result (`success=False` with the residual), never an exception.
+
 - `gripper_target_from_tip_target` is the paper's offset method: the gripper goes to the tip
   target minus the tool vector rotated by the target orientation, v' = q v q^-1.
 

@@ -191,9 +191,9 @@ def levenberg_marquardt(
     on the first step `centering` × the mid-range offset projected onto the self-motions
     (I - Jᵀ (J Jᵀ + λ I)⁻¹ J): it leaves the tip where it is and keeps the redundant arm from
     drifting, solve after solve, toward its limits. Joints at a limit that the step would push further out are
-    frozen for the step, |dq| is capped at `max_step` rad, and λ adapts: a step that lowers
-    |e|² is taken (without the centering if only that lowers it) and λ shrinks, else λ grows.
-    Stops when |p* - p| and the angle to R* are both below `tolerance` (m, rad). Returns (q,
+    frozen for the step, ‖dq‖ is capped at `max_step` rad, and λ adapts: a step that lowers
+    ‖e‖² is taken (without the centering if only that lowers it) and λ shrinks, else λ grows.
+    Stops when ‖p* - p‖ and the angle to R* are both below `tolerance` (m, rad). Returns (q,
     position error m, angle rad, iterations)."""
     q = q_start.copy()
     R, p, J = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
@@ -290,7 +290,7 @@ def rotation_from_quaternion(quaternion):
 
 @numba.njit(cache=True)
 def pose_errors(p_a, R_a, p_b, R_b):
-    """(|p_a - p_b| m, the angle of the rotation between R_a and R_b, rad: atan2 of the sine
+    """(‖p_a - p_b‖ m, the angle of the rotation between R_a and R_b, rad: atan2 of the sine
     and cosine, accurate near zero)."""
     d = 0.0
     for j in range(3):

@@ -228,7 +228,7 @@ class Tool(abc.ABC):
         return frames[name]
 
     def reach(self) -> float:
-        """|p_HT|: how far the tip is from the grasp point (m); a straight tool's length."""
+        """‖p_HT‖: how far the tip is from the grasp point (m); a straight tool's length."""
         return float(np.linalg.norm(self.X_HF(TOOL_TIP).translation))
 
     def check(self) -> None:

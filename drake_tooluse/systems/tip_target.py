@@ -2,7 +2,7 @@
 
 Three action modes (all actions are in [-1, 1]; values outside are clipped):
 
-| mode | size | meaning (per control step, at |a| = 1) |
+| mode | size | meaning (per control step, at an action of ±1) |
 | --- | --- | --- |
 | `position_quaternion` | 7 | change of tip position (3) × 0.02 m, change of the quaternion w x y z (4) × 0.05, normalized (the paper's mocap) |
 | `pose` | 6 | change of tip position (3) × 0.02 m, rotation vector (3) × 0.10 rad, in the world frame |
