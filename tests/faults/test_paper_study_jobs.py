@@ -10,6 +10,7 @@ training runs here (fast)."""
 import copy
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +24,8 @@ from drake_tooluse.cli import main as cli_main
 from drake_tooluse.experiments import paper_study
 from drake_tooluse.experiments.paper_study import Study, StudyFiles, run_dir
 from drake_tooluse.learning import jobs
+
+ROOT = Path(__file__).resolve().parents[2]
 
 CELLS = dict(
     source=dict(env="drake_tooluse/ToolPush-v0", algo="ppo", timesteps=100, seeds=[0, 1]),
@@ -331,3 +334,43 @@ def test_the_study_file_is_checked(tmp_path):
     cells, episodes, seed = paper_study.load_cells()
     assert list(cells)[:2] == ["hold_ppo_env1_paper", "hold_ppo_env1"] and episodes == 100
     assert seed == 1000 and cells["ppo_env3_finetune"]["init_from"] == "ppo_env1"
+
+
+def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys):
+    """`study --update-docs` picks up the committed results and archive as the earlier runner
+    left them: a stopped run is restored and continued with `train --resume` (the earlier
+    runner's command line), a trained one is evaluated, and the results keep every other
+    entry. (No training here: the commands are recorded and fail.)"""
+    results = ROOT / "docs" / "results" / "paper_study.json"
+    archived = ROOT / "docs" / "results" / "paper_study" / "hold_ppo_env1_paper"
+    (tmp_path / "pyproject.toml").write_text("")
+    (tmp_path / "docs" / "results").mkdir(parents=True)
+    shutil.copy(results, tmp_path / "docs" / "results" / "paper_study.json")
+    shutil.copytree(archived, tmp_path / "docs" / "results" / "paper_study" / archived.name)
+    issued = []
+
+    def refused(cmd, *args):
+        issued.append(cmd)
+        return subprocess.CompletedProcess(cmd, 1, "", "stopped by the test")
+
+    monkeypatch.setattr(paper_study, "train_and_archive", lambda study, cmd, *a: refused(cmd))
+    monkeypatch.setattr(jobs.Commands, "run", lambda self, cmd: refused(cmd))
+    monkeypatch.chdir(tmp_path)
+    argv = ["study", "--update-docs", "--only", "hold_ppo_env1_paper", "--seeds", "1", "2"]
+    assert cli_main(argv) == 3  # a run failed (here: every command)
+    runs = tmp_path / "runs" / "paper" / "hold_ppo_env1_paper"
+    assert (runs / "s2" / "checkpoints" / "latest.json").is_file()  # restored from the archive
+    hyperparams = json.dumps(paper_study.load_cells()[0]["hold_ppo_env1_paper"]["hyperparams"])
+    assert [" ".join(c) for c in issued] == [
+        f"drake-tooluse evaluate --policy {runs}/s1/best --env drake_tooluse/ToolPush-v0 "
+        "--episodes 100 --seed 1000 --no-progress --per-episode --json",
+        "drake-tooluse train --env drake_tooluse/ToolPush-v0 --algo ppo --timesteps 500000 "
+        f"--seed 2 --no-progress --resume {runs}/s2 --hyperparams {hyperparams}",
+    ]
+    after = json.loads((tmp_path / "docs" / "results" / "paper_study.json").read_text())
+    before = json.loads(results.read_text())
+    assert after["hold_ppo_env1_paper"]["seeds"]["2"]["error"] == "stopped by the test"
+    assert {c: v for c, v in after.items() if c != "hold_ppo_env1_paper"} == {
+        c: v for c, v in before.items() if c != "hold_ppo_env1_paper"
+    }
+    assert "restored" in capsys.readouterr().err
