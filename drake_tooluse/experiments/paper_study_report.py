@@ -21,9 +21,8 @@ import json
 import os
 from pathlib import Path
 
-import matplotlib
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
@@ -40,8 +39,6 @@ from drake_tooluse.robot.model import TOOL_DOWN_RPY
 from drake_tooluse.systems.tip_target import Workspace, apply_action
 from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS
 from drake_tooluse.validation import EnvironmentProblem
-
-matplotlib.use("Agg")
 
 # The paper's figures, set beside the cells judged in its protocol (to the step limit) only.
 PAPER_CM = {"hold_ppo_env1": 7.74, "hold_trpo_env1": 11.9, "hold_a2c_env1": 40.9}
@@ -260,7 +257,8 @@ def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | No
     if not any(finished(results, cell) for cell in ALGORITHMS):
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharey=True)
+    fig = Figure(figsize=(10, 7))
+    axes = fig.subplots(2, 2, sharey=True)
     for ax, (cell, name), color in zip(
         axes.flat, ALGORITHMS.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red")
     ):
@@ -283,7 +281,8 @@ def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str,
     if not any(finished(results, cell) for cell, *_ in pairs):
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+    fig = Figure(figsize=(6.5, 4))
+    ax = fig.subplots()
     missing = []
     for cell, label, color, offset in pairs:
         if not plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset):
@@ -317,7 +316,7 @@ def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) ->
     if not cells:
         (figures / "training_env1_trajectories.png").unlink(missing_ok=True)
         return None
-    fig = plt.figure(figsize=(5 * len(cells), 4.5))
+    fig = Figure(figsize=(5 * len(cells), 4.5))
     for i, cell in enumerate(cells):
         seed = seeds[cell]
         tips = record_episodes(run_dir(runs_dir, cell, seed) / "best", n, seed=1000)[0]
