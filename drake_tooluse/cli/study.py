@@ -17,7 +17,7 @@ from drake_tooluse.cli.common import (
 def _files(args):
     """The study's files: under --out (default runs/study), or a checkout's docs
     (--update-docs: the current directory is the checkout)."""
-    from drake_tooluse.experiments.paper_study import DEFAULT_OUT, StudyFiles
+    from drake_tooluse.experiments.paper_study_cells import DEFAULT_OUT, StudyFiles
 
     if args.update_docs:
         if args.out is not None:
@@ -37,7 +37,7 @@ def _file_options(args) -> list[str]:
 
 
 def _cells(args):
-    from drake_tooluse.experiments.paper_study import load_cells
+    from drake_tooluse.experiments.paper_study_cells import load_cells
     from drake_tooluse.paths import PAPER_STUDY_CELLS
 
     return load_cells(args.cells if args.cells is not None else PAPER_STUDY_CELLS)
@@ -49,6 +49,11 @@ def cmd_study(args) -> dict:
         seed_arg(seed, "--seeds")
     if args.archive_every is not None and not 0 < args.archive_every <= 7 * 24 * 3600:
         raise UsageError(f"--archive-every {args.archive_every}: seconds in (0, 604800]")
+    from drake_tooluse.experiments.paper_study_cells import check_cell_names
+
+    cells, episodes, evaluation_seed = _cells(args)
+    check_cell_names(cells, args.only)
+    files = _files(args)
     from drake_tooluse.experiments.paper_study import (
         ARCHIVE_EVERY,
         Study,
@@ -59,8 +64,6 @@ def cmd_study(args) -> dict:
         status,
     )
 
-    cells, episodes, evaluation_seed = _cells(args)
-    files = _files(args)
     study = Study(
         cells,
         files,
@@ -83,10 +86,10 @@ def format_study(out: dict) -> str:
 
 def cmd_study_report(args) -> dict:
     count_arg(args.trajectories, "--trajectories", 1, 1000)
-    from drake_tooluse.experiments.paper_study_report import make_report, page_is_current
-
     cells, _, _ = _cells(args)
     files = _files(args)
+    from drake_tooluse.experiments.paper_study_report import make_report, page_is_current
+
     if args.check:
         if not page_is_current(cells, files):
             raise UsageError(

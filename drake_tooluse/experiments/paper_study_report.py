@@ -26,13 +26,8 @@ from matplotlib.figure import Figure
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
-from drake_tooluse.experiments.paper_study import (
-    StudyFiles,
-    order,
-    read_results,
-    run_dir,
-    run_state,
-)
+from drake_tooluse.experiments.paper_study import order, read_results, run_dir, run_state
+from drake_tooluse.experiments.paper_study_cells import StudyFiles
 from drake_tooluse.experiments.trajectory_extraction import record_episodes
 from drake_tooluse.files import atomic_write_figure, atomic_write_text
 from drake_tooluse.robot.model import TOOL_DOWN_RPY

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from drake_tooluse.cli import main as cli_main
 from drake_tooluse.experiments import paper_study_report as report
-from drake_tooluse.experiments.paper_study import StudyFiles, load_cells
+from drake_tooluse.experiments.paper_study_cells import StudyFiles, load_cells
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -22,7 +22,8 @@ import pytest
 
 from drake_tooluse.cli import main as cli_main
 from drake_tooluse.experiments import paper_study
-from drake_tooluse.experiments.paper_study import Study, StudyFiles, run_dir
+from drake_tooluse.experiments.paper_study import Study, run_dir
+from drake_tooluse.experiments.paper_study_cells import StudyFiles, load_cells
 from drake_tooluse.learning import jobs
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -328,10 +329,10 @@ def test_the_study_file_is_checked(tmp_path):
     ):
         path.write_text(json.dumps({"cells": cells}))  # JSON is YAML
         with pytest.raises(ValueError, match="cell") as e:
-            paper_study.load_cells(path)
+            load_cells(path)
         assert says in str(e.value) and str(path) in str(e.value)
     # The shipped study loads, in its order.
-    cells, episodes, seed = paper_study.load_cells()
+    cells, episodes, seed = load_cells()
     assert list(cells)[:2] == ["hold_ppo_env1_paper", "hold_ppo_env1"] and episodes == 100
     assert seed == 1000 and cells["ppo_env3_finetune"]["init_from"] == "ppo_env1"
 
@@ -360,7 +361,7 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
     assert cli_main(argv) == 3  # a run failed (here: every command)
     runs = tmp_path / "runs" / "paper" / "hold_ppo_env1_paper"
     assert (runs / "s2" / "checkpoints" / "latest.json").is_file()  # restored from the archive
-    hyperparams = json.dumps(paper_study.load_cells()[0]["hold_ppo_env1_paper"]["hyperparams"])
+    hyperparams = json.dumps(load_cells()[0]["hold_ppo_env1_paper"]["hyperparams"])
     assert [" ".join(c) for c in issued] == [
         f"drake-tooluse evaluate --policy {runs}/s1/best --env drake_tooluse/ToolPush-v0 "
         "--episodes 100 --seed 1000 --no-progress --per-episode --json",
