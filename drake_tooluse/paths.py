@@ -20,6 +20,7 @@ __all__ = [
     "DEFAULT_SCENARIO",
     "HYPERPARAMS_DIR",
     "MODELS_DIR",
+    "PAPER_STUDY_CELLS",
     "POLICIES_DIR",
     "REALITY_SCENARIO",
     "SCENARIOS_DIR",
@@ -64,3 +65,6 @@ DEFAULT_SCENARIO = SCENARIOS_DIR / "push.yaml"
 REALITY_SCENARIO = SCENARIOS_DIR / "reality.yaml"
 
 HYPERPARAMS_DIR = _package_dir("drake_tooluse", "learning", "hyperparams")
+
+# The paper study's cells (`drake-tooluse study`).
+PAPER_STUDY_CELLS = _package_dir("drake_tooluse", "experiments") / "paper_study.yaml"

@@ -10,7 +10,7 @@ never a traceback:
 | 0 | success |
 | 1 | an internal error (a bug: `DRAKE_TOOLUSE_TRACEBACK=1` shows its traceback) |
 | 2 | a usage error (a bad option, value, file or path) or an environment problem (a missing dependency, a busy run directory), named in the message |
-| 3 | target not reached: `ik` found no joint angles for the pose (it prints the closest), `simulate` none for a waypoint; a `sweep` cell failed |
+| 3 | target not reached: `ik` found no joint angles for the pose, `simulate` none for a waypoint; a `sweep` cell or `study` run failed |
 | 130 | interrupted (Ctrl-C); a training run resumes from its last checkpoint |
 
 The library raises ValueError or OSError (FileNotFoundError, FileExistsError, ...) for bad
@@ -36,7 +36,7 @@ import os
 import sys
 import warnings
 
-from drake_tooluse.cli import experiments, learning, maintenance, measure, robot
+from drake_tooluse.cli import experiments, learning, maintenance, measure, robot, study
 from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition, exported here)
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -46,7 +46,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
 )
 from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
-GROUPS = (robot, learning, experiments, measure, maintenance)
+GROUPS = (robot, learning, experiments, study, measure, maintenance)
 DESCRIPTION = (
     "A Baxter robot that uses a straight tool of any length, in Drake: tool-tip IK, "
     "simulation, camera measurement, training, transfer."
@@ -55,7 +55,7 @@ EPILOG = (
     "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
     "or path; or an environment problem the message names: a missing optional dependency, a "
     "busy run directory), 3 target not reached (ik: no joint angles put the tip at the pose; "
-    "simulate: none for a waypoint; sweep: a cell failed), 130 interrupted"
+    "simulate: none for a waypoint; sweep, study: a cell's run failed), 130 interrupted"
 )
 
 

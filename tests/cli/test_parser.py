@@ -84,6 +84,10 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
         ["transfer", "--tools", "0.125", "0.9", "--out", str(tmp_path / "t")],
         ["transfer", "--align", "middle", "--out", str(tmp_path / "t")],
         ["trajectory", "--policy", str(tmp_path), "--record", "bogus", "--out", str(tmp_path)],
+        ["study", "--out", str(tmp_path / "st"), "--parallel", "0"],
+        ["study", "--out", str(tmp_path / "st"), "--only", "bogus"],
+        ["study", "--out", str(tmp_path / "st"), "--update-docs"],
+        ["study-report", "--out", str(tmp_path / "st"), "--trajectories", "0"],
     ]
     code = (
         "import sys\nfrom drake_tooluse.cli import main\n"

@@ -1,13 +1,6 @@
-"""docs/TRAINING.md and its figures, made from `benchmarks/paper_experiments.py`'s results
-(docs/results/paper_study.json) and its runs' archived files (docs/results/paper_study/: the
-training curves and best policies, in the repo).
-
-    python benchmarks/paper_report.py [--runs-dir docs/results/paper_study] [--results FILE]
-                                      [--doc docs/TRAINING.md] [--figures docs/figures]
-                                      [--trajectories N] [--check]
-
-`--check` writes nothing and exits 1 if docs/TRAINING.md is not the page the results give (a
-test runs it, so a results file committed without its page fails the suite).
+"""docs/TRAINING.md and its figures (`drake-tooluse study-report`), made from the paper study's
+results (`experiments.paper_study`: docs/results/paper_study.json) and its runs' archived files
+(docs/results/paper_study/: the training curves and best policies).
 
 Statistics are rliable's (Agarwal et al. 2021) over the seeds of a cell, each seed's score its
 mean over the 100 evaluation episodes (the same seeded starts for every run): the mean and the
@@ -18,48 +11,33 @@ Figures: Env1's reward curves of the four algorithms with seed bands (the paper'
 figure), PPO with the paper's action beside the position action, Env3 fine-tuned against from
 scratch, and N generated tool-tip trajectories per algorithm with their mean (the paper's 3-D
 figure; a cell with no finished seed is left out). A figure draws the seeds whose files it has;
-its legend counts them.
+its legend counts them. The paper's figures stand beside the cells judged in its protocol only.
 """
 
-import argparse
+from __future__ import annotations
+
 import csv
 import json
 import os
-import sys
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RollPitchYaw, RotationMatrix
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from paper_experiments import (  # noqa: E402
-    ARCHIVE,
-    CELLS,
-    FIGURES,
-    PAPER_STEPS,
-    REPORT,
-    RESULTS,
-    order,
-    read_results,
-    run_dir,
-    run_state,
-)
-from pydrake.common.eigen_geometry import Quaternion  # noqa: E402
-from pydrake.math import RollPitchYaw, RotationMatrix  # noqa: E402
-from rliable import library as rly  # noqa: E402
-from rliable import metrics  # noqa: E402
+from drake_tooluse.experiments.paper_study import order, read_results, run_dir, run_state
+from drake_tooluse.experiments.paper_study_cells import StudyFiles
+from drake_tooluse.experiments.trajectory_extraction import record_episodes
+from drake_tooluse.files import atomic_write_figure, atomic_write_text
+from drake_tooluse.robot.model import TOOL_DOWN_RPY
+from drake_tooluse.systems.tip_target import Workspace, apply_action
+from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS
+from drake_tooluse.validation import EnvironmentProblem
 
-from drake_tooluse.cli.common import run_script  # noqa: E402
-from drake_tooluse.experiments.trajectory_extraction import record_episodes  # noqa: E402
-from drake_tooluse.files import atomic_write_figure, atomic_write_text  # noqa: E402
-from drake_tooluse.robot.model import TOOL_DOWN_RPY  # noqa: E402
-from drake_tooluse.systems.tip_target import Workspace, apply_action  # noqa: E402
-from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS  # noqa: E402
-
-ROOT = Path(__file__).resolve().parent.parent
 # The paper's figures, set beside the cells judged in its protocol (to the step limit) only.
 PAPER_CM = {"hold_ppo_env1": 7.74, "hold_trpo_env1": 11.9, "hold_a2c_env1": 40.9}
+PAPER_STEPS = 1_250_000  # the paper's budget per algorithm
 ALGORITHMS = {"ppo_env1": "PPO", "trpo_env1": "TRPO", "a2c_env1": "A2C", "ddpg_env1": "DDPG"}
 BOOTSTRAP_REPS = 2000
 
@@ -74,7 +52,14 @@ def interval_estimates(entries: dict, evaluation: str = "evaluate_best") -> dict
     """Over the seeds: the mean and IQM of each run's mean final distance (cm), and the mean of
     each run's success rate (%), with 95 % stratified-bootstrap CIs (rliable: the runs of the
     one task resampled; None with fewer than two seeds), of one of the runs' evaluations
-    (`paper_experiments.EVALUATIONS`)."""
+    (`paper_study.EVALUATIONS`)."""
+    try:
+        from rliable import library as rly
+        from rliable import metrics
+    except ImportError:
+        raise EnvironmentProblem(
+            "the study's statistics need rliable: install the bench extra (pip install '.[bench]')"
+        ) from None
     runs = [e[evaluation]["per_episode"] for e in entries.values()]
     distance = np.array([[np.mean(r["final_box_to_goal_m"]) * 100] for r in runs])  # (seeds, 1)
     success = np.array([[np.mean(r["success"]) * 100] for r in runs])
@@ -110,7 +95,8 @@ def cell_stats(results: dict, cell: str, evaluation: str = "evaluate_best") -> d
     done = finished(results, cell)
     if not done or not all(evaluation in e for e in done.values()):
         return None
-    key = (cell, tuple(sorted(done)), evaluation)
+    # The evaluations themselves are the key: two results files never share statistics.
+    key = (cell, evaluation, json.dumps([done[s][evaluation]["per_episode"] for s in sorted(done)]))
     if key not in _STATS:
         _STATS[key] = interval_estimates(done, evaluation)
     return _STATS[key]
@@ -123,7 +109,7 @@ def _ci(d: dict, key: str, digits: int) -> str:
     return f"{d[key]:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
-def study_table(results: dict) -> str:
+def study_table(results: dict, cells: dict) -> str:
     lines = [
         "| cell | protocol (trained and judged) | env | algo, action | seeds done | steps per run | wall per run (min) | "
         "final box–goal mean (cm) [95 % CI] | IQM (cm) [95 % CI] | success (%) [95 % CI] | "
@@ -131,7 +117,7 @@ def study_table(results: dict) -> str:
         "run on to the 100-step limit: final box–goal mean (cm) [95 % CI], success (%) | paper |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
-    for cell, c in CELLS.items():
+    for cell, c in cells.items():
         done = finished(results, cell)
         action = (
             "paper 7-d"
@@ -177,19 +163,19 @@ def _at_limit(results: dict, cell: str) -> str:
     return f"{_ci(stats['distance_cm'], 'mean', 2)}, {_ci(stats['success_pct'], 'mean', 0)}"
 
 
-def missing_runs(results: dict, runs_dir: Path) -> str:
+def missing_runs(results: dict, cells: dict, runs_dir: Path) -> str:
     """What is still to run, in the order the job runs it (the runner's `order`), and about
     how long each run takes here (its cell's finished runs), so that the rest can be planned."""
-    queue = [(cell, seed) for cell, c in CELLS.items() for seed in c["seeds"]]
+    queue = [(cell, seed) for cell, c in cells.items() for seed in c["seeds"]]
     lines = []
-    for cell, seed in order(queue, runs_dir, results):
-        state = run_state(runs_dir, runs_dir, results, cell, seed)
+    for cell, seed in order(cells, queue, runs_dir, results):
+        state = run_state(cells, runs_dir, runs_dir, results, cell, seed)
         if state.startswith("done"):
             continue
         rates = [
             e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e
         ]
-        minutes = CELLS[cell]["timesteps"] / np.mean(rates) / 60 if rates else None
+        minutes = cells[cell]["timesteps"] / np.mean(rates) / 60 if rates else None
         took = f"; ~{minutes:.0f} min here" if minutes else ""
         lines.append(f"- `{cell}` seed {seed}: {state}{took}")
     return "\n".join(lines) + "\n" if lines else "Every cell has all its seeds.\n"
@@ -266,7 +252,8 @@ def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | No
     if not any(finished(results, cell) for cell in ALGORITHMS):
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharey=True)
+    fig = Figure(figsize=(10, 7))
+    axes = fig.subplots(2, 2, sharey=True)
     for ax, (cell, name), color in zip(
         axes.flat, ALGORITHMS.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red")
     ):
@@ -289,7 +276,8 @@ def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str,
     if not any(finished(results, cell) for cell, *_ in pairs):
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+    fig = Figure(figsize=(6.5, 4))
+    ax = fig.subplots()
     missing = []
     for cell, label, color, offset in pairs:
         if not plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset):
@@ -323,7 +311,7 @@ def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) ->
     if not cells:
         (figures / "training_env1_trajectories.png").unlink(missing_ok=True)
         return None
-    fig = plt.figure(figsize=(5 * len(cells), 4.5))
+    fig = Figure(figsize=(5 * len(cells), 4.5))
     for i, cell in enumerate(cells):
         seed = seeds[cell]
         tips = record_episodes(run_dir(runs_dir, cell, seed) / "best", n, seed=1000)[0]
@@ -385,10 +373,12 @@ def _at_limit_brief(results: dict, cell: str) -> str | None:
     return f"{_ci(d, 'mean', 2)} cm, {_ci(s, 'mean', 0)} % at the goal at the limit"
 
 
-def budget_note(results: dict, cell: str, name: str) -> str | None:
+def budget_note(results: dict, cells: dict, cell: str, name: str) -> str | None:
     """For a cell trained below the paper's 1.25 M steps: how far, and why, in this machine's
     own measured speed (its finished runs)."""
-    steps = CELLS[cell]["timesteps"]
+    if cell not in cells:
+        return None
+    steps = cells[cell]["timesteps"]
     if steps >= PAPER_STEPS:
         return None
     rates = [e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e]
@@ -406,7 +396,7 @@ def budget_note(results: dict, cell: str, name: str) -> str | None:
     )
 
 
-def discussion(results: dict) -> str:
+def discussion(results: dict, cells: dict) -> str:
     """What the table shows, each figure computed here from the results."""
     steps = 50
     wide, narrow = orientation_drift(1.0, steps), orientation_drift(float(np.exp(-1)), steps)
@@ -416,7 +406,7 @@ def discussion(results: dict) -> str:
         f"{name} {_brief(results, cell)}" if finished(results, cell) else f"{name}: not run yet"
         for cell, name in ALGORITHMS.items()
     )
-    short = [budget_note(results, cell, name) for cell, name in ALGORITHMS.items()]
+    short = [budget_note(results, cells, cell, name) for cell, name in ALGORITHMS.items()]
     short = " ".join(note for note in short if note)
     cells = {**ALGORITHMS, "ppo_env1_paper": "PPO with the paper's action"}
     briefs = [f"{name} {_at_limit_brief(results, c)}" for c, name in cells.items()]
@@ -434,12 +424,12 @@ so Gaussian exploration noise on the quaternion change random-walks the tool's o
 nothing pulling it back: with SB3's default initial noise (std 1) the tool tilts
 {np.degrees(wide):.0f}° on average after {steps} steps (an episode is at most
 {MAX_EPISODE_STEPS}), with std e⁻¹ ≈ 0.37 {np.degrees(narrow):.0f}° (`orientation_drift` in
-`benchmarks/paper_report.py`: the action's own arithmetic, no simulation). A tilted tool meets
-the box with its side or misses it, and PPO has to learn to cancel the noise in four
-dimensions before it can learn the push. `log_std_init = -1` — the one change, chosen on seed 0
+`drake_tooluse/experiments/paper_study_report.py`: the action's own arithmetic, no
+simulation). A tilted tool meets the box with its side or misses it, and PPO has to learn to
+cancel the noise in four dimensions before it can learn the push. `log_std_init = -1` — the one change, chosen on seed 0
 at 300k steps; the action's meaning, scale and normalisation are the paper's — gives {paper};
-the same training with std 1: {control}. Goal (issue 13, item 1): ≤ 4 cm and ≥ 80 % over ≥ 3
-seeds within 1.25 M steps, on seeds it was not tuned on.
+the same training with std 1: {control}. The goal: ≤ 4 cm and ≥ 80 % over ≥ 3 seeds within
+1.25 M steps, on seeds it was not tuned on.
 
 **The four algorithms on Env1** (position action; the paper's figures are one run each):
 {algorithms}. {short}
@@ -492,10 +482,10 @@ started) whatever the arm does until something reaches the box, so nothing draws
 
 HEADER = """# Training: the paper's study at its scale, with statistics
 
-Made by `python benchmarks/paper_report.py` from `docs/results/paper_study.json`, which `python
-benchmarks/paper_experiments.py` writes run by run (a re-run picks up every run where it
-stopped; it also regenerates this page after each run it finishes, and with `--commit` commits
-both, so the page is current when a session ends). Every run is a `drake-tooluse train` command
+Made by `drake-tooluse study-report --update-docs` from `docs/results/paper_study.json`, which
+`drake-tooluse study --update-docs` writes run by run (a re-run picks up every run where it
+stopped; it also makes this page again after each run it finishes, so the page is current when
+a session ends; committing both is yours). Every run is a `drake-tooluse train` command
 (its exact command is in the JSON), on the exact tool-tip IK, with randomized starts (box ±2 cm,
 yaw ±0.2 rad, mass and friction ±30 %, the grasp ±1 cm along and ±0.5 cm across the tool), two
 env processes, observation and reward normalisation and the hyperparameters of
@@ -515,11 +505,12 @@ its last column judges the same policies to the limit. The paper's figures stand
 rows of its protocol only.
 
 ```bash
-python benchmarks/paper_experiments.py --status   # what is done and what is missing
-python benchmarks/paper_experiments.py            # runs what is missing, resuming stopped runs
-python benchmarks/paper_experiments.py --parallel 2  # the same, two runs at a time
-python benchmarks/paper_report.py                 # this page and its figures
-python benchmarks/paper_report.py --check         # exit 1 if this page is not the results' (a test)
+drake-tooluse study --update-docs --status        # what is done and what is missing
+drake-tooluse study --update-docs                 # runs what is missing, resuming stopped runs
+drake-tooluse study --update-docs --parallel 2    # the same, two runs at a time
+drake-tooluse study-report --update-docs          # this page and its figures
+drake-tooluse study-report --update-docs --check  # exit 2 if this page is not the results'
+drake-tooluse study --out runs/mine               # the same study, all files under runs/mine
 ```
 
 ## The study
@@ -534,17 +525,16 @@ run each at 1.25 M steps, ~7 h on 32 cores).
 """
 
 
-def training_page(
-    results: dict, runs_dir: Path, figures: Path, doc: Path, results_path: Path = RESULTS
-) -> str:
-    """docs/TRAINING.md's text: the table, what is still to run (of `runs_dir`), the
-    discussion, the figures that exist in `figures` and the earlier runs."""
-    table = study_table(results)
+def training_page(results: dict, cells: dict, files: StudyFiles) -> str:
+    """docs/TRAINING.md's text: the table, what is still to run (of the runs' archive), the
+    discussion, the figures that exist and the earlier runs."""
+    table = study_table(results, cells)
     page = HEADER.format(
-        reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, runs_dir)
+        reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, cells, files.archive)
     )
-    page += "\n" + discussion(results)
-    where = Path(os.path.relpath(figures, doc.parent))
+    page += "\n" + discussion(results, cells)
+    figures = files.figures
+    where = Path(os.path.relpath(figures, files.page.parent))
     page += (
         "\n## Figures\n\n"
         + "\n\n".join(
@@ -562,7 +552,7 @@ def training_page(
         )
         + "\n"
     )
-    page += "\n" + earlier_runs(results_path.parent / "paper_experiments.json")
+    page += "\n" + earlier_runs(files.results.parent / "paper_experiments.json")
     return page
 
 
@@ -574,62 +564,52 @@ def without_queue(page: str) -> str:
     return page[:start] + page[end:] if 0 <= start < end else page
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    ap.add_argument("--runs-dir", type=Path, default=ARCHIVE, help="the runs' files")
-    ap.add_argument("--results", type=Path, default=RESULTS)
-    ap.add_argument("--doc", type=Path, default=REPORT)
-    ap.add_argument("--figures", type=Path, default=FIGURES)
-    ap.add_argument("--trajectories", type=int, default=10, help="episodes per 3-D panel")
-    ap.add_argument(
-        "--check",
-        action="store_true",
-        help="write nothing; exit 1 if the page is not what the results give (its list of runs"
-        " still to run aside: that is of the machine's run directories)",
-    )
-    args = ap.parse_args()
-    results = read_results(args.results, ap)
-    if args.check:
-        page = training_page(results, args.runs_dir, args.figures, args.doc, args.results)
-        current = args.doc.is_file() and without_queue(args.doc.read_text()) == without_queue(page)
-        print(f"{args.doc}: {'current' if current else 'NOT current: run ' + __file__}")
-        raise SystemExit(0 if current else 1)
-    print(study_table(results))
-    figure_algorithms(results, args.runs_dir, args.figures)
-    figure_pair(
-        results,
-        args.runs_dir,
-        args.figures,
-        [
-            ("ppo_env1", "position action", "tab:blue", 0.0),
-            ("ppo_env1_paper", "the paper's 7-d action", "tab:purple", 0.0),
-        ],
-        "PPO on Env1: the paper's action against the position action",
-        "training_env1_paper_action",
-    )
-    figure_pair(
-        results,
-        args.runs_dir,
-        args.figures,
-        [
-            ("ppo_env3_scratch", "from scratch", "tab:gray", 0.0),
-            (
-                "ppo_env3_finetune",
-                "fine-tuned from Env1 (after its 1.25 M)",
-                "tab:green",
-                CELLS["ppo_env1"]["timesteps"],
-            ),
-        ],
-        "Env3 (ToolPushFar-v0): fine-tuned from Env1 against from scratch",
-        "training_env3_finetune",
-    )
-    figure_trajectories(results, args.runs_dir, args.figures, args.trajectories)
-    page = training_page(results, args.runs_dir, args.figures, args.doc, args.results)
-    atomic_write_text(args.doc, page)
-    print(f"wrote {args.doc} and the figures in {args.figures}")
+def page_is_current(cells: dict, files: StudyFiles) -> bool:
+    """Whether the page is the one the results give (its list of runs still to run aside:
+    that is of the machine's run directories); writes nothing."""
+    page = training_page(read_results(files.results), cells, files)
+    return files.page.is_file() and without_queue(files.page.read_text()) == without_queue(page)
 
 
-if __name__ == "__main__":
-    sys.exit(run_script(main))
+def make_report(cells: dict, files: StudyFiles, trajectories: int = 10) -> dict:
+    """Writes the page and its figures from the results and the runs' archive; the files
+    written and the study's table."""
+    results = read_results(files.results)
+    runs_dir, figures = files.archive, files.figures
+    written = [
+        figure_algorithms(results, runs_dir, figures),
+        figure_pair(
+            results,
+            runs_dir,
+            figures,
+            [
+                ("ppo_env1", "position action", "tab:blue", 0.0),
+                ("ppo_env1_paper", "the paper's 7-d action", "tab:purple", 0.0),
+            ],
+            "PPO on Env1: the paper's action against the position action",
+            "training_env1_paper_action",
+        ),
+        figure_pair(
+            results,
+            runs_dir,
+            figures,
+            [
+                ("ppo_env3_scratch", "from scratch", "tab:gray", 0.0),
+                (
+                    "ppo_env3_finetune",
+                    "fine-tuned from Env1 (after its 1.25 M)",
+                    "tab:green",
+                    cells.get("ppo_env1", {}).get("timesteps", PAPER_STEPS),
+                ),
+            ],
+            "Env3 (ToolPushFar-v0): fine-tuned from Env1 against from scratch",
+            "training_env3_finetune",
+        ),
+        figure_trajectories(results, runs_dir, figures, trajectories),
+    ]
+    atomic_write_text(files.page, training_page(results, cells, files))
+    return {
+        "page": str(files.page),
+        "figures": [str(f) for f in written if f is not None],
+        "table": study_table(results, cells),
+    }
