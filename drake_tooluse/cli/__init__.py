@@ -83,6 +83,34 @@ class ArgumentsRefused(Exception):
         self.parser = parser
 
 
+class VersionShown(Exception):
+    """`--version` printed its line: `main` returns exit code 0."""
+
+
+def version_line() -> str:
+    """The package's version, the Drake and Python it runs on, in one line (no Drake import:
+    the installed distribution's metadata)."""
+    import importlib.metadata
+    import platform
+
+    from drake_tooluse import __version__
+
+    try:
+        drake = importlib.metadata.version("drake")
+    except importlib.metadata.PackageNotFoundError:  # a Drake not installed by pip
+        drake = "unknown (no 'drake' distribution installed)"
+    return f"drake-tooluse {__version__} (Drake {drake}, Python {platform.python_version()})"
+
+
+class _Version(argparse.Action):
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_line())
+        raise VersionShown
+
+
 class Parser(argparse.ArgumentParser):
     """argparse's parser that raises its errors for `main` to report (as JSON too, with
     `--json`) instead of printing them and exiting."""
@@ -99,17 +127,30 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=HelpFormatter,
         allow_abbrev=False,
     )
+    parser.add_argument(
+        "--version", action=_Version, help="print the version, Drake's and Python's, and exit"
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_parsers(sub)
-    for p in sub.choices.values():
-        p.formatter_class = HelpFormatter
-        p.epilog = EPILOG
-        p.allow_abbrev = False  # `--tool 0.2` is an error, not --tool-length
+    for p in commands(sub):
         p.add_argument(
             "--json", action="store_true", help="print JSON (default: human-readable text)"
         )
     return parser
+
+
+def commands(sub) -> list[argparse.ArgumentParser]:
+    """The parsers of the commands under the subparsers `sub`, a group's (`dev`'s) included,
+    each given the help's formatter and epilog on the way."""
+    found = []
+    for p in sub.choices.values():
+        p.formatter_class = HelpFormatter
+        p.epilog = EPILOG
+        p.allow_abbrev = False  # `--tool 0.2` is an error, not --tool-length
+        nested = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+        found += commands(nested[0]) if nested else [p]
+    return found
 
 
 def _strict(value):
@@ -143,8 +184,13 @@ def _usage_error(e: Exception) -> bool:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    argv, moved = maintenance.moved_command(argv)
+    if moved:
+        print(moved, file=sys.stderr)
     try:
         args = make_parser().parse_args(argv)
+    except VersionShown:
+        return EXIT_OK
     except ArgumentsRefused as e:
         text = _one_line(e)
         if "--json" in argv:

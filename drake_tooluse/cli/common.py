@@ -164,6 +164,23 @@ def output_file_arg(path, option: str, suffix: str | None = None):
     return check_output_file(path, option, suffix)
 
 
+class _Renamed(argparse.Action):
+    """An option under its old name: refused, with the line `message` (naming the new one)."""
+
+    def __init__(self, option_strings, dest, message: str = "", **kwargs):
+        super().__init__(option_strings, dest, nargs="?", help=argparse.SUPPRESS, **kwargs)
+        self.message = message
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        parser.error(self.message)
+
+
+def add_renamed_option(p: argparse.ArgumentParser, old: str, message: str) -> None:
+    """Refuses the option `old` (hidden from --help) with `message`, one line that names the
+    option to use now."""
+    p.add_argument(old, action=_Renamed, dest=f"renamed_{old.lstrip('-')}", message=message)
+
+
 def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--trust-pickle",

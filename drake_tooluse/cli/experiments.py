@@ -6,6 +6,7 @@ import time
 from pathlib import Path
 
 from drake_tooluse.cli.common import (
+    add_renamed_option,
     add_trust_pickle_arg,
     choice_arg,
     count_arg,
@@ -32,8 +33,8 @@ def cmd_trajectory(args) -> dict:
     length = tool_length_arg(args.tool_length)
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    if args.record is not None:
-        choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.tip_poses is not None:
+        choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
@@ -55,7 +56,7 @@ def cmd_trajectory(args) -> dict:
         length,
         align=args.align,
         trust_pickle=args.trust_pickle,
-        record=args.record or EXTRACTION_RECORDS[args.extraction],
+        record=args.tip_poses or EXTRACTION_RECORDS[args.extraction],
         box_frame=line,
     )
     contact = (
@@ -157,8 +158,8 @@ def cmd_transfer(args) -> dict:
 
     choice_arg(args.mode, MODES, "--mode", "mode")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    if args.record is not None:
-        choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.tip_poses is not None:
+        choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     for tool in args.tools:
         tool_length_arg(tool, "--tools")
@@ -183,7 +184,7 @@ def cmd_transfer(args) -> dict:
         args.align,
         use_grasp_estimate=not args.length_only,
         trust_pickle=args.trust_pickle,
-        record=args.record,
+        record=args.tip_poses,
         extraction=args.extraction,
         calibration_draws=args.calibration_draws,
     )
@@ -218,6 +219,24 @@ def format_demo(out: dict) -> str:
     from drake_tooluse.experiments.demo import format_demo as format_result
 
     return format_result(out)
+
+
+def add_tip_poses_arg(p, when: str = "") -> None:
+    """--tip-poses: which tip poses of the episodes are averaged (once `--record`, a name
+    `simulate` gives its Meshcat recording file: refused here, naming this one)."""
+    p.add_argument(
+        "--tip-poses",
+        metavar="KIND",
+        help=f"{when}the episodes' tip poses averaged: 'achieved' (where the tip got: the "
+        "paper's) or 'commanded' (the tip pose each step commanded, which the arm lags by up to "
+        "~2 cm); default the extraction's own",
+    )
+    add_renamed_option(
+        p,
+        "--record",
+        "--record is now --tip-poses (achieved or commanded); --record names a Meshcat "
+        "recording file, in `simulate`",
+    )
 
 
 def add_calibration_arg(p) -> None:
@@ -256,11 +275,7 @@ def add_parsers(sub) -> None:
         help="'start' (the paper's: step by step from the start) or 'contact' "
         "(from the tool's first touch of the box)",
     )
-    p.add_argument(
-        "--record",
-        help="'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
-    )
+    add_tip_poses_arg(p)
     p.add_argument(
         "--scenario",
         type=Path,
@@ -359,11 +374,7 @@ def add_parsers(sub) -> None:
         "pushes, replayed at each run's box start, measured by the hand camera) or 'mean-achieved' "
         "(the per-step mean of where the tip got, replayed as it is)",
     )
-    p.add_argument(
-        "--record",
-        help="open loop: 'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
-    )
+    add_tip_poses_arg(p, "open loop: ")
     add_calibration_arg(p)
     p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")

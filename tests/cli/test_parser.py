@@ -83,7 +83,7 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
         ["transfer", "--mode", "bogus", "--out", str(tmp_path / "t")],
         ["transfer", "--tools", "0.125", "0.9", "--out", str(tmp_path / "t")],
         ["transfer", "--align", "middle", "--out", str(tmp_path / "t")],
-        ["trajectory", "--policy", str(tmp_path), "--record", "bogus", "--out", str(tmp_path)],
+        ["trajectory", "--policy", str(tmp_path), "--tip-poses", "bogus", "--out", str(tmp_path)],
     ]
     code = (
         "import sys\nfrom drake_tooluse.cli import main\n"
