@@ -235,6 +235,12 @@ def main(argv=None) -> int:
         print(json.dumps(_strict(out), indent=2, allow_nan=False))
     else:
         print(show(out))
+    keep_open = getattr(args, "keep_open", None)  # --meshcat: the view stays until the user
+    if keep_open is not None:  # is done with it
+        try:
+            keep_open()
+        except KeyboardInterrupt:  # (Ctrl-C is done too)
+            pass
     status = getattr(args, "status", None)  # a command whose result can miss its target
     return status(out) if status is not None else EXIT_OK
 

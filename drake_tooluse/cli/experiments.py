@@ -6,10 +6,12 @@ import time
 from pathlib import Path
 
 from drake_tooluse.cli.common import (
+    add_meshcat_arg,
     add_renamed_option,
     add_trust_pickle_arg,
     choice_arg,
     count_arg,
+    open_meshcat,
     output_dir_arg,
     output_file_arg,
     seed_arg,
@@ -204,7 +206,8 @@ def cmd_demo(args) -> dict:
     tool_length_arg(args.tool_length)
     from drake_tooluse.experiments.demo import run_demo
 
-    return run_demo(
+    meshcat = open_meshcat(args)
+    result = run_demo(
         out,
         args.policy,
         args.scenario,
@@ -212,7 +215,9 @@ def cmd_demo(args) -> dict:
         args.seed,
         progress=not args.no_progress,
         trust_pickle=args.trust_pickle,
+        meshcat=meshcat,
     )
+    return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
 
 
 def format_demo(out: dict) -> str:
@@ -411,5 +416,6 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    add_meshcat_arg(p, "the push (its recording, to play again)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)
