@@ -1,4 +1,5 @@
-"""`trajectory`, `export-csv`, `transfer` and `demo`: the paper's experiments."""
+"""`trajectory`, `export-csv`, `transfer`, `demo` and `record-video`: the paper's experiments,
+and an episode to show."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from drake_tooluse.cli.common import (
     open_meshcat,
     output_dir_arg,
     output_file_arg,
+    policy_dir_arg,
     seed_arg,
     tool_length_arg,
 )
@@ -244,6 +246,44 @@ def add_tip_poses_arg(p, when: str = "") -> None:
     )
 
 
+def cmd_record_video(args) -> dict:
+    output_file_arg(args.out, "--out", ".gif")
+    seed_arg(args.seed)
+    count_arg(args.every, "--every", 1, 100)
+    count_arg(args.colors, "--colors", 2, 256)
+    policy_dir_arg(args.policy, "--policy")
+    env_kwargs = {  # checked by the env, by these names (`render_size=...`)
+        name: value
+        for name, value in (
+            ("render_size", args.render_size),
+            ("render_camera_position", args.render_camera_position),
+            ("render_camera_target", args.render_camera_target),
+        )
+        if value is not None
+    }
+    from drake_tooluse.experiments.video import record_video
+
+    return record_video(
+        args.policy,
+        args.out,
+        args.seed,
+        every=args.every,
+        colors=args.colors,
+        env_kwargs=env_kwargs,
+        trust_pickle=args.trust_pickle,
+    )
+
+
+def format_record_video(out: dict) -> str:
+    box = out.get("final_box_to_goal_m")
+    where = "" if box is None else f", the box {box * 100:.1f} cm from the goal at the end"
+    return (
+        f"{out['video']}: {out['frames']} frames of {out['size_px'][0]} x {out['size_px'][1]} px "
+        f"at {out['fps']:g} fps, {out['bytes'] / 1000:.0f} KB; seed {out['seed']}, "
+        f"{out['steps']} steps, {'success' if out['success'] else 'no success'}{where}"
+    )
+
+
 def add_calibration_arg(p) -> None:
     p.add_argument(
         "--calibration-draws",
@@ -419,3 +459,50 @@ def add_parsers(sub) -> None:
     add_meshcat_arg(p, "the push (its recording, to play again)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)
+
+    p = sub.add_parser(
+        "record-video",
+        help="one episode of a policy as an animated GIF (the scene camera: robot, tool, box "
+        "and the goal in view)",
+    )
+    p.add_argument(
+        "--policy",
+        type=Path,
+        default=TRANSFER_POLICY,
+        help="policy directory (default: %(default)s)",
+    )
+    p.add_argument("--out", type=Path, required=True, help="the .gif file to write")
+    p.add_argument("--seed", type=int, default=0, help="the episode's seed")
+    p.add_argument(
+        "--every",
+        type=int,
+        default=2,
+        metavar="N",
+        help="a frame every N control steps (40 ms each; the GIF plays in real time)",
+    )
+    p.add_argument(
+        "--colors", type=int, default=96, help="colours of the GIF's one palette, in [2, 256]"
+    )
+    p.add_argument(
+        "--render-size",
+        type=int,
+        nargs=2,
+        metavar=("W", "H"),
+        help="image width and height in px, each in [32, 2048] (default: the env's, 640 480)",
+    )
+    p.add_argument(
+        "--render-camera-position",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="camera position in the world, m (default: the env's, framing the task)",
+    )
+    p.add_argument(
+        "--render-camera-target",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="the point the camera looks at, m (default: the env's)",
+    )
+    add_trust_pickle_arg(p)
+    p.set_defaults(run=cmd_record_video, show=format_record_video)

@@ -279,11 +279,26 @@ def scene_camera_view(diagram, plant) -> SceneView | None:
 GOAL_RGB = (40, 200, 60)  # the goal as drawn on images (the Meshcat recordings' green)
 
 
-def draw_goal(image: np.ndarray, view: SceneView, p_WG, radius: float) -> np.ndarray:
+def plane_depth(view: SceneView, shape, z: float) -> np.ndarray:
+    """(H, W) depth (m, along C's +z, as a depth image holds it) at which each pixel's ray
+    meets the horizontal plane z (W); inf where it never does (the ray runs away from it)."""
+    h, w = shape[:2]
+    u, v = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    R_WC = view.X_WC.rotation().matrix()
+    # A point at depth t on pixel (u, v)'s ray: p_WC + t R_WC d, d = ((u-cx)/fx, (v-cy)/fy, 1).
+    dz = R_WC[2, 0] * (u - view.cx) / view.fx + R_WC[2, 1] * (v - view.cy) / view.fy + R_WC[2, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (z - view.X_WC.translation()[2]) / dz
+    return np.where(np.isfinite(t) & (t > 0), t, np.inf)
+
+
+def draw_goal(image: np.ndarray, view: SceneView, p_WG, radius: float, depth=None) -> np.ndarray:
     """`image` (RGB(A), `view`'s) as RGB with the goal drawn where the camera sees it: a
     translucent green disc of `radius` (m) in the horizontal plane through p_WG (the goal on
-    the table, W, m), its rim, a cross at its centre and the word "goal". Drawn on the image
-    only: nothing in the scene graph, so the physics stays as it is."""
+    the table, W, m), its rim, a cross at its centre and the word "goal". With `depth` (the
+    camera's depth image, m), what stands in front of the disc (the box, the tool) stays in
+    front of it. Drawn on the image only: nothing in the scene graph, so the physics stays as
+    it is."""
     rgb = np.ascontiguousarray(np.asarray(image)[:, :, :3]).copy()
     gx, gy, z = (float(v) for v in p_WG)
     angles = np.linspace(0.0, 2 * np.pi, 73)
@@ -295,14 +310,18 @@ def draw_goal(image: np.ndarray, view: SceneView, p_WG, radius: float) -> np.nda
     polygon = np.rint(np.clip(uv, -1e5, 1e5)).astype(np.int32)
     disc = rgb.copy()
     cv2.fillPoly(disc, [polygon], GOAL_RGB, cv2.LINE_AA)
-    rgb = cv2.addWeighted(disc, 0.45, rgb, 0.55, 0.0)
-    cv2.polylines(rgb, [polygon], True, GOAL_RGB, max(1, round(2 * scale)), cv2.LINE_AA)
+    marked = cv2.addWeighted(disc, 0.45, rgb, 0.55, 0.0)
+    cv2.polylines(marked, [polygon], True, GOAL_RGB, max(1, round(2 * scale)), cv2.LINE_AA)
     (center,), _ = view.project([[gx, gy, z]])
     c = tuple(int(round(x)) for x in center)
     size = max(4, round(6 * scale))
-    cv2.drawMarker(rgb, c, GOAL_RGB, cv2.MARKER_CROSS, size, max(1, round(2 * scale)))
+    cv2.drawMarker(marked, c, GOAL_RGB, cv2.MARKER_CROSS, size, max(1, round(2 * scale)))
+    if depth is not None:  # keep what is in front of the table's plane (1 cm slack)
+        d = np.asarray(depth, np.float32).reshape(rgb.shape[:2])
+        in_front = d < plane_depth(view, rgb.shape, z) - 0.01
+        marked[in_front] = rgb[in_front]
     cv2.putText(  # to the right of the disc, off the box and the tool above it
-        rgb,
+        marked,
         "goal",
         (int(polygon[:, 0].max()) + round(4 * scale), c[1] + round(5 * scale)),
         cv2.FONT_HERSHEY_SIMPLEX,
@@ -311,7 +330,7 @@ def draw_goal(image: np.ndarray, view: SceneView, p_WG, radius: float) -> np.nda
         max(1, round(1.5 * scale)),
         cv2.LINE_AA,
     )
-    return rgb
+    return marked
 
 
 def head_camera_pose(plant, plant_context) -> RigidTransform:

@@ -276,6 +276,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
                 target=config.render_camera_target,
             )
             self._scene_view = SceneView.of_sensor(sensor)
+            self._scene_depth = sensor.depth_image_32F_output_port()  # what hides the goal
         self.visualizer = None
         if config.meshcat is not None:
             self.visualizer = add_meshcat_visualizer(
@@ -404,6 +405,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "action_port",
             "observation_port",
             "render_rgb_port",
+            "_scene_depth",
             "world",
             "control",
             "ik_system",
@@ -435,7 +437,10 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         if goal is None or self._scene_view is None:  # before the first reset
             return frame.copy()
         p_WG = [goal[0], goal[1], self.scenario.table.top_z]
-        return draw_goal(frame, self._scene_view, p_WG, GOAL_RADIUS)
+        depth = self._scene_depth.Eval(
+            self._scene_depth.get_system().GetMyContextFromRoot(self._context)
+        )
+        return draw_goal(frame, self._scene_view, p_WG, GOAL_RADIUS, depth.data)
 
     # -- Meshcat recordings ---------------------------------------------------------------
     def start_recording(self) -> None:
