@@ -237,6 +237,7 @@ def main(argv=None) -> int:
         print(show(out))
     keep_open = getattr(args, "keep_open", None)  # --meshcat: the view stays until the user
     if keep_open is not None:  # is done with it
+        sys.stdout.flush()  # the result shows while the view stays open, in a pipe too
         try:
             keep_open()
         except KeyboardInterrupt:  # (Ctrl-C is done too)

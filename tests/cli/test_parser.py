@@ -9,10 +9,14 @@ import sys
 
 import pytest
 
-from drake_tooluse.cli import EXIT_NOT_REACHED, EXIT_USAGE, make_parser
+from drake_tooluse.cli import EXIT_NOT_REACHED, EXIT_USAGE, commands, make_parser
 
 PARSER = make_parser()
-COMMANDS = next(a for a in PARSER._actions if isinstance(a, argparse._SubParsersAction)).choices
+# Every command, a group's (`dev render-figures`) included, by its name after `drake-tooluse`.
+COMMANDS = {
+    p.prog.removeprefix("drake-tooluse "): p
+    for p in commands(next(a for a in PARSER._actions if isinstance(a, argparse._SubParsersAction)))
+}
 
 
 def strict_json(text: str):
