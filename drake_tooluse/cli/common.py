@@ -215,7 +215,10 @@ def wait_for_user(meshcat, stdin=None) -> None:
         return
     how = "press Enter to close it" if stdin.isatty() else "send a line or close stdin to close it"
     print(f"Meshcat: {meshcat.web_url()} stays open; {how}", file=sys.stderr, flush=True)
-    stdin.readline()
+    try:
+        stdin.readline()
+    except (OSError, ValueError):  # a stdin that cannot be read: no one to wait for
+        pass
 
 
 def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:

@@ -80,3 +80,16 @@ def test_simulate_keeps_its_view_open_until_stdin_says_so():
     finally:
         killer.cancel()
         proc.kill()
+
+
+def test_evaluate_draws_its_episodes_in_meshcat_and_ends_with_stdin(capsys, monkeypatch):
+    from drake_tooluse.cli import main
+    from drake_tooluse.paths import TRANSFER_POLICY
+
+    monkeypatch.setattr(sys, "stdin", io.StringIO(""))  # no terminal, nothing to read: no wait
+    argv = ["evaluate", "--policy", str(TRANSFER_POLICY), "--episodes", "1", "--meshcat"]
+    assert main([*argv, "--json"]) == 0
+    captured = capsys.readouterr()
+    url = json.loads(captured.out)["meshcat_url"]
+    assert f"Meshcat: open {url} in a browser" in captured.err
+    assert f"Meshcat: {url} stays open; send a line or close stdin" in captured.err
