@@ -158,7 +158,17 @@ SCENE_CAMERA_FOV_Y = 0.9  # rad
 SCENE_CAMERA_SIZES = (32, 2048)  # px: each side of the image within this
 MAX_CAMERA_DISTANCE = 10.0  # m, per coordinate of the position and the target
 SCENE_CAMERA = "render_camera"  # the sensor's name in the diagram
-SCENE_CAMERA_FAR = 60.0  # m: past any two points allowed (and within a 16-bit depth image)
+# The work area close up (the demo's final scene: the box at the goal large enough to judge by
+# eye): in front of the robot, to its right, below its head, 480 x 360 px.
+CLOSE_UP_CAMERA = {
+    "width": 480,
+    "height": 360,
+    "position": (1.35, -0.85, 0.35),
+    "target": (0.55, -0.15, -0.12),
+}
+# m: the far clipping plane of a camera within 3 m of W's origin; one further away sees as far
+# again past W as it stands beyond 3 m (the near plane stays at 5 cm).
+SCENE_CAMERA_FAR = 10.0
 
 
 def check_scene_camera(size, position, target, name: str = "render") -> tuple:
@@ -220,6 +230,7 @@ def add_scene_camera(
     holds and changes nothing of the physics. Exports its `color_image` port. Returns the
     sensor."""
     (width, height), position, target = check_scene_camera((width, height), position, target)
+    far = SCENE_CAMERA_FAR + max(0.0, float(np.linalg.norm(position)) - 3.0)
     sensor = add_rgbd_sensor(
         builder,
         world,
@@ -227,8 +238,8 @@ def add_scene_camera(
         body=world.plant.world_body(),
         X_BC=look_at(position, target),
         info=CameraInfo(width, height, SCENE_CAMERA_FOV_Y),
-        clipping=(0.05, SCENE_CAMERA_FAR),
-        depth_range=(0.05, SCENE_CAMERA_FAR),
+        clipping=(0.05, far),
+        depth_range=(0.05, far),
         renderer=SCENE_CAMERA,
     )
     builder.ExportOutput(sensor.color_image_output_port(), "color_image")
