@@ -1,5 +1,11 @@
 """`drake-tooluse`: the command line, a thin dispatcher over one module per command group.
 
+The users' commands are at the top level; the maintainers' (which regenerate the project's own
+files) under `drake-tooluse dev`. `drake-tooluse --version` prints the package's version and the
+Drake and Python it runs on. The commands that show a scene (`demo`, `simulate`, `evaluate`)
+take `--meshcat`: a live view whose URL they print, kept open after the result until the user
+is done with it (`common.wait_for_user`).
+
 Each group module adds its commands' parsers and imports the library only when a command
 runs, so `--help` and argument errors come fast. This is the one place where errors become
 exit codes and messages, one line on stderr (and `{"error": ...}` on stdout with `--json`),

@@ -426,7 +426,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         """`rgb_array`: the scene camera's colour image, (H, W, 3) uint8, of `render_size`
         (W, H), seen from `render_camera_position` looking at `render_camera_target` (by
         default robot, tool, table, box and goal in view), with this episode's goal drawn on
-        it: a translucent green disc of radius GOAL_RADIUS on the table. The goal is drawn on
+        it: a translucent green disc of radius GOAL_RADIUS on the table, behind what stands
+        in front of it (the box, the tool: by the camera's depth image). The goal is drawn on
         the image (`systems.camera.draw_goal`), not put in the scene graph, so an env renders
         or not with the same physics."""
         frame = super().render()
