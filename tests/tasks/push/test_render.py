@@ -29,15 +29,37 @@ def _pixel(env, p_W):
     return np.rint(uv).astype(int)
 
 
+def _borders_are_sky(image) -> bool:
+    """The top, left and right borders of `image` are all the background's one colour."""
+    sky = image[0, 0].astype(int)
+    return all(
+        np.abs(border.astype(int) - sky).max() <= 3
+        for border in (image[:2], image[:, :2], image[:, -2:])
+    )
+
+
+def test_the_border_check_sees_a_cut_robot():
+    """The camera the env had before (in front, below the head, nearer) cuts the robot's head
+    and arms: the check above tells."""
+    env = gym.make(
+        ENV,
+        render_mode="rgb_array",
+        render_camera_position=(1.35, -0.85, 0.35),
+        render_camera_target=(0.55, -0.15, -0.12),
+    )
+    env.reset(seed=0)
+    e = env.unwrapped
+    assert not _borders_are_sky(np.asarray(super(type(e), e).render())[:, :, :3])
+    env.close()
+
+
 def test_the_default_frame_holds_the_whole_robot_and_the_task(rendered):
     env, frame, raw = rendered
     h, w = frame.shape[:2]
     assert (w, h) == (640, 480)
     # Nothing is cut at the top or the sides: those borders are all background (the sky's one
     # colour), so the robot, head and arms included, lies inside the image.
-    sky = raw[0, 0].astype(int)
-    for border in (raw[:2], raw[:, :2], raw[:, -2:]):
-        assert np.abs(border.astype(int) - sky).max() <= 3
+    assert _borders_are_sky(raw)
     # The tool's tip, the box and the goal project well inside the image.
     plant_context = env.world.plant.GetMyContextFromRoot(env._context)
     points = {
