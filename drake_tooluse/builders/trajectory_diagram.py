@@ -110,19 +110,23 @@ def simulate_waypoints(
     dwell: float = 1.5,
     belief: RobotBelief | None = None,
     record: str | Path | None = None,
+    meshcat=None,
 ) -> WaypointRun:
     """Moves the tool tip from home through `waypoints` (RigidTransforms X_WT*) in the dynamic
     simulation, the robot believing `belief` (default: the true length, nominal grasp), and
     measures the true tip's error at the end of each dwell. With `record`, a Meshcat
-    recording is written there (standalone HTML)."""
+    recording is written there (standalone HTML). With `meshcat`, the run is shown in it, then
+    its recording published there to play again."""
     trajectory = waypoint_trajectory(home_tip_pose(scenario), waypoints, move_time, dwell)
-    meshcat = start_meshcat() if record is not None else None
+    live = meshcat is not None  # the caller's Meshcat is watched: it draws while recording
+    if meshcat is None and record is not None:
+        meshcat = start_meshcat()
     built = build_trajectory_diagram(scenario, trajectory, belief, meshcat)
     simulator = Simulator(built.diagram)
     root = simulator.get_mutable_context()
     built.control.reset(root)
     if built.visualizer is not None:
-        built.visualizer.StartRecording(False)
+        built.visualizer.StartRecording(live)
     simulator.Initialize()
     plant_context = built.world.plant.GetMyContextFromRoot(root)
     ik_context = built.ik_system.GetMyContextFromRoot(root)
@@ -145,4 +149,7 @@ def simulate_waypoints(
     run.sim_time = t
     if record is not None:
         run.recording = save_recording(meshcat, built.visualizer, record)
+    elif built.visualizer is not None:
+        built.visualizer.StopRecording()
+        built.visualizer.PublishRecording()
     return run

@@ -1,5 +1,11 @@
 """`drake-tooluse`: the command line, a thin dispatcher over one module per command group.
 
+The users' commands are at the top level; the maintainers' (which regenerate the project's own
+files) under `drake-tooluse dev`. `drake-tooluse --version` prints the package's version and the
+Drake and Python it runs on. The commands that show a scene (`demo`, `simulate`, `evaluate`)
+take `--meshcat`: a live view whose URL they print, kept open after the result until the user
+is done with it (`common.wait_for_user`).
+
 Each group module adds its commands' parsers and imports the library only when a command
 runs, so `--help` and argument errors come fast. This is the one place where errors become
 exit codes and messages, one line on stderr (and `{"error": ...}` on stdout with `--json`),
@@ -83,6 +89,34 @@ class ArgumentsRefused(Exception):
         self.parser = parser
 
 
+class VersionShown(Exception):
+    """`--version` printed its line: `main` returns exit code 0."""
+
+
+def version_line() -> str:
+    """The package's version, the Drake and Python it runs on, in one line (no Drake import:
+    the installed distribution's metadata)."""
+    import importlib.metadata
+    import platform
+
+    from drake_tooluse import __version__
+
+    try:
+        drake = importlib.metadata.version("drake")
+    except importlib.metadata.PackageNotFoundError:  # a Drake not installed by pip
+        drake = "unknown (no 'drake' distribution installed)"
+    return f"drake-tooluse {__version__} (Drake {drake}, Python {platform.python_version()})"
+
+
+class _Version(argparse.Action):
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_line())
+        raise VersionShown
+
+
 class Parser(argparse.ArgumentParser):
     """argparse's parser that raises its errors for `main` to report (as JSON too, with
     `--json`) instead of printing them and exiting."""
@@ -99,17 +133,30 @@ def make_parser() -> argparse.ArgumentParser:
         formatter_class=HelpFormatter,
         allow_abbrev=False,
     )
+    parser.add_argument(
+        "--version", action=_Version, help="print the version, Drake's and Python's, and exit"
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     for group in GROUPS:
         group.add_parsers(sub)
-    for p in sub.choices.values():
-        p.formatter_class = HelpFormatter
-        p.epilog = EPILOG
-        p.allow_abbrev = False  # `--tool 0.2` is an error, not --tool-length
+    for p in commands(sub):
         p.add_argument(
             "--json", action="store_true", help="print JSON (default: human-readable text)"
         )
     return parser
+
+
+def commands(sub) -> list[argparse.ArgumentParser]:
+    """The parsers of the commands under the subparsers `sub`, a group's (`dev`'s) included,
+    each given the help's formatter and epilog on the way."""
+    found = []
+    for p in sub.choices.values():
+        p.formatter_class = HelpFormatter
+        p.epilog = EPILOG
+        p.allow_abbrev = False  # `--tool 0.2` is an error, not --tool-length
+        nested = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+        found += commands(nested[0]) if nested else [p]
+    return found
 
 
 def _strict(value):
@@ -143,8 +190,13 @@ def _usage_error(e: Exception) -> bool:
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    argv, moved = maintenance.moved_command(argv)
+    if moved:
+        print(moved, file=sys.stderr)
     try:
         args = make_parser().parse_args(argv)
+    except VersionShown:
+        return EXIT_OK
     except ArgumentsRefused as e:
         text = _one_line(e)
         if "--json" in argv:
@@ -189,6 +241,13 @@ def main(argv=None) -> int:
         print(json.dumps(_strict(out), indent=2, allow_nan=False))
     else:
         print(show(out))
+    keep_open = getattr(args, "keep_open", None)  # --meshcat: the view stays until the user
+    if keep_open is not None:  # is done with it
+        sys.stdout.flush()  # the result shows while the view stays open, in a pipe too
+        try:
+            keep_open()
+        except KeyboardInterrupt:  # (Ctrl-C is done too)
+            pass
     status = getattr(args, "status", None)  # a command whose result can miss its target
     return status(out) if status is not None else EXIT_OK
 

@@ -164,6 +164,63 @@ def output_file_arg(path, option: str, suffix: str | None = None):
     return check_output_file(path, option, suffix)
 
 
+class _Renamed(argparse.Action):
+    """An option under its old name: refused, with the line `message` (naming the new one)."""
+
+    def __init__(self, option_strings, dest, message: str = "", **kwargs):
+        super().__init__(option_strings, dest, nargs="?", help=argparse.SUPPRESS, **kwargs)
+        self.message = message
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        parser.error(self.message)
+
+
+def add_renamed_option(p: argparse.ArgumentParser, old: str, message: str) -> None:
+    """Refuses the option `old` (hidden from --help) with `message`, one line that names the
+    option to use now."""
+    p.add_argument(old, action=_Renamed, dest=f"renamed_{old.lstrip('-')}", message=message)
+
+
+def add_meshcat_arg(p: argparse.ArgumentParser, what: str) -> None:
+    """--meshcat: show `what` live in a browser (`open_meshcat`)."""
+    p.add_argument(
+        "--meshcat",
+        action="store_true",
+        help=f"show {what} in Meshcat: print its URL (on stderr) and, after the result, keep "
+        "the view open until Enter is pressed (stdin not a terminal: until a line or the end "
+        "of stdin)",
+    )
+
+
+def open_meshcat(args):
+    """With --meshcat: a Meshcat server on a free loopback port, its URL printed on stderr now
+    (open it while the command runs) and `args.keep_open` set, which `main` calls after the
+    result is printed (`wait_for_user`). Without: None."""
+    if not getattr(args, "meshcat", False):
+        return None
+    from drake_tooluse.builders.visualization import start_meshcat
+
+    meshcat = start_meshcat()
+    print(f"Meshcat: open {meshcat.web_url()} in a browser", file=sys.stderr, flush=True)
+    args.keep_open = lambda: wait_for_user(meshcat)
+    return meshcat
+
+
+def wait_for_user(meshcat, stdin=None) -> None:
+    """Keeps `meshcat` (its server, and the view in the browser) open until the user is done:
+    Enter at a terminal; otherwise (CI, a pipe) a line or the end of `stdin` (default
+    sys.stdin), so that a command with no one at it does not wait forever."""
+    stdin = sys.stdin if stdin is None else stdin
+    if stdin is None or stdin.closed:
+        return
+    how = "press Enter to close it" if stdin.isatty() else "send a line or close stdin to close it"
+    print(f"Meshcat: {meshcat.web_url()} stays open; {how}", file=sys.stderr, flush=True)
+    try:
+        stdin.readline()
+    except (OSError, ValueError):  # a stdin that cannot be read: no one to wait for
+        pass
+
+
 def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--trust-pickle",

@@ -1,4 +1,5 @@
-"""`trajectory`, `export-csv`, `transfer` and `demo`: the paper's experiments."""
+"""`trajectory`, `export-csv`, `transfer`, `demo` and `record-video`: the paper's experiments,
+and an episode to show."""
 
 from __future__ import annotations
 
@@ -6,11 +7,15 @@ import time
 from pathlib import Path
 
 from drake_tooluse.cli.common import (
+    add_meshcat_arg,
+    add_renamed_option,
     add_trust_pickle_arg,
     choice_arg,
     count_arg,
+    open_meshcat,
     output_dir_arg,
     output_file_arg,
+    policy_dir_arg,
     seed_arg,
     tool_length_arg,
 )
@@ -32,8 +37,8 @@ def cmd_trajectory(args) -> dict:
     length = tool_length_arg(args.tool_length)
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    if args.record is not None:
-        choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.tip_poses is not None:
+        choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
     count_arg(args.window, "--window", 1, 999)
@@ -55,7 +60,7 @@ def cmd_trajectory(args) -> dict:
         length,
         align=args.align,
         trust_pickle=args.trust_pickle,
-        record=args.record or EXTRACTION_RECORDS[args.extraction],
+        record=args.tip_poses or EXTRACTION_RECORDS[args.extraction],
         box_frame=line,
     )
     contact = (
@@ -157,8 +162,8 @@ def cmd_transfer(args) -> dict:
 
     choice_arg(args.mode, MODES, "--mode", "mode")
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
-    if args.record is not None:
-        choice_arg(args.record, RECORDS, "--record", "recording")
+    if args.tip_poses is not None:
+        choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     for tool in args.tools:
         tool_length_arg(tool, "--tools")
@@ -183,7 +188,7 @@ def cmd_transfer(args) -> dict:
         args.align,
         use_grasp_estimate=not args.length_only,
         trust_pickle=args.trust_pickle,
-        record=args.record,
+        record=args.tip_poses,
         extraction=args.extraction,
         calibration_draws=args.calibration_draws,
     )
@@ -203,7 +208,8 @@ def cmd_demo(args) -> dict:
     tool_length_arg(args.tool_length)
     from drake_tooluse.experiments.demo import run_demo
 
-    return run_demo(
+    meshcat = open_meshcat(args)
+    result = run_demo(
         out,
         args.policy,
         args.scenario,
@@ -211,13 +217,71 @@ def cmd_demo(args) -> dict:
         args.seed,
         progress=not args.no_progress,
         trust_pickle=args.trust_pickle,
+        meshcat=meshcat,
     )
+    return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
 
 
 def format_demo(out: dict) -> str:
     from drake_tooluse.experiments.demo import format_demo as format_result
 
     return format_result(out)
+
+
+def add_tip_poses_arg(p, when: str = "") -> None:
+    """--tip-poses: which tip poses of the episodes are averaged (once `--record`, a name
+    `simulate` gives its Meshcat recording file: refused here, naming this one)."""
+    p.add_argument(
+        "--tip-poses",
+        metavar="KIND",
+        help=f"{when}the episodes' tip poses averaged: 'achieved' (where the tip got: the "
+        "paper's) or 'commanded' (the tip pose each step commanded, which the arm lags by up to "
+        "~2 cm); default the extraction's own",
+    )
+    add_renamed_option(
+        p,
+        "--record",
+        "--record is now --tip-poses (achieved or commanded); --record names a Meshcat "
+        "recording file, in `simulate`",
+    )
+
+
+def cmd_record_video(args) -> dict:
+    output_file_arg(args.out, "--out", ".gif")
+    seed_arg(args.seed)
+    count_arg(args.every, "--every", 1, 100)
+    count_arg(args.colors, "--colors", 2, 256)
+    policy_dir_arg(args.policy, "--policy")
+    env_kwargs = {  # checked by the env, by these names (`render_size=...`)
+        name: value
+        for name, value in (
+            ("render_size", args.render_size),
+            ("render_camera_position", args.render_camera_position),
+            ("render_camera_target", args.render_camera_target),
+        )
+        if value is not None
+    }
+    from drake_tooluse.experiments.video import record_video
+
+    return record_video(
+        args.policy,
+        args.out,
+        args.seed,
+        every=args.every,
+        colors=args.colors,
+        env_kwargs=env_kwargs,
+        trust_pickle=args.trust_pickle,
+    )
+
+
+def format_record_video(out: dict) -> str:
+    box = out.get("final_box_to_goal_m")
+    where = "" if box is None else f", the box {box * 100:.1f} cm from the goal at the end"
+    return (
+        f"{out['video']}: {out['frames']} frames of {out['size_px'][0]} x {out['size_px'][1]} px "
+        f"at {out['fps']:g} fps, {out['bytes'] / 1000:.0f} KB; seed {out['seed']}, "
+        f"{out['steps']} steps, {'success' if out['success'] else 'no success'}{where}"
+    )
 
 
 def add_calibration_arg(p) -> None:
@@ -256,11 +320,7 @@ def add_parsers(sub) -> None:
         help="'start' (the paper's: step by step from the start) or 'contact' "
         "(from the tool's first touch of the box)",
     )
-    p.add_argument(
-        "--record",
-        help="'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
-    )
+    add_tip_poses_arg(p)
     p.add_argument(
         "--scenario",
         type=Path,
@@ -359,11 +419,7 @@ def add_parsers(sub) -> None:
         "pushes, replayed at each run's box start, measured by the hand camera) or 'mean-achieved' "
         "(the per-step mean of where the tip got, replayed as it is)",
     )
-    p.add_argument(
-        "--record",
-        help="open loop: 'achieved' (where the tip got: the paper's) or 'commanded' (the tip pose "
-        "each step commanded, which the arm lags by up to ~2 cm); default the extraction's own",
-    )
+    add_tip_poses_arg(p, "open loop: ")
     add_calibration_arg(p)
     p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
     p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")
@@ -400,5 +456,53 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
+    add_meshcat_arg(p, "the push (its recording, to play again)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)
+
+    p = sub.add_parser(
+        "record-video",
+        help="one episode of a policy as an animated GIF (the scene camera: robot, tool, box "
+        "and the goal in view)",
+    )
+    p.add_argument(
+        "--policy",
+        type=Path,
+        default=TRANSFER_POLICY,
+        help="policy directory (default: %(default)s)",
+    )
+    p.add_argument("--out", type=Path, required=True, help="the .gif file to write")
+    p.add_argument("--seed", type=int, default=0, help="the episode's seed")
+    p.add_argument(
+        "--every",
+        type=int,
+        default=2,
+        metavar="N",
+        help="a frame every N control steps (40 ms each; the GIF plays in real time)",
+    )
+    p.add_argument(
+        "--colors", type=int, default=96, help="colours of the GIF's one palette, in [2, 256]"
+    )
+    p.add_argument(
+        "--render-size",
+        type=int,
+        nargs=2,
+        metavar=("W", "H"),
+        help="image width and height in px, each in [32, 2048] (default: the env's, 640 480)",
+    )
+    p.add_argument(
+        "--render-camera-position",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="camera position in the world, m (default: the env's, framing the task)",
+    )
+    p.add_argument(
+        "--render-camera-target",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "Z"),
+        help="the point the camera looks at, m (default: the env's)",
+    )
+    add_trust_pickle_arg(p)
+    p.set_defaults(run=cmd_record_video, show=format_record_video)

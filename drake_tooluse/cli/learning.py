@@ -10,9 +10,11 @@ from drake_tooluse.cli.common import (
     EXIT_NOT_REACHED,
     EXIT_OK,
     UsageError,
+    add_meshcat_arg,
     add_trust_pickle_arg,
     choice_arg,
     count_arg,
+    open_meshcat,
     output_dir_arg,
     parse_json_arg,
     policy_dir_arg,
@@ -159,6 +161,9 @@ def cmd_evaluate(args) -> dict:
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
     from drake_tooluse.learning.evaluate import evaluate
 
+    meshcat = open_meshcat(args)
+    if meshcat is not None:  # the env draws its episodes there (its `meshcat` kwarg)
+        env_kwargs = {**(env_kwargs or {}), "meshcat": meshcat}
     result = evaluate(
         args.policy,
         args.env,
@@ -171,6 +176,8 @@ def cmd_evaluate(args) -> dict:
     ).as_dict()
     if not args.per_episode:
         result.pop("per_episode")
+    if meshcat is not None:
+        result["meshcat_url"] = meshcat.web_url()
     return result
 
 
@@ -192,7 +199,7 @@ def format_convert_policy(out: dict) -> str:
 def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
     if "final_box_to_goal_mean_m" not in out:  # another task: its figures as they are
-        skip = ("episodes", "seed", "to_time_limit", "per_episode")
+        skip = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
         figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
         return f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
     return (
@@ -328,6 +335,7 @@ def add_parsers(sub) -> None:
         action="store_true",
         help="no progress bar (there is none either when stderr is not a terminal)",
     )
+    add_meshcat_arg(p, "the episodes as they run")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_evaluate, show=format_evaluate)
 

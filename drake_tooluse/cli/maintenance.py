@@ -1,5 +1,8 @@
-"""`generate-models`, `render-diagrams` and `render-figures`: the files the project writes into
-its own tree."""
+"""`dev generate-models`, `dev render-diagrams` and `dev render-figures`: the files the project
+writes into its own tree, for its maintainers, apart from the users' commands.
+
+Each ran at the top level before (`drake-tooluse render-figures`); those names still run, with a
+line on stderr naming the new one (`moved_command`)."""
 
 from __future__ import annotations
 
@@ -14,7 +17,9 @@ def cmd_generate_models(args) -> dict:
 
     if args.check:
         if not BAXTER_URDF.is_file() or BAXTER_URDF.read_text() != baxter_urdf():
-            raise UsageError(f"{BAXTER_URDF} is out of date; run `drake-tooluse generate-models`")
+            raise UsageError(
+                f"{BAXTER_URDF} is out of date; run `drake-tooluse dev generate-models`"
+            )
         return {"current": True, "path": str(BAXTER_URDF)}
     return {"written": str(write_models(MODELS_DIR))}
 
@@ -46,16 +51,39 @@ def cmd_render_figures(args) -> dict:
     return render_all(args.figures_dir, check=args.check, names=args.only)
 
 
-def add_parsers(sub) -> None:
+GROUP = "dev"
+COMMANDS = ("generate-models", "render-diagrams", "render-figures")
+
+
+def moved_command(argv: list[str]) -> tuple[list[str], str | None]:
+    """`argv` with a maintainers' command given at the top level (its old place) moved under
+    `dev`, and the line that says so (None if `argv` needed no change)."""
+    if not argv or argv[0] not in COMMANDS:
+        return argv, None
+    return [GROUP, *argv], (
+        f"drake-tooluse {argv[0]} is now `drake-tooluse {GROUP} {argv[0]}` (a maintainers' "
+        "command); the old name still runs"
+    )
+
+
+def add_parsers(top) -> None:
+    group = top.add_parser(
+        GROUP,
+        help="maintainers' commands: regenerate the files the project writes into its own tree "
+        f"({', '.join(COMMANDS)})",
+    )
+    sub = group.add_subparsers(dest="dev_command", required=True, metavar="COMMAND")
     p = sub.add_parser("generate-models", help="write models/baxter/baxter.urdf")
     p.add_argument("--check", action="store_true", help="only check it is current")
-    p.set_defaults(run=cmd_generate_models, show=format_generate_models)
+    p.set_defaults(
+        run=cmd_generate_models, show=format_generate_models, command="dev generate-models"
+    )
 
     p = sub.add_parser(
         "render-diagrams", help="render each diagram's block diagram to diagrams/*.dot and .svg"
     )
     p.add_argument("--check", action="store_true", help="only check the .dot files are current")
-    p.set_defaults(run=cmd_render_diagrams, show=format_rendered)
+    p.set_defaults(run=cmd_render_diagrams, show=format_rendered, command="dev render-diagrams")
 
     p = sub.add_parser(
         "render-figures",
@@ -77,4 +105,4 @@ def add_parsers(sub) -> None:
         action="store_true",
         help="only check each screenshot's .json matches a fresh recording (no browser needed)",
     )
-    p.set_defaults(run=cmd_render_figures, show=format_rendered)
+    p.set_defaults(run=cmd_render_figures, show=format_rendered, command="dev render-figures")

@@ -11,9 +11,11 @@ from drake_tooluse.cli.common import (
     EXIT_NOT_REACHED,
     EXIT_OK,
     UsageError,
+    add_meshcat_arg,
     add_scenario_args,
     add_tool_args,
     measured_belief,
+    open_meshcat,
     output_file_arg,
     pose_dict,
     scenario_from_args,
@@ -140,6 +142,7 @@ def cmd_simulate(args) -> dict:
         output_file_arg(args.record, "--record")
     scenario = scenario_from_args(args)
     waypoints = [_parse_waypoint(w) for w in args.tip_waypoints]
+    meshcat = open_meshcat(args)
     start = time.perf_counter()
     measured, belief = {}, None
     if args.measure:
@@ -155,6 +158,7 @@ def cmd_simulate(args) -> dict:
         dwell=args.dwell,
         belief=belief,
         record=args.record,
+        meshcat=meshcat,
     )
     errors = [r.position_error for r in run.results]
     believed = belief.tool_length if belief is not None else scenario.tool.length
@@ -169,6 +173,7 @@ def cmd_simulate(args) -> dict:
         "sim_time_s": run.sim_time,
         "wall_time_s": time.perf_counter() - start,
         "recording": str(run.recording) if run.recording else None,
+        **({"meshcat_url": meshcat.web_url()} if meshcat is not None else {}),
     }
 
 
@@ -289,4 +294,5 @@ def add_parsers(sub) -> None:
         help="measure the tool with the head camera first; the robot model then "
         "holds the measured length and grasp along the tool",
     )
+    add_meshcat_arg(p, "the run (then its recording, to play again)")
     p.set_defaults(run=cmd_simulate, show=format_simulate, status=simulate_status)

@@ -162,7 +162,9 @@ def render_all(scenarios_dir: Path, check: bool = False) -> dict:
                     committed
                 ) == structure(dot_text)
             if not current:
-                raise ValueError(f"{dot_path} is out of date; run `drake-tooluse render-diagrams`")
+                raise ValueError(
+                    f"{dot_path} is out of date; run `drake-tooluse dev render-diagrams`"
+                )
             out[name] = {"current": True, "exact": exact}
             continue
         atomic_write_text(dot_path, file_text)

@@ -27,7 +27,6 @@ import cv2
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Patch
-from pydrake.math import RigidTransform
 from tqdm import tqdm
 
 from drake_tooluse.builders.measurement import measure_belief
@@ -43,6 +42,12 @@ from drake_tooluse.files import (
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
+from drake_tooluse.systems.camera import (  # noqa: F401 (GOAL_RGB: the demo's figures' green)
+    GOAL_RGB,
+    SceneView,
+    draw_goal,
+    scene_camera_view,
+)
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
 from drake_tooluse.validation import check_seed
@@ -53,80 +58,14 @@ from drake_tooluse.world.scene import goal_position, initial_box_pose
 
 FIGURE_DPI = 110
 GOAL_RADIUS = SUCCESS_DISTANCE / 2  # m, the goal as drawn (as in the Meshcat recording)
-GOAL_RGB = (40, 200, 60)
-SCENE_CAMERA = "render_camera"  # the system `systems.camera.add_scene_camera` adds
-
-
-@dc.dataclass(frozen=True)
-class SceneView:
-    """The scene camera's pose X_WC (C: +z out of the lens, +x right, +y down) and pinhole
-    intrinsics (px): enough to draw points of W on its image."""
-
-    X_WC: RigidTransform
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-
-    def project(self, p_W) -> tuple[np.ndarray, np.ndarray]:
-        """Pixels (u, v) of the (N, 3) points `p_W`, and which lie in front of the camera."""
-        p_C = (self.X_WC.inverse().multiply(np.asarray(p_W, float).T)).T
-        z = p_C[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv = np.column_stack(
-                [self.fx * p_C[:, 0] / z + self.cx, self.fy * p_C[:, 1] / z + self.cy]
-            )
-        return uv, z > 1e-6
-
-
-def scene_camera_view(diagram, plant) -> SceneView | None:
-    """The scene camera of `diagram` (added by `systems.camera.add_scene_camera`, fixed to
-    the world), or None if it has none."""
-    if not diagram.HasSubsystemNamed(SCENE_CAMERA):
-        return None
-    sensor = diagram.GetSubsystemByName(SCENE_CAMERA)
-    if sensor.default_parent_frame_id() != plant.GetBodyFrameIdOrThrow(plant.world_body().index()):
-        return None  # not fixed to the world: its pose would need the plant's state
-    core = sensor.default_color_render_camera().core()
-    info = core.intrinsics()
-    X_WC = sensor.default_X_PB().multiply(core.sensor_pose_in_camera_body())
-    return SceneView(X_WC, info.focal_x(), info.focal_y(), info.center_x(), info.center_y())
 
 
 def mark_goal(image: np.ndarray, view: SceneView, scenario) -> np.ndarray:
-    """`image` (RGB(A), the scene camera's) with the goal drawn where the camera sees it: a
-    translucent green disc of radius GOAL_RADIUS on the table around x* and a cross at x*."""
-    rgb = np.ascontiguousarray(np.asarray(image)[:, :, :3]).copy()
+    """`image` (RGB(A), the scene camera's) with the scenario's goal drawn where the camera
+    sees it (`systems.camera.draw_goal`: a translucent green disc of radius GOAL_RADIUS on the
+    table around x*, a cross at x*)."""
     goal = goal_position(scenario)
-    angles = np.linspace(0.0, 2 * np.pi, 73)
-    z = scenario.table.top_z
-    ring = np.column_stack(
-        [goal[0] + GOAL_RADIUS * np.cos(angles), goal[1] + GOAL_RADIUS * np.sin(angles)]
-    )
-    uv, front = view.project(np.column_stack([ring, np.full(len(ring), z)]))
-    if not front.all():
-        return rgb
-    scale = max(rgb.shape[1] / 480, 0.5)
-    polygon = np.rint(uv).astype(np.int32)
-    disc = rgb.copy()
-    cv2.fillPoly(disc, [polygon], GOAL_RGB, cv2.LINE_AA)
-    rgb = cv2.addWeighted(disc, 0.45, rgb, 0.55, 0.0)
-    cv2.polylines(rgb, [polygon], True, GOAL_RGB, max(1, round(2 * scale)), cv2.LINE_AA)
-    (center,), _ = view.project([[goal[0], goal[1], z]])
-    c = tuple(int(round(x)) for x in center)
-    size = max(4, round(6 * scale))
-    cv2.drawMarker(rgb, c, GOAL_RGB, cv2.MARKER_CROSS, size, max(1, round(2 * scale)))
-    cv2.putText(  # to the right of the disc, off the box and the tool above it
-        rgb,
-        "goal",
-        (int(polygon[:, 0].max()) + round(4 * scale), c[1] + round(5 * scale)),
-        cv2.FONT_HERSHEY_SIMPLEX,
-        0.5 * scale,
-        GOAL_RGB,
-        max(1, round(1.5 * scale)),
-        cv2.LINE_AA,
-    )
-    return rgb
+    return draw_goal(image, view, [goal[0], goal[1], scenario.table.top_z], GOAL_RADIUS)
 
 
 def tool_crop(shape, view, aspect: float = 4 / 3) -> tuple[slice, slice]:
@@ -266,9 +205,12 @@ def run_demo(
     max_steps: int = 100,
     progress: bool = True,
     trust_pickle: bool = False,
+    meshcat=None,
 ) -> dict:
     """Runs the demo (see the module docstring) and returns its metrics (also in
-    `out_dir/metrics.json`). `trust_pickle` lets `policy_dir` be of the older pickle format."""
+    `out_dir/metrics.json`). `trust_pickle` lets `policy_dir` be of the older pickle format.
+    The push is recorded in `meshcat` (default: a new one on a free loopback port), and the
+    recording published there to play again."""
     start = time.perf_counter()
     log = stderr_log if progress else quiet_log
     check_seed(seed, "seed")
@@ -303,7 +245,7 @@ def run_demo(
 
         log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured tool …")
         t0 = time.perf_counter()
-        meshcat = start_meshcat()
+        meshcat = start_meshcat() if meshcat is None else meshcat
         built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat, scene_camera=True)
         with tqdm(
             total=max_steps,

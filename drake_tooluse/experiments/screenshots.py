@@ -326,7 +326,7 @@ def render_all(figures_dir, check: bool = False, names=None) -> dict:
             html = shot.record(Path(tmp) / f"{name}.html")
             digest = scene_digest(Path(html).read_text(), shot.window)
             if check:
-                rerun = "run `drake-tooluse render-figures`"
+                rerun = "run `drake-tooluse dev render-figures`"
                 if not png.is_file() or not meta_path.is_file():
                     raise ValueError(f"{png} or its {meta_path.name} is missing; {rerun}")
                 recorded = json.loads(meta_path.read_text())
@@ -341,7 +341,7 @@ def render_all(figures_dir, check: bool = False, names=None) -> dict:
             take_screenshot(Path(html), png, shot.window, digest["playback_s"] + SETTLE_MS / 1000)
         meta = {
             "figure": png.name,
-            "made_by": "drake-tooluse render-figures",
+            "made_by": "drake-tooluse dev render-figures",
             "recording": shot.command,
             **digest,
         }

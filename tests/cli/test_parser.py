@@ -9,10 +9,14 @@ import sys
 
 import pytest
 
-from drake_tooluse.cli import EXIT_NOT_REACHED, EXIT_USAGE, make_parser
+from drake_tooluse.cli import EXIT_NOT_REACHED, EXIT_USAGE, commands, make_parser
 
 PARSER = make_parser()
-COMMANDS = next(a for a in PARSER._actions if isinstance(a, argparse._SubParsersAction)).choices
+# Every command, a group's (`dev render-figures`) included, by its name after `drake-tooluse`.
+COMMANDS = {
+    p.prog.removeprefix("drake-tooluse "): p
+    for p in commands(next(a for a in PARSER._actions if isinstance(a, argparse._SubParsersAction)))
+}
 
 
 def strict_json(text: str):
@@ -83,7 +87,7 @@ def test_argument_errors_come_before_torch_and_drake_are_imported(tmp_path):
         ["transfer", "--mode", "bogus", "--out", str(tmp_path / "t")],
         ["transfer", "--tools", "0.125", "0.9", "--out", str(tmp_path / "t")],
         ["transfer", "--align", "middle", "--out", str(tmp_path / "t")],
-        ["trajectory", "--policy", str(tmp_path), "--record", "bogus", "--out", str(tmp_path)],
+        ["trajectory", "--policy", str(tmp_path), "--tip-poses", "bogus", "--out", str(tmp_path)],
         ["study", "--out", str(tmp_path / "st"), "--parallel", "0"],
         ["study", "--out", str(tmp_path / "st"), "--only", "bogus"],
         ["study", "--out", str(tmp_path / "st"), "--update-docs"],

@@ -110,7 +110,7 @@ def test_without_chromium_the_command_says_so_in_one_line(tmp_path, monkeypatch,
     monkeypatch.setattr(screenshots.shutil, "which", lambda name: None)
     with pytest.raises(RuntimeError, match="apt-get install chromium"):
         render_all(tmp_path)
-    assert main(["render-figures", "--figures-dir", str(tmp_path)]) == 2
+    assert main(["dev", "render-figures", "--figures-dir", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "Chromium" in err
     assert not list(tmp_path.iterdir())  # nothing simulated or written

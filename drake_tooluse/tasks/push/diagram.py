@@ -28,7 +28,7 @@ from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
 from drake_tooluse.builders.visualization import add_meshcat_visualizer
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.policy import PolicySystem
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -143,7 +143,7 @@ def build_policy_diagram(
     """World (truth) + a loaded policy (`learning.policy_dir.load_policy`) closed-loop through
     tool-tip control on the robot model of `belief` (default: the scenario's true length,
     nominal grasp). With `scene_camera`, the diagram exports the `color_image` of a camera
-    looking at the work area."""
+    looking at the work area close up (`systems.camera.CLOSE_UP_CAMERA`)."""
     mode, include_length = policy_observation(policy)
     action_mode = policy.meta.env_kwargs.get("action_mode", "position_quaternion")
     builder = DiagramBuilder()
@@ -161,7 +161,7 @@ def build_policy_diagram(
     if meshcat is not None:
         visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat, scenario)
     if scene_camera:
-        add_scene_camera(builder, task.world)
+        add_scene_camera(builder, task.world, **CLOSE_UP_CAMERA)
     diagram = builder.Build()
     diagram.set_name("policy_control")
     return PolicyDiagram(

@@ -39,12 +39,21 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.builders.visualization import (
+    GOAL_RADIUS,
     add_meshcat_visualizer,
     save_recording,
     show_task,
 )
 from drake_tooluse.robot.tool import check_tool_length
-from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.camera import (
+    SCENE_CAMERA_POSITION,
+    SCENE_CAMERA_SIZE,
+    SCENE_CAMERA_TARGET,
+    SceneView,
+    add_scene_camera,
+    check_scene_camera,
+    draw_goal,
+)
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
 from drake_tooluse.tasks.contract import TaskEnv
@@ -85,6 +94,11 @@ class EnvConfig:
     observation_mode: str = "gripper_joints"  # or "tip" (see tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
     render_mode: str | None = None
+    # `rgb_array`'s image: (width, height) px, each in [32, 2048], and the camera's position
+    # and the point it looks at (W, m); by default the whole task is in view.
+    render_size: tuple = SCENE_CAMERA_SIZE
+    render_camera_position: tuple = SCENE_CAMERA_POSITION
+    render_camera_target: tuple = SCENE_CAMERA_TARGET
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
     # The earlier protocol: terminate at the first success (default: run to the step limit).
     end_at_success: bool = False
@@ -127,6 +141,9 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
+    check_scene_camera(
+        config.render_size, config.render_camera_position, config.render_camera_target
+    )
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
@@ -249,8 +266,17 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         self.world, self.control = task.world, task.control
         self.ik_system, self.target_system = task.control.ik_system, task.control.target
         self.observation_system = task.observation
+        self._scene_view = None  # the rgb_array camera's, to draw the goal on its images
         if config.render_mode == "rgb_array":
-            add_scene_camera(builder, self.world)
+            sensor = add_scene_camera(
+                builder,
+                self.world,
+                *config.render_size,
+                position=config.render_camera_position,
+                target=config.render_camera_target,
+            )
+            self._scene_view = SceneView.of_sensor(sensor)
+            self._scene_depth = sensor.depth_image_32F_output_port()  # what hides the goal
         self.visualizer = None
         if config.meshcat is not None:
             self.visualizer = add_meshcat_visualizer(
@@ -379,6 +405,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "action_port",
             "observation_port",
             "render_rgb_port",
+            "_scene_depth",
             "world",
             "control",
             "ik_system",
@@ -396,11 +423,25 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
                 setattr(self, name, None)
 
     def render(self):
-        """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
+        """`rgb_array`: the scene camera's colour image, (H, W, 3) uint8, of `render_size`
+        (W, H), seen from `render_camera_position` looking at `render_camera_target` (by
+        default robot, tool, table, box and goal in view), with this episode's goal drawn on
+        it: a translucent green disc of radius GOAL_RADIUS on the table, behind what stands
+        in front of it (the box, the tool: by the camera's depth image). The goal is drawn on
+        the image (`systems.camera.draw_goal`), not put in the scene graph, so an env renders
+        or not with the same physics."""
         frame = super().render()
-        if self.render_mode == "rgb_array":
-            return np.asarray(frame)[:, :, :3].copy()
-        return frame
+        if self.render_mode != "rgb_array":
+            return frame
+        frame = np.asarray(frame)[:, :, :3]
+        goal = self._episode.get("goal")
+        if goal is None or self._scene_view is None:  # before the first reset
+            return frame.copy()
+        p_WG = [goal[0], goal[1], self.scenario.table.top_z]
+        depth = self._scene_depth.Eval(
+            self._scene_depth.get_system().GetMyContextFromRoot(self._context)
+        )
+        return draw_goal(frame, self._scene_view, p_WG, GOAL_RADIUS, depth.data)
 
     # -- Meshcat recordings ---------------------------------------------------------------
     def start_recording(self) -> None:

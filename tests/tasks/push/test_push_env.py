@@ -175,7 +175,7 @@ def test_rgb_array_render_from_the_camera():
     env = gym.make("drake_tooluse/ToolPush-v0", render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
-    assert frame.shape == (360, 480, 3) and frame.dtype == np.uint8
+    assert frame.shape == (480, 640, 3) and frame.dtype == np.uint8  # 640 x 480 by default
     assert frame.std() > 10  # a scene, not a blank image
 
 
