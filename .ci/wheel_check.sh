@@ -88,6 +88,7 @@ check() {  # runs one command, records its exit status
     if (( rc != 0 )); then FAILED=1; fi
     SUMMARY+=("exit $rc: $*")
 }
+check drake-tooluse --version
 check drake-tooluse demo --out demo --no-progress
 check drake-tooluse ik --tool-length 0.175 --position 0.65 -0.25 -0.10 --json
 check drake-tooluse evaluate --policy "$TRANSFER_POLICY" --episodes 2 --json
@@ -95,6 +96,7 @@ check drake-tooluse measure --tool-length 0.15 --json
 check drake-tooluse measure-box --json
 check drake-tooluse transfer --tools 0.15 --runs 1 --out transfer
 check drake-tooluse transfer --mode open-loop --tools 0.15 --runs 1 --episodes 2 --out transfer-open
+check drake-tooluse record-video --out episode.gif --render-size 160 120 --every 10
 
 echo "== wheel check"
 printf '%s\n' "${SUMMARY[@]}"
