@@ -83,9 +83,10 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
     ## Description
 
     Baxter holds a hook (`robot.tool.HookTool`: a handle, and at its end a hook at an angle)
-    in its right hand. A 4 cm cube rests on the table beyond where the bare gripper reaches
-    (its centre 1.15 m out; the gripper frame reaches 1.106 m at the cube's height, in any
-    orientation: tests/tasks/pull/test_reach.py). The robot reaches over and behind the cube
+    in its right hand. A 4 cm cube rests on the table beyond where the bare gripper reaches:
+    its centre 1.17 m out, no point of it nearer than 1.131 m, where the gripper frame (in
+    any orientation) reaches 1.106 m at the cube's mid-height and 1.117 m at its top
+    (tests/tasks/pull/test_reach.py). The robot reaches over and behind the cube
     with the hook, its inner corner behind the cube's far face, and pulls the cube 0.20 m
     towards itself, to the goal. The hook is held as a rake (`tasks.pull.hook`): the handle
     pointing away from the robot, tilted 30° down, the hook hanging below it. Each episode
@@ -128,8 +129,9 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
 
     ## Starting State
 
-    The hook's corner 0.12 m above the table at (0.95, −0.25) m, over the goal; the cube's
-    centre at (1.15, −0.25) m ± 0.015 m in x and y, its yaw ± 0.2 rad, its mass 0.2 kg and
+    The hook's corner 0.12 m above the table at (1.05, −0.25) m, between the goal and the
+    cube; the cube's
+    centre at (1.17, −0.25) m ± 0.015 m in x and y, its yaw ± 0.2 rad, its mass 0.2 kg and
     friction 0.4 each scaled by a draw in [0.7, 1.3], the true grasp shifted ± 0.01 m along
     the handle and ± 0.005 m across it (`randomize=True`, the default; `randomize=False`:
     the nominal start). The goal is the cube's start moved 0.20 m towards the robot (−x).
