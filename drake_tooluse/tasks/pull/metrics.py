@@ -25,6 +25,7 @@ from drake_tooluse.robot.tool import HOOK_CORNER
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.tasks.contract import EpisodeMetric
+from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.scene import World
 
 SUCCESS_RADIUS = 0.05  # m: the cube's centre this near the goal ...
@@ -81,9 +82,7 @@ class PullMetricsReader:
         self._X_BC = self._corner.GetFixedPoseInBodyFrame()
         self._standoff = world.scenario.box.size[0] / 2 + world.scenario.tool.radius
         self._contacts = plant.get_contact_results_output_port()
-        self._tool_index = int(world.tool.index())
-        self._robot_bodies = {int(i) for i in plant.GetBodyIndices(world.baxter)}
-        self._robot_bodies.discard(self._tool_index)
+        self._touches = BoxContacts(world).touches
 
     def read(self, plant_context, goal, start) -> PullMetrics:
         """The metrics of the plant's state in `plant_context`."""
@@ -108,29 +107,13 @@ class PullMetricsReader:
     def _metrics(self, p_box, p_corner, contacts, goal, start) -> PullMetrics:
         goal, start = np.asarray(goal, float), np.asarray(start, float)
         behind = p_box + self._standoff * behind_direction(goal, start)
-        tool_touch = gripper_touch = False
-        box, tool, robot = self._box_index, self._tool_index, self._robot_bodies
-        info_at = contacts.point_pair_contact_info
-        for i in range(contacts.num_point_pair_contacts()):
-            info = info_at(i)
-            a = int(info.bodyA_index())
-            # Only the cube touching the tool or the robot counts: where body A is none of
-            # them (the table under the cube's corners, nearly every step), B is not read
-            # (each read through pydrake costs more than the rest of the loop).
-            if a == box:
-                other = int(info.bodyB_index())
-            elif (a == tool or a in robot) and int(info.bodyB_index()) == box:
-                other = a
-            else:
-                continue
-            tool_touch |= other == tool
-            gripper_touch |= other in robot
+        tool_touch, gripper_touch = self._touches(contacts)
         return PullMetrics(
             object_to_goal=math.dist(p_box, goal),
             object_travel=math.dist(p_box[:2], start[:2]),
             corner_to_behind=math.dist(p_corner, behind),
-            tool_touches_object=bool(tool_touch),
-            gripper_touches_object=bool(gripper_touch),
+            tool_touches_object=tool_touch,
+            gripper_touches_object=gripper_touch,
         )
 
 
