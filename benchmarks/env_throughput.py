@@ -191,6 +191,8 @@ def main() -> None:
         envs[f"ToolPush-v0 action_mode={action_mode}"] = gym.make(
             "drake_tooluse/ToolPush-v0", action_mode=action_mode
         )
+    # The pull task: a hook drawn each episode, so each reset builds a new world (counted).
+    envs["ToolPull-v0"] = gym.make("drake_tooluse/ToolPull-v0")
     for env in envs.values():  # warm up: compiled kernels, caches
         run_random(env, 50)
     rounds = interleaved(envs, args.steps, args.rounds)

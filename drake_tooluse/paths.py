@@ -22,6 +22,7 @@ __all__ = [
     "MODELS_DIR",
     "PAPER_STUDY_CELLS",
     "POLICIES_DIR",
+    "PULL_SCENARIO",
     "REALITY_SCENARIO",
     "SCENARIOS_DIR",
     "SHIPPED_POLICY",
@@ -63,6 +64,7 @@ TRANSFER_POLICY = POLICIES_DIR / "ppo_toolpush_tip"
 SCENARIOS_DIR = _package_dir("drake_tooluse.scenarios")
 DEFAULT_SCENARIO = SCENARIOS_DIR / "push.yaml"
 REALITY_SCENARIO = SCENARIOS_DIR / "reality.yaml"
+PULL_SCENARIO = SCENARIOS_DIR / "pull.yaml"
 
 HYPERPARAMS_DIR = _package_dir("drake_tooluse", "learning", "hyperparams")
 

@@ -24,7 +24,7 @@ import numpy as np
 from pydrake.systems.primitives import ConstantVectorSource, DiscreteTimeDelay, Multiplexer
 
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs, pose_to_vector
-from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.model import TIP_FRAME, RobotBelief
 from drake_tooluse.systems.tip_target import TipTargetSystem, Workspace
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
 from drake_tooluse.world.scenario import tool_length_or_none
@@ -69,10 +69,11 @@ def nominal_belief(scenario) -> RobotBelief:
     return RobotBelief(tool_length_or_none(scenario))
 
 
-def home_configuration(scenario, ik: ToolTipIK) -> np.ndarray:
-    """Right-arm joint angles of the scenario's home pose on the robot model of `ik` (the
-    believed tool), warm-started from the scenario's posture seed. Raises if unreachable."""
-    X_WT = home_tip_pose(scenario)
+def home_configuration(scenario, ik: ToolTipIK, home=None) -> np.ndarray:
+    """Right-arm joint angles that put the IK's frame at `home` (X_WF; default the scenario's
+    home pose, `home_tip_pose`) on the robot model of `ik` (the believed tool), warm-started
+    from the scenario's posture seed. Raises if unreachable."""
+    X_WT = home_tip_pose(scenario) if home is None else home
     result = ik.solve(X_WT, q_seed=scenario.robot.posture_seed, max_attempts=HOME_IK_ATTEMPTS)
     if not result.success:
         limits = (
@@ -87,10 +88,12 @@ def home_configuration(scenario, ik: ToolTipIK) -> np.ndarray:
     return result.q
 
 
-def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
-    """The IK on the robot model of `belief`, with the joint limits the scenario's robot keeps."""
+def robot_ik(scenario, belief: RobotBelief, frame: str = TIP_FRAME) -> ToolTipIK:
+    """The IK on the robot model of `belief` for the tool's `frame` (default its tip), with the
+    joint limits the scenario's robot keeps."""
     return ToolTipIK(
         belief.tool,
+        frame=frame,
         grasp_offset=belief.grasp_offset,
         max_attempts=IK_ATTEMPTS,
         library_starts=IK_LIBRARY_STARTS,
@@ -98,14 +101,17 @@ def robot_ik(scenario, belief: RobotBelief) -> ToolTipIK:
     )
 
 
-def add_world_at_home(builder, scenario, belief: RobotBelief | None = None):
+def add_world_at_home(
+    builder, scenario, belief: RobotBelief | None = None, frame: str = TIP_FRAME, home=None
+):
     """The world, started at the home configuration the robot computes for the tool it
-    believes it holds (default: `nominal_belief`), and the IK on that belief. Returns
-    (world, ik, q0)."""
+    believes it holds (default: `nominal_belief`), and the IK on that belief for the tool's
+    `frame` (default its tip), which the home configuration puts at `home` (X_WF; default
+    `home_tip_pose`). Returns (world, ik, q0)."""
     belief = nominal_belief(scenario) if belief is None else belief
     world = add_world(builder, scenario)
-    ik = robot_ik(scenario, belief)
-    q0 = home_configuration(scenario, ik)
+    ik = robot_ik(scenario, belief, frame)
+    q0 = home_configuration(scenario, ik, home)
     for joint, q in zip(world.arm_joints(), q0):
         joint.set_default_angle(q)
     return world, ik, q0
@@ -135,17 +141,21 @@ def add_joint_command(builder, world: World, command, control: TipControl) -> No
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
 
 
-def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str) -> TipControl:
+def add_tip_control(
+    builder, world: World, ik: ToolTipIK, q0, action_mode: str, home=None, workspace=None
+) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
-    plant. The target's `action` input is left for the caller to connect."""
+    plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
+    (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
+    `Workspace.above_table`). The target's `action` input is left for the caller to connect."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
         TipTargetSystem(
             action_mode,
             ik.chain,
-            pose_to_vector(home_tip_pose(s)),
-            Workspace.above_table(s.table.top_z),
+            pose_to_vector(home_tip_pose(s) if home is None else home),
+            Workspace.above_table(s.table.top_z) if workspace is None else workspace,
         ),
     )
     builder.Connect(

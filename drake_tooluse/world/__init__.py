@@ -1,1 +1,2 @@
-"""The truth: the typed scenario, its randomization, the world built from it, the task's metrics."""
+"""The truth: the typed scenario, its randomization, the world built from it, the contacts the
+tasks' metrics read."""

@@ -18,6 +18,7 @@ from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
+from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
 
@@ -59,11 +60,7 @@ class PushMetricsReader:
         self._tip_index = int(world.tip_frame.body().index())
         self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
         self._contacts = plant.get_contact_results_output_port()
-        # Body indices as ints: comparing ints is cheaper than comparing pydrake's BodyIndex
-        # objects, and this runs every control step.
-        self._tool_index = int(world.tool.index()) if world.tool is not None else None
-        self._robot_bodies = {int(i) for i in plant.GetBodyIndices(world.baxter)}
-        self._robot_bodies.discard(self._tool_index)
+        self._touches = BoxContacts(world).touches
 
     def read(self, plant_context, goal, box_start) -> PushMetrics:
         """The metrics of the plant's state in `plant_context`. The two poses it needs are read
@@ -91,28 +88,13 @@ class PushMetricsReader:
     def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
         # Lists: math.dist reads them faster than arrays (the same floats, so the same result).
         p_box, p_tip = p_box.tolist(), p_tip.tolist()
-        tool_touch = gripper_touch = False
-        box, tool, robot = self._box_index, self._tool_index, self._robot_bodies
-        info_at = contacts.point_pair_contact_info
-        for i in range(contacts.num_point_pair_contacts()):
-            info = info_at(i)
-            a = int(info.bodyA_index())
-            # Only the box touching the tool or the robot counts: where body A is none of them
-            # (the table, under the box's corners, nearly every step), B is not read at all.
-            if a == box:
-                other = int(info.bodyB_index())
-            elif (a == tool or a in robot) and int(info.bodyB_index()) == box:
-                other = a
-            else:
-                continue
-            tool_touch |= other == tool
-            gripper_touch |= other in robot
+        tool_touch, gripper_touch = self._touches(contacts)
         return PushMetrics(
             box_to_goal=math.dist(p_box, _floats(goal)),
             tip_to_box=math.dist(p_tip, p_box),
             box_travel=math.dist(p_box[:2], _floats(box_start)[:2]),
-            tool_touches_box=bool(tool_touch),
-            gripper_touches_box=bool(gripper_touch),
+            tool_touches_box=tool_touch,
+            gripper_touches_box=gripper_touch,
         )
 
 

@@ -1,0 +1,383 @@
+"""The pull task as a Gymnasium env on DrakeGymEnv: `drake_tooluse/ToolPull-v0`.
+
+```
+action ──► TipTargetSystem ──X_WC*──► ToolTipIKSystem ──q*──► plant (in-plant PD) ──state──►
+           (hook-corner space)        (robot model: the believed hook)        ToolPullObservation ──► observation
+```
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from pydrake.gym import DrakeGymEnv
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import DiagramBuilder
+
+from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.paths import PULL_SCENARIO
+from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.lifetime import release_diagram
+from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
+from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.tasks.pull.diagram import add_pull_task
+from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
+from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
+from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
+from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of, check_seed
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
+from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
+
+ACTION_SIZE = ACTION_MODES["position"]
+
+
+@dc.dataclass
+class PullEnvConfig:
+    """The keyword arguments of `ToolPullEnv` (and of `gym.make`)."""
+
+    scenario: object = None  # a Scenario, a YAML path, or None for diagrams/pull.yaml
+    # (handle length m, hook length m, angle °): every episode's hook; None: drawn per episode.
+    hook: tuple | None = None
+    randomize: bool = True  # the cube's start, mass, friction and the grasp (`randomization`)
+    render_mode: str | None = None
+
+
+def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
+    kwargs = dict(check_mapping(kwargs, name))
+    allowed = [f.name for f in dc.fields(PullEnvConfig)]
+    unknown = sorted(set(kwargs) - set(allowed))
+    if unknown:
+        raise ValueError(
+            f"unknown argument(s) {unknown} for drake_tooluse/ToolPull-v0 ({name}); "
+            f"allowed: {allowed}"
+        )
+    config = PullEnvConfig(**kwargs)
+    if config.hook is not None:
+        config.hook = check_hook(config.hook, "hook")
+    check_bool(config.randomize, "randomize")
+    check_one_of(config.render_mode, (None, "rgb_array"), "render_mode")
+    if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
+        raise ValueError(
+            f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
+        )
+    return config
+
+
+def with_hook(scenario: Scenario, hook) -> Scenario:
+    """A copy of `scenario` holding the hook (handle length m, hook length m, angle °)."""
+    handle, length, angle = check_hook(hook)
+    tool = dc.replace(
+        scenario.tool, kind="hook", length=handle, hook_length=length, hook_angle=angle
+    )
+    return validate_scenario(dc.replace(scenario, tool=tool))
+
+
+class ToolPullEnv(TaskEnv, DrakeGymEnv):
+    """Pull a cube from beyond the bare gripper's reach to a goal near the robot with a hook.
+
+    ## Description
+
+    Baxter holds a hook (`robot.tool.HookTool`: a handle, and at its end a hook at an angle)
+    in its right hand. A 4 cm cube rests on the table beyond where the bare gripper reaches:
+    its centre 1.17 m out, no point of it nearer than 1.131 m, where the gripper frame (in
+    any orientation) reaches 1.106 m at the cube's mid-height and 1.117 m at its top
+    (tests/tasks/pull/test_reach.py). The robot reaches over and behind the cube
+    with the hook, its inner corner behind the cube's far face, and pulls the cube 0.20 m
+    towards itself, to the goal. The hook is held as a rake (`tasks.pull.hook`): the handle
+    pointing away from the robot, tilted 30° down, the hook hanging below it. Each episode
+    holds a hook drawn from HookTool's ranges (handle 0.15–0.35 m, hook 0.03–0.08 m, angle
+    60–120°) with the env's seeded generator, unless `hook` fixes it; the robot knows its
+    hook's geometry (its belief is the truth; the grasp is not: `randomize` shifts it).
+
+    ## Action Space
+
+    `Box(-1.0, 1.0, (3,), float32)`: the change of the hook corner's position (x, y, z in W)
+    per step, 0.02 m at |a| = 1, from where the corner is now (the push envs' `position`
+    mode); the orientation is held. The exact IK on the robot model of the believed hook
+    turns the corner's target into joint targets. The target stays over the table, and high
+    enough that the believed hook's end clears the table top (`diagram.corner_workspace`).
+
+    ## Observation Space
+
+    `Box(-inf, inf, (16,), float32)`:
+
+    | index | observation | unit |
+    | --- | --- | --- |
+    | 0–2 | goal x* of the cube's centre | m |
+    | 3–5 | cube centre x | m |
+    | 6 | cube yaw, folded into [−π/4, π/4) | rad |
+    | 7–9 | hook corner c (the believed hook, on the measured joint angles) | m |
+    | 10–12 | hook corner velocity | m/s |
+    | 13 | believed handle length | m |
+    | 14 | believed hook length | m |
+    | 15 | believed hook angle | rad |
+
+    Positions in W (Baxter's base frame: x forward, y left, z up).
+
+    ## Rewards
+
+    Dense: r = −(d(x, x*) + d(c, p_b)) per step (m), where c is the true hook's inner corner
+    and p_b = x + (w/2 + r_h) ê the point just behind the cube's far face (w the cube's side,
+    r_h the hook's radius, ê the horizontal unit vector from the goal to the cube's start):
+    the push task's reward (the paper's) with the hook's corner, behind the cube, as the
+    tool point.
+
+    ## Starting State
+
+    The hook's corner 0.12 m above the table at (1.05, −0.25) m, between the goal and the
+    cube; the cube's
+    centre at (1.17, −0.25) m ± 0.015 m in x and y, its yaw ± 0.2 rad, its mass 0.2 kg and
+    friction 0.4 each scaled by a draw in [0.7, 1.3], the true grasp shifted ± 0.01 m along
+    the handle and ± 0.005 m across it (`randomize=True`, the default; `randomize=False`:
+    the nominal start). The goal is the cube's start moved 0.20 m towards the robot (−x).
+
+    ## Episode End
+
+    Truncation at 100 steps of 40 ms (the registered `max_episode_steps`); there is no early
+    termination: an episode is judged where it ends, so a policy must pull the cube to the
+    goal and leave it there. Success (`info["is_success"]`, every step): d(x, x*) ≤ 0.05 m
+    and the cube moved at least 0.10 m from its start; every start lies 0.20 m from its goal,
+    so no episode succeeds unless the cube moves. A simulation failure truncates the episode
+    with `info["sim_error"] = True` and the last finite observation and reward.
+
+    ## Arguments
+
+    `gym.make("drake_tooluse/ToolPull-v0", hook=None, randomize=True, scenario=None,
+    render_mode=None)`: `hook` = (handle length m, hook length m, angle °) fixes every
+    episode's hook (each in HookTool's range); `randomize` draws the start (above);
+    `scenario` replaces diagrams/pull.yaml (a Scenario or a YAML file); `render_mode`
+    "rgb_array" renders a fixed scene camera.
+
+    ## Info
+
+    `is_success`, `object_to_goal` (m), `object_travel` (m, horizontal), `corner_to_behind`
+    (m, d(c, p_b)), `tool_touches_object`, `gripper_touches_object` (this step),
+    `tool_touched_object_in_episode`, `gripper_touched_object_in_episode`, `hook` (handle m,
+    hook m, angle °), `ik_ok` (the IK's last solve succeeded), `sim_error`.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
+    EPISODE_METRICS = PULL_EPISODE_METRICS
+
+    @classmethod
+    def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
+        _config(kwargs, name)
+        return dict(kwargs or {})
+
+    @classmethod
+    def spaces(cls, kwargs) -> tuple[list, list]:
+        _config(kwargs)
+        return [OBSERVATION_SIZE], [ACTION_SIZE]
+
+    def __init__(self, **kwargs):
+        config = _config(kwargs)
+        self.config = config
+        if config.scenario is None:
+            scenario = load_scenario(PULL_SCENARIO)
+        elif isinstance(config.scenario, Scenario):
+            scenario = validate_scenario(config.scenario)
+        else:
+            scenario = load_scenario(Path(config.scenario))
+        self._base_scenario = scenario
+        self.diagram = None
+        if config.hook is not None:
+            self._build(with_hook(scenario, config.hook))
+            simulator = self._simulator
+        else:  # DrakeGymEnv makes each episode's simulator (`_next_hook`) at its reset
+            self.scenario = scenario
+            simulator = self._next_hook
+        self.metadata = dict(type(self).metadata)
+        super().__init__(
+            simulator=simulator,
+            time_step=scenario.control.control_period,
+            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32),
+            observation_space=gym.spaces.Box(-np.inf, np.inf, (OBSERVATION_SIZE,), np.float32),
+            reward="reward",
+            action_port_id="action",
+            observation_port_id="observation",
+            render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
+            render_mode=config.render_mode or "human",
+            reset_handler=self._reset_handler,
+        )
+        self.render_mode = config.render_mode
+        self.metadata = dict(type(self).metadata)
+        # DrakeGymEnv 1.51 drops an `info_handler` argument (see tasks.push.env): set it here.
+        self.info_handler = self._info_handler
+        self._episode = {}
+        self._last = None  # (observation, metrics, reward) of the last finite state
+        self._closed = False
+
+    # -- the diagram ----------------------------------------------------------------------
+    def _build(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        builder = DiagramBuilder()
+        task = add_pull_task(builder, scenario)
+        task.export(builder)
+        self.task = task
+        self.world, self.control = task.world, task.control
+        self.ik_system = task.control.ik_system
+        self.hook = task.belief.tool
+        if self.config.render_mode == "rgb_array":
+            add_scene_camera(builder, self.world)
+        self.diagram = builder.Build()
+        self.diagram.set_name("tool_pull_env")
+        self._metrics_reader = PullMetricsReader(self.world)
+        self._simulator = Simulator(self.diagram)
+
+    def _next_hook(self, generator) -> Simulator:
+        """The next episode's world: a hook drawn with the env's seeded generator (`np_random`,
+        which `reset(seed=...)` seeds before this is called; Drake's `generator` is not used)."""
+        hook = draw_hook(self.np_random)
+        if self.diagram is not None:
+            release_diagram(self.diagram)
+        self._build(with_hook(self._base_scenario, hook))
+        return self._simulator
+
+    # -- Gymnasium API --------------------------------------------------------------------
+    def _reset_handler(self, simulator, context, seed) -> None:
+        self._context = context
+        self._plant_context = self.world.plant.GetMyContextFromRoot(context)
+        self._ik_context = self.ik_system.GetMyContextFromRoot(context)
+        self._action_value = None
+        s = self.scenario
+        if self.config.randomize:
+            s = apply_draw(s, draw_randomization(s, self.np_random))
+        set_randomized_state(self.world, context, s)
+        self.control.reset(context)
+        start = initial_box_pose(s).translation()
+        goal = start + np.asarray(s.goal_offset, float)
+        self.task.set_episode(context, goal, start)
+        self._episode = {
+            "goal": goal,
+            "start": start,
+            "tool_touched": False,
+            "gripper_touched": False,
+        }
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise gym.error.Error("this env is closed; make a new one")
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._check_open()
+        if options:
+            raise ValueError(f"reset options {options!r} are not supported; pass none")
+        if seed is not None:
+            seed = check_seed(seed, "seed")
+        observation, info = super().reset(seed=seed)
+        return np.asarray(observation, np.float32), info
+
+    def step(self, action):
+        """Advances one control period. As the push env's step: the action is checked, the
+        plant's state read once, and a simulation failure (Drake raises, or the state is no
+        longer finite) truncates the episode with the last finite observation and reward."""
+        self._check_open()
+        if self._last is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        values = np.asarray(action)
+        if values.dtype.kind not in "biuf":
+            raise ValueError(f"action {action!r} is not real numbers; actions are in [-1, 1]")
+        action = check_action(values, "position")
+        context = self._context
+        if self._action_value is None:
+            fixed = self.action_port.FixValue(context, action)
+            self._action_value = (fixed, fixed.GetMutableData().get_mutable_value())
+        else:  # the same fixed value rewritten (FixValue would make a new one each step)
+            fixed, vector = self._action_value
+            fixed.GetMutableData()  # tells its dependents that it changes
+            vector.SetFromVector(action)
+        sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
+        x = None if sim_error else finite_state_vector(self.world.plant, self._plant_context)
+        sim_error = x is None
+        if not sim_error:
+            observation = np.asarray(
+                self.task.observation.finite_observation(x, self._episode["goal"]), np.float32
+            )
+            m = self._read_metrics()
+            sim_error = not (all_finite(observation) and _finite(m))
+        if sim_error:
+            observation, m, r = self._last
+        else:
+            r = reward(m)
+            self._last = (observation, m, r)
+        return observation, r, False, sim_error, self._info(m, sim_error)
+
+    def close(self) -> None:
+        """Frees the diagram (`systems.lifetime`). The env cannot be used after."""
+        if self._closed:
+            return
+        self._closed = True
+        super().close()
+        if self.diagram is not None:
+            release_diagram(self.diagram)
+        for name in (
+            "diagram",
+            "simulator",
+            "_simulator",
+            "action_port",
+            "observation_port",
+            "render_rgb_port",
+            "world",
+            "control",
+            "ik_system",
+            "task",
+            "_metrics_reader",
+            "_context",
+            "_plant_context",
+            "_ik_context",
+            "_action_value",
+        ):
+            if hasattr(self, name):
+                setattr(self, name, None)
+
+    def render(self):
+        """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
+        frame = super().render()
+        if self.render_mode == "rgb_array":
+            return np.asarray(frame)[:, :, :3].copy()
+        return frame
+
+    def _read_metrics(self):
+        episode = self._episode
+        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["start"])
+        if _finite(m):
+            episode["tool_touched"] |= m.tool_touches_object
+            episode["gripper_touched"] |= m.gripper_touches_object
+        return m
+
+    def _info_handler(self, simulator) -> dict:
+        """`info` of a reset state (DrakeGymEnv's reset calls it), which becomes the last
+        finite state; `step` makes its own."""
+        m = self._read_metrics()
+        observation = np.asarray(self.observation_port.Eval(self._context), np.float32)
+        self._last = (observation, m, reward(m))
+        return self._info(m, sim_error=False)
+
+    def _info(self, m, sim_error: bool) -> dict:
+        hook = self.hook
+        return {
+            "is_success": bool(m.is_success),
+            "object_to_goal": m.object_to_goal,
+            "object_travel": m.object_travel,
+            "corner_to_behind": m.corner_to_behind,
+            "tool_touches_object": m.tool_touches_object,
+            "gripper_touches_object": m.gripper_touches_object,
+            "tool_touched_object_in_episode": self._episode["tool_touched"],
+            "gripper_touched_object_in_episode": self._episode["gripper_touched"],
+            "hook": (hook.handle_length, hook.hook_length, hook.angle),
+            "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
+            "sim_error": sim_error,
+        }
+
+
+def _finite(m) -> bool:
+    return (
+        math.isfinite(m.object_to_goal)
+        and math.isfinite(m.object_travel)
+        and math.isfinite(m.corner_to_behind)
+    )
