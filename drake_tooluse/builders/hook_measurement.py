@@ -14,20 +14,28 @@ TrajectorySource ─[q*, v*]─► plant (PD) ─► SceneGraph ─► RgbdSenso
                                                                └─► measurement
 ```
 
-The hook's views differ from the straight tool's in the hand's roll about the tool axis. The
-straight tool's views close the fingers across the tool in the image, which turns the hook's
-plane (the gripper's x–z plane) edge-on to the camera: the hook then points at the camera and
-hides the corner band. Here the fingers close along the optical axis, so the hook lies in a
-plane square to it and its angle is seen whole. The grip positions are the straight tool's
-first two (the hand leaves the image on the right, then below) and one between them with
-the handle tilted 30 deg up the image; each holds the longest handle (0.35 m) with the
-longest hook (0.08 m) at any angle in view, and the hand no band.
+Two kinds of view. The straight tool's views close the fingers across the tool in the image,
+which turns the hook's plane (the gripper's x–z plane) edge-on to the camera: the hook then
+points at the camera and hides the corner band. So the hook views close the fingers along the
+optical axis: the hook lies in a plane square to it and its angle is seen whole. There,
+though, the near finger hides the grip band once the hand holds the hook deeper than the
+nominal grasp; the grip views (the straight tool's first two, fingers across) see the grip
+band between the fingers at any grasp. Each view's points go into the gripper frame G with
+the arm's joint angles and the head camera's calibration at the capture (as the straight
+tool's grasp estimate): the grasp is the grip band's outer end's z in G (the grip views),
+the handle length the corner's z in G minus the grasp (every hook view), the hook
+length and angle the hook views' means.
 
-| view | grip p_CG (m) | tool axis in C | the hook |
-| --- | --- | --- | --- |
-| hook_right | (0.15, 0.20, 0.65) | -x | up the image |
-| hook_up_left | (0.15, 0.25, 0.65) | (-0.87, -0.5, 0) | up and right |
-| hook_bottom | (0.15, 0.30, 0.65) | -y | right |
+| view | kind | grip p_CG (m) | tool axis in C | the hook |
+| --- | --- | --- | --- | --- |
+| grip_right | grip | (0.15, 0.20, 0.65) | -x | towards or away from the camera |
+| grip_bottom | grip | (0.15, 0.30, 0.65) | -y | towards or away from the camera |
+| hook_bottom | hook | (0.15, 0.30, 0.65) | -y | right |
+| hook_up_left | hook | (0.15, 0.25, 0.65) | (-0.87, -0.5, 0) | up and right |
+| hook_right | hook | (0.15, 0.20, 0.65) | -x | up the image |
+
+Each hook view holds the longest handle (0.35 m) with the longest hook (0.08 m) at any angle
+in view.
 """
 
 from __future__ import annotations
@@ -43,6 +51,7 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import TrajectorySource
 
 from drake_tooluse.builders.measurement import (
+    MEASUREMENT_VIEWS,
     MOVE_TIME,
     SETTLE_TIME,
     MeasurementPlan,
@@ -54,7 +63,7 @@ from drake_tooluse.builders.measurement import (
     plan_measurement,
 )
 from drake_tooluse.files import atomic_dir, atomic_write_image
-from drake_tooluse.perception.hook import QUANTITIES, HookMeasurement, HookViewSpec
+from drake_tooluse.perception.hook import HookMeasurement, HookViewSpec
 from drake_tooluse.perception.markers import LIGHTINGS, check_noise_sigma
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import (
@@ -75,6 +84,8 @@ from drake_tooluse.validation import check_in_range, check_one_of
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, add_world
 
+QUANTITIES = ("handle_length", "hook_length", "angle", "grasp_along")
+
 
 @dc.dataclass(frozen=True)
 class HookView(MeasurementView):
@@ -91,15 +102,18 @@ class HookView(MeasurementView):
 
 
 HOOK_VIEWS = (
-    HookView("hook_right", (0.15, 0.20, 0.65), (-1.0, 0.0, 0.0)),
-    HookView("hook_up_left", (0.15, 0.25, 0.65), (-math.sqrt(3) / 2, -0.5, 0.0)),
+    MEASUREMENT_VIEWS[0],
+    MEASUREMENT_VIEWS[1],
     HookView("hook_bottom", (0.15, 0.30, 0.65), (0.0, -1.0, 0.0)),
+    HookView("hook_up_left", (0.15, 0.25, 0.65), (-math.sqrt(3) / 2, -0.5, 0.0)),
+    HookView("hook_right", (0.15, 0.20, 0.65), (-1.0, 0.0, 0.0)),
 )
 
 
 def hook_view_spec(scenario: Scenario, view: MeasurementView) -> HookViewSpec:
-    """What the estimator is told of a view: the grip's pixel and depth, and the image
-    direction of the commanded tool axis at the grip."""
+    """What the estimator is told of a view: the grip's pixel and depth, the commanded tool
+    axis in C and its image direction at the grip, and the view's kind (a `HookView`: "hook";
+    any other: "grip")."""
     info = camera_info(scenario.camera)
 
     def pixel(p_C):
@@ -113,7 +127,15 @@ def hook_view_spec(scenario: Scenario, view: MeasurementView) -> HookViewSpec:
     p_CG = np.asarray(view.p_CG, float)
     grip = pixel(p_CG)
     axis = pixel(p_CG + 0.01 * np.asarray(view.tool_axis_C, float)) - grip
-    return HookViewSpec(view.name, tuple(grip), float(p_CG[2]), tuple(axis / np.linalg.norm(axis)))
+    axis_C = np.asarray(view.tool_axis_C, float)
+    return HookViewSpec(
+        view.name,
+        tuple(grip),
+        float(p_CG[2]),
+        tuple(axis_C / np.linalg.norm(axis_C)),
+        tuple(axis / np.linalg.norm(axis)),
+        "hook" if isinstance(view, HookView) else "grip",
+    )
 
 
 def plan_hook_measurement(scenario: Scenario, views=HOOK_VIEWS) -> MeasurementPlan:
@@ -208,6 +230,38 @@ def check_hook_scenario(scenario: Scenario) -> None:
         )
 
 
+def combine_views(views, X_GC) -> dict:
+    """The four quantities and their spreads from the views' results (`HookViewMeasurement`)
+    and each view's camera pose in the gripper frame at its capture, X_GC (RigidTransform):
+    the grasp along the tool (G's z of the grip band's outer end, mean over the grip views:
+    in a hook view the near finger can hide a few mm of the band unnoticed), the handle
+    length (G's z of the corner minus that grasp, mean over the hook views), the hook length
+    and angle (means over the hook views). A tool welded in the hand runs along G's z
+    (`robot.model.tool_grasp_pose`). NaN where no view gives one."""
+
+    def z_G(point, X):
+        return float((X @ np.asarray(point, float))[2])
+
+    along = np.array(
+        [z_G(v.p_CA, X) for v, X in zip(views, X_GC) if v.accepted and v.kind == "grip" and v.p_CA]
+    )
+    corner = np.array([z_G(v.p_CK, X) for v, X in zip(views, X_GC) if v.accepted and v.p_CK])
+    grasp = float(np.mean(along)) if along.size else math.nan
+    hook = HookMeasurement(views=list(views))
+    return {
+        "handle_length": float(np.mean(corner)) - grasp if corner.size else math.nan,
+        "hook_length": hook.mean("hook_length"),
+        "angle": hook.mean("angle"),
+        "grasp_along": grasp,
+        "spread": {
+            "handle_length": float(np.ptp(corner)) if corner.size else math.nan,
+            "hook_length": hook.spread("hook_length"),
+            "angle": hook.spread("angle"),
+            "grasp_along": float(np.ptp(along)) if along.size else math.nan,
+        },
+    }
+
+
 @dc.dataclass
 class HookMeasurementResult:
     """A hook measured over the views: each quantity the mean over the accepted views and its
@@ -219,7 +273,7 @@ class HookMeasurementResult:
     hook_length: float
     angle: float
     grasp_along: float
-    spread: dict  # quantity -> m or deg
+    spread: dict  # quantity -> m or deg; the handle's: of the corner's z in G
     views: list  # HookViewMeasurement per view, in capture order
     truth: dict  # quantity -> the scenario's value
     wall_time: float  # s: plan (if not given), build, simulate, estimate
@@ -328,21 +382,10 @@ def measure_hook(
                     name = f"measure_{view.view}.png"
                     atomic_write_image(tmp / name, np.ascontiguousarray(color[:, :, :3]))
                     files.append(out_dir / name)
-        along = [
-            (X @ np.asarray(v.p_CA, float))[2]
-            for v, X in zip(measurement.views, X_GC)
-            if v.accepted
-        ]
+        combined = combine_views(measurement.views, X_GC)
         tool = scenario.tool
         result = HookMeasurementResult(
-            handle_length=measurement.mean("handle_length"),
-            hook_length=measurement.mean("hook_length"),
-            angle=measurement.mean("angle"),
-            grasp_along=float(np.mean(along)) if along else math.nan,
-            spread={
-                **{q: measurement.spread(q) for q in QUANTITIES[:3]},
-                "grasp_along": float(np.ptp(along)) if along else math.nan,
-            },
+            **combined,
             views=list(measurement.views),
             truth={
                 "handle_length": float(tool.length),
@@ -355,11 +398,15 @@ def measure_hook(
             images=images if keep_images else None,
             image_files=files,
         )
-        if not measurement.accepted:
-            detail = "; ".join(f"view {v.view!r}: {v.reason}" for v in measurement.views)
+        missing = [q for q in QUANTITIES if not math.isfinite(result.value(q))]
+        if missing:
+            detail = "; ".join(
+                f"view {v.view!r}: {v.reason or v.grip_reason or 'measured'}"
+                for v in measurement.views
+            )
             raise ValueError(
-                f"the hook could not be measured in any of the {len(measurement.views)} "
-                f"views: {detail or 'no view was captured'}"
+                f"the hook's {', '.join(missing)} could not be measured in any of the "
+                f"{len(measurement.views)} views: {detail or 'no view was captured'}"
             )
         return result
     finally:

@@ -1,27 +1,34 @@
-"""A held hook measured from one camera view: pure functions of images, no Drake.
+"""A held hook measured from camera views: pure functions of images, no Drake.
 
 The hook (`robot.tool.HookTool`) carries three orange bands: at the grip end of the handle, at
 the handle's far end (the corner) and at the hook's end. The straight tool's pipeline
 (`perception.markers`) finds them: orange mask → blobs → the three largest; each band's pixels
-back-projected to 3-D with the depth image. Then, in the camera frame C:
+back-projected to 3-D with the depth image. Two kinds of view:
+
+`measure_hook_view`, a view square to the hook's plane, in the camera frame C:
 
 - the bands' axis points: a band's visible pixels sample the half of its surface that faces
-  the camera, so their mean lies πR/4 off the band's axis towards the camera (R: the band's
-  radius, measured across it in the image); moved back by that, the three means lie on the
-  handle's and the hook's axes (whatever the view's tilt);
+  the camera, so their mean lies πR/4 off the band's axis towards the camera (R: the grip
+  band's radius, measured across it in the image); moved back by that, the means lie on the
+  handle's and the hook's axes. The hook hides the corner band's edge on its side, so across
+  the handle the corner band's axis is taken half the grip band's width inside its other edge;
 - the handle axis u: from the grip band's axis point to the corner band's;
-- the grasp point A and the corner K: the grip band's and the corner band's outer ends along u
-  (the extreme 3-D point plus the sub-pixel distance to the band's edge, as the straight tool's
-  ends), on the axis;
+- the corner K: the corner band's outer end along u (the extreme 3-D point plus the sub-pixel
+  distance to the band's edge, as the straight tool's ends), on the axis; the grasp point A:
+  the grip band's outer end likewise, unless the grip band is shorter than the others (the
+  fingers hide part of it: the hand holds the hook deeper), then not given;
 - the hook's direction d: from K to the tip band's axis point; the tip: the tip band's outer
-  end along d.
+  end along d. Hook length (tip − K)·d, angle acos(−u·d) (90°: an L; less: bent back towards
+  the hand), handle length (K − A)·u when A is given.
 
-Handle length |AK| along u, hook length (tip − K)·d, angle acos(−u·d) (90°: an L; less: bent
-back towards the hand). Which blob is which: the grip band is the one at the grip (where the
-robot put it, as for the straight tool); of the two others the corner band is the one nearer
-the handle's commanded direction in the image (the tip band is off it by the hook's
-h sin(angle) ≥ 26 mm). A view is dropped, with the reason, when a band is missing, cut by the
-image border or has no depth.
+`measure_grip_view`, a view with the fingers beside the grip band (the straight tool's views):
+the grasp point A only, the grip band's outer end along the commanded tool axis. With the
+fingers across the line of sight the band is seen between them even when held deep.
+
+Which blob is which: the grip band is the one at the grip (where the robot put it, as for the
+straight tool); of the two others the corner band is the one nearer the handle's commanded
+direction in the image (the tip band is off it by the hook's h sin(angle) ≥ 26 mm). A view is
+dropped, with the reason, when a band is missing, cut by the image border or has no depth.
 
 Frames and units as `perception.markers`: C = the camera's optical frame, pixels (u, v), SI
 units, angles in degrees.
@@ -47,47 +54,57 @@ from drake_tooluse.perception.markers import (
 )
 
 BANDS = ("grip", "corner", "tip")
-QUANTITIES = ("handle_length", "hook_length", "angle", "grasp_along")
+# The kinds of view: the hook's plane square to the camera, or the grip band between the
+# fingers.
+VIEW_KINDS = ("hook", "grip")
 # The corner band lies within this angle of the handle's commanded direction in the image,
 # seen from the grip band (deg); the tip band lies off it by the hook.
 MAX_AXIS_ANGLE_DEG = 12.0
 # A band's pixels whose depth differs from its median by more than this are left out (m):
-# tighter than the straight tool's MARKER_DEPTH_TOLERANCE, because one orange pixel on a
-# band's silhouette with the depth of what lies behind it, back-projected, moved the grasp
-# point 4 mm; a band is 14 mm across, its visible half at most ~10 mm deep even tilted.
-BAND_DEPTH_TOLERANCE = 0.01
+# tighter than the straight tool's MARKER_DEPTH_TOLERANCE. An orange pixel on a band's
+# silhouette can carry the depth of what lies behind it; back-projected, one 19 mm deep moved
+# the grasp point 4 mm, one 9 mm deep a band's end 1.9 mm (the ray is inclined to the band).
+# The visible half of a band square to the view lies within about -1.5..+3 mm of its median
+# depth (R = 6.9 mm).
+BAND_DEPTH_TOLERANCE = 0.005
 # The grip band is taken as partly hidden (by the fingers: the hand holds the hook deeper)
-# when it is shorter along the handle than the shorter of the other two bands by more than
-# this (m); unhidden, the bands' lengths agree within ~0.5 mm.
+# when it is shorter along the handle than the corner band by more than this (m); whole, the
+# bands' lengths agree within ~0.5 mm.
 MAX_GRIP_BAND_SHORTFALL = 0.001
 
 
 @dc.dataclass
 class HookViewSpec(ViewSpec):
     """What the robot knows about one view of the hook: the grip's pixel and depth (as for the
-    straight tool) and the image direction (u, v), a unit vector, in which the handle leaves
-    the grip (the projection of the commanded tool axis)."""
+    straight tool), the commanded tool axis in C (a unit vector, `axis_C`) and its image
+    direction at the grip (`axis_image`, unit (u, v)), and the kind of view (VIEW_KINDS)."""
 
+    axis_C: tuple[float, float, float] = (0.0, 0.0, 1.0)
     axis_image: tuple[float, float] = (1.0, 0.0)
+    kind: str = "hook"
 
 
 @dc.dataclass
 class HookViewMeasurement:
-    """The hook as one view sees it. `accepted` False: the view is dropped, `reason` says why.
-    Points in the camera frame C (m): `p_CA` the grasp point (the grip band's outer end),
-    `p_CK` the corner, `p_CT` the tip, all on the tool's axes; lengths in m, angle in degrees."""
+    """One view's result. `accepted` False: the view is dropped, `reason` says why. Points in
+    the camera frame C (m), on the tool's axes: `p_CA` the grasp point (the grip band's outer
+    end; empty when the band is partly hidden, `grip_reason` says so), `p_CK` the corner,
+    `p_CT` the tip (empty in a grip view). Lengths in m, the angle in degrees; NaN where the
+    view does not give them."""
 
     view: str
+    kind: str
     accepted: bool
     reason: str = ""
-    handle_length: float = math.nan
+    grip_reason: str = ""
+    handle_length: float = math.nan  # image only: (K - A)·u, when A is given
     hook_length: float = math.nan
     angle: float = math.nan
-    band_radius: float = math.nan  # m, measured across the bands in the image
+    band_radius: float = math.nan  # m, measured across the grip band in the image
     p_CA: list = dc.field(default_factory=list)
     p_CK: list = dc.field(default_factory=list)
     p_CT: list = dc.field(default_factory=list)
-    centroids_px: list = dc.field(default_factory=list)  # (u, v) per band: grip, corner, tip
+    centroids_px: list = dc.field(default_factory=list)  # (u, v) per band found: grip, ...
     blob_count: int = 0
 
     def as_dict(self) -> dict:
@@ -96,9 +113,11 @@ class HookViewMeasurement:
 
         return {
             "view": self.view,
+            "kind": self.kind,
             "accepted": self.accepted,
             "reason": self.reason,
-            "handle_length_m": f(self.handle_length),
+            "grip_reason": self.grip_reason,
+            "handle_length_image_m": f(self.handle_length),
             "hook_length_m": f(self.hook_length),
             "angle_deg": f(self.angle),
             "band_radius_m": f(self.band_radius),
@@ -112,7 +131,7 @@ class HookViewMeasurement:
 
 @dc.dataclass
 class HookMeasurement:
-    """All views of the hook measured so far (the estimator's state)."""
+    """All views measured so far (the estimator's state)."""
 
     views: list = dc.field(default_factory=list)  # HookViewMeasurement per view, in order
 
@@ -121,15 +140,17 @@ class HookMeasurement:
         return [v for v in self.views if v.accepted]
 
     def values(self, quantity: str) -> np.ndarray:
-        """`handle_length`, `hook_length` or `angle` of each accepted view."""
-        return np.array([getattr(v, quantity) for v in self.accepted])
+        """`hook_length` or `angle` (or the image-only `handle_length`) of each accepted view
+        that gives it."""
+        values = np.array([getattr(v, quantity) for v in self.accepted], float)
+        return values[np.isfinite(values)]
 
     def mean(self, quantity: str) -> float:
         values = self.values(quantity)
         return float(np.mean(values)) if values.size else math.nan
 
     def spread(self, quantity: str) -> float:
-        """Largest minus smallest accepted view; NaN when none is accepted."""
+        """Largest minus smallest view; NaN when no view gives it."""
         values = self.values(quantity)
         return float(np.ptp(values)) if values.size else math.nan
 
@@ -145,13 +166,11 @@ def _toward_camera(p_C: np.ndarray, axis: np.ndarray) -> np.ndarray:
     return _unit(w - w.dot(axis) * axis)
 
 
-def _band_radius(points: np.ndarray, axis: np.ndarray, f: float) -> float:
-    """A band's radius (m): its 3-D extent across `axis` in the image, plus half a pixel at
-    each side (pixel centres lie inside the band's silhouette), halved."""
-    c = points.mean(axis=0)
-    across = _unit(np.cross(axis, -c))
-    extent = np.ptp(points @ across)
-    return 0.5 * (extent + c[2] / f)
+def _band_width(points: np.ndarray, axis: np.ndarray) -> float:
+    """A band's extent across `axis` in the image (m): between the outermost pixel centres,
+    so a pixel short of its width."""
+    across = _unit(np.cross(axis, -points.mean(axis=0)))
+    return float(np.ptp(points @ across))
 
 
 def _band_points(blob, depth: np.ndarray, info: CameraIntrinsics):
@@ -165,47 +184,108 @@ def _band_points(blob, depth: np.ndarray, info: CameraIntrinsics):
     return points[keep], pixels[keep]
 
 
-def measure_hook_view(
-    color_image: np.ndarray, depth_image: np.ndarray, info: CameraIntrinsics, view: HookViewSpec
-) -> HookViewMeasurement:
-    """Measures the hook in one view: handle length, hook length and angle, and the grasp,
-    corner and tip points in C.
-
-    color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
-    A view is dropped (accepted=False, with the reason) when fewer than three bands are found,
-    when no band lies at the grip, when neither other band lies along the handle, when a band
-    touches the image border, or when a band has no valid depth."""
-    depth = np.asarray(depth_image, np.float32).reshape(info.height(), info.width())
+def _check_image(color_image, depth_image, info: CameraIntrinsics) -> np.ndarray:
     if color_image.shape[:2] != (info.height(), info.width()):
         raise ValueError(
             f"color image is {color_image.shape[1]} x {color_image.shape[0]} px; "
             f"the camera gives {info.width()} x {info.height()} px"
         )
+    return np.asarray(depth_image, np.float32).reshape(info.height(), info.width())
+
+
+def _grip_band(blobs, view: HookViewSpec, f: float):
+    """The blob nearest the grip pixel, or None if none lies within GRIP_TOLERANCE of it."""
+    grip_px = np.asarray(view.grip_pixel, float)
+    if not blobs:
+        return None
+    distances = [np.linalg.norm(b.centroid - grip_px) for b in blobs]
+    k = int(np.argmin(distances))
+    return blobs[k] if distances[k] <= GRIP_TOLERANCE * f / view.grip_depth else None
+
+
+def _no_grip_reason(view: HookViewSpec) -> str:
+    u, v = view.grip_pixel
+    return (
+        f"no band found within {GRIP_TOLERANCE * 100:.0f} cm of the grip at pixel "
+        f"({u:.0f}, {v:.0f}): the grip band is missing (hidden or out of frame)"
+    )
+
+
+def _border_reason(name: str, blob, info: CameraIntrinsics) -> str:
+    side = _touches_border(blob, info.width(), info.height())
+    return f"the {name} band touches the image's {side} border: it may be cut off" if side else ""
+
+
+def measure_grip_view(
+    color_image: np.ndarray, depth_image: np.ndarray, info: CameraIntrinsics, view: HookViewSpec
+) -> HookViewMeasurement:
+    """The grasp point p_CA alone: the grip band's outer end along the commanded tool axis
+    `view.axis_C` (its extreme 3-D point, plus the sub-pixel distance to its edge). Only its
+    component along the tool counts (a point of the band's surface, off the axis across it).
+    Dropped (with the reason) when no band lies at the grip, or it touches the image border or
+    has no valid depth."""
+    depth = _check_image(color_image, depth_image, info)
     mask = orange_mask(color_image)
     blobs = find_blobs(mask)
-    out = HookViewMeasurement(view=view.name, accepted=False, blob_count=len(blobs))
-    if len(blobs) < 3:
+    out = HookViewMeasurement(view=view.name, kind="grip", accepted=False, blob_count=len(blobs))
+    f = info.focal_x()
+    grip = _grip_band(blobs, view, f)
+    if grip is None:
+        out.reason = _no_grip_reason(view)
+        return out
+    out.centroids_px = [grip.centroid.tolist()]
+    out.reason = _border_reason("grip", grip, info)
+    if out.reason:
+        return out
+    points, pixels = _band_points(grip, depth, info)
+    if len(points) < MIN_BLOB_AREA_PX:
+        out.reason = f"the grip band has no valid depth ({len(points)} pixels inside the range)"
+        return out
+    axis = _unit(np.asarray(view.axis_C, float))
+    along = points @ axis
+    i = int(np.argmin(along))
+    p_CA = points[i] - _end_correction(mask, pixels[i], points[i], axis, -1.0, f) * axis
+    out.p_CA = p_CA.tolist()
+    out.accepted = True
+    return out
+
+
+def measure_view_of_kind(color_image, depth_image, info: CameraIntrinsics, view: HookViewSpec):
+    """`measure_hook_view` or `measure_grip_view`, by `view.kind`."""
+    if view.kind == "grip":
+        return measure_grip_view(color_image, depth_image, info, view)
+    return measure_hook_view(color_image, depth_image, info, view)
+
+
+def measure_hook_view(
+    color_image: np.ndarray, depth_image: np.ndarray, info: CameraIntrinsics, view: HookViewSpec
+) -> HookViewMeasurement:
+    """Measures the hook in a view square to its plane: hook length and angle, the corner and
+    tip points in C, and the grasp point and the handle length when the grip band is whole.
+
+    color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
+    A view is dropped (accepted=False, with the reason) when fewer than three bands are found,
+    when no band lies at the grip, when neither other band lies along the handle, when a band
+    touches the image border, or when a band has no valid depth."""
+    depth = _check_image(color_image, depth_image, info)
+    mask = orange_mask(color_image)
+    blobs = find_blobs(mask)
+    out = HookViewMeasurement(view=view.name, kind="hook", accepted=False, blob_count=len(blobs))
+    f = info.focal_x()
+    grip = _grip_band(blobs[:3], view, f)
+    # Without the grip band (the near finger hides it when the hand holds the hook deep),
+    # the corner and the tip band are the two largest blobs, told apart from the grip pixel.
+    others = [b for b in blobs[:3] if b is not grip][:2]
+    if len(others) < 2:
         out.reason = (
-            f"{len(blobs)} orange bands found, 3 expected (grip, corner and tip): "
+            f"{len(blobs)} orange bands found, at least the corner and the tip band expected: "
             "a band is hidden or out of frame"
         )
         return out
-    f = info.focal_x()
-    grip_px = np.asarray(view.grip_pixel, float)
-    bands = blobs[:3]
-    distances = [np.linalg.norm(b.centroid - grip_px) for b in bands]
-    if min(distances) > GRIP_TOLERANCE * f / view.grip_depth:
-        out.reason = (
-            f"no band found within {GRIP_TOLERANCE * 100:.0f} cm of the grip at pixel "
-            f"({grip_px[0]:.0f}, {grip_px[1]:.0f}): the grip band is missing (hidden or out "
-            "of frame)"
-        )
-        return out
-    grip = bands[int(np.argmin(distances))]
-    others = [b for b in bands if b is not grip]
+    origin = np.asarray(view.grip_pixel, float) if grip is None else grip.centroid
     axis_image = _unit(np.asarray(view.axis_image, float))
     angles = [
-        math.degrees(math.acos(np.clip(_unit(b.centroid - grip.centroid) @ axis_image, -1, 1)))
+        math.degrees(math.acos(np.clip(_unit(b.centroid - origin) @ axis_image, -1, 1)))
         for b in others
     ]
     if min(angles) > MAX_AXIS_ANGLE_DEG:
@@ -217,66 +297,79 @@ def measure_hook_view(
         return out
     corner = others[int(np.argmin(angles))]
     tip = others[1 - int(np.argmin(angles))]
-    out.centroids_px = [b.centroid.tolist() for b in (grip, corner, tip)]
-    for name, blob in zip(BANDS, (grip, corner, tip)):
-        side = _touches_border(blob, info.width(), info.height())
-        if side:
-            out.reason = (
-                f"the {name} band touches the image's {side} border: it may be cut off "
-                "(out of frame)"
-            )
+    found = [("corner", corner), ("tip", tip)] + ([] if grip is None else [("grip", grip)])
+    out.centroids_px = [b.centroid.tolist() for _, b in found]
+    for name, blob in found:
+        out.reason = _border_reason(name, blob, info)
+        if out.reason:
             return out
-    clouds = [_band_points(b, depth, info) for b in (grip, corner, tip)]
-    points = [c[0] for c in clouds]
-    for name, pts in zip(BANDS, points):
+    clouds = {name: _band_points(b, depth, info) for name, b in found}
+    points = {name: c[0] for name, c in clouds.items()}
+    for name, pts in points.items():
         if len(pts) < MIN_BLOB_AREA_PX:
             out.reason = f"the {name} band has no valid depth ({len(pts)} pixels inside the range)"
             return out
-    means = [p.mean(axis=0) for p in points]
-    # The handle: axis points of the grip and corner bands, then their outer ends along it.
-    u = _unit(means[1] - means[0])
-    radius = _band_radius(points[0], u, f)
+    means = {name: p.mean(axis=0) for name, p in points.items()}
+    grip_whole = grip is not None
+    if grip_whole:
+        u = _unit(means["corner"] - means["grip"])
+        grip_extent, corner_extent = (np.ptp(points[n] @ u) for n in ("grip", "corner"))
+        if grip_extent < corner_extent - MAX_GRIP_BAND_SHORTFALL:
+            out.grip_reason = (
+                f"the grip band looks partly hidden (by the fingers): it is "
+                f"{grip_extent * 1000:.1f} mm long along the handle, the corner band "
+                f"{corner_extent * 1000:.1f} mm"
+            )
+            grip_whole = False
+    else:
+        out.grip_reason = "the grip band is hidden (by the fingers)"
+    # The handle: with the whole grip band, through its axis point and the corner band's;
+    # else along the commanded tool axis (the tool runs along the gripper's z).
+    u = _unit(means["corner"] - means["grip"]) if grip_whole else _unit(np.array(view.axis_C))
+    if grip_whole:
+        width = _band_width(points["grip"], u)
+    else:  # the corner band's half on the handle's side: the hook hides none of it
+        along = points["corner"] @ u
+        width = _band_width(points["corner"][along <= np.median(along)], u)
+    radius = 0.5 * (width + means["corner"][2] / f)
     offset = math.pi * radius / 4  # the visible half's mean, off the axis
-    a_A = means[0] - offset * _toward_camera(means[0], u)
-    a_K = means[1] - offset * _toward_camera(means[1], u)
+    a_K = means["corner"] - offset * _toward_camera(means["corner"], u)
     # The hook hides the corner band's edge on its side: across the handle (in the image),
-    # the corner band's axis lies half the grip band's width inside its other edge.
+    # the corner band's axis lies half a band's width inside its other edge.
     across = _unit(np.cross(u, -a_K))
-    if across @ (means[2] - means[1]) < 0:
+    if across @ (means["tip"] - means["corner"]) < 0:
         across = -across
-    grip_across = points[0] @ across
-    target = np.min(points[1] @ across) + 0.5 * np.ptp(grip_across)
-    a_K = a_K + (target - a_K @ across) * across
-    a_A = a_A + (0.5 * (grip_across.min() + grip_across.max()) - a_A @ across) * across
-    u = _unit(a_K - a_A)
-    grip_along, corner_along = points[0] @ u, points[1] @ u
-    i, j = int(np.argmin(grip_along)), int(np.argmax(corner_along))
-    s_A = grip_along[i] - _end_correction(mask, clouds[0][1][i], points[0][i], u, -1.0, f)
-    s_K = corner_along[j] + _end_correction(mask, clouds[1][1][j], points[1][j], u, +1.0, f)
-    grip_extent = float(np.ptp(grip_along))
-    p_CA = a_A + (s_A - a_A @ u) * u
+    a_K = a_K + (np.min(points["corner"] @ across) + 0.5 * width - a_K @ across) * across
+    if grip_whole:
+        a_A = means["grip"] - offset * _toward_camera(means["grip"], u)
+        grip_across = points["grip"] @ across
+        a_A = a_A + (0.5 * (grip_across.min() + grip_across.max()) - a_A @ across) * across
+        u = _unit(a_K - a_A)
+    corner_along = points["corner"] @ u
+    j = int(np.argmax(corner_along))
+    pixel, point = clouds["corner"][1][j], points["corner"][j]
+    s_K = corner_along[j] + _end_correction(mask, pixel, point, u, +1.0, f)
     p_CK = a_K + (s_K - a_K @ u) * u
     # The hook: from the corner to the tip band's axis point, then its outer end along that.
-    d = _unit(means[2] - p_CK)
+    d = _unit(means["tip"] - p_CK)
     for _ in range(2):  # the offset's direction depends on d; d barely moves
-        a_T = means[2] - offset * _toward_camera(means[2], d)
+        a_T = means["tip"] - offset * _toward_camera(means["tip"], d)
         d = _unit(a_T - p_CK)
-    tip_along = points[2] @ d
+    tip_along = points["tip"] @ d
     k = int(np.argmax(tip_along))
-    s_T = tip_along[k] + _end_correction(mask, clouds[2][1][k], points[2][k], d, +1.0, f)
-    p_CT = p_CK + (s_T - p_CK @ d) * d
-    others_extent = min(float(np.ptp(corner_along)), float(np.ptp(tip_along)))
-    if grip_extent < others_extent - MAX_GRIP_BAND_SHORTFALL:
-        out.reason = (
-            f"the grip band looks partly hidden (by the fingers?): it is "
-            f"{grip_extent * 1000:.1f} mm long along the handle, the other bands at least "
-            f"{others_extent * 1000:.1f} mm"
-        )
-        return out
-    out.handle_length = float(s_K - s_A)
+    pixel, point = clouds["tip"][1][k], points["tip"][k]
+    s_T = tip_along[k] + _end_correction(mask, pixel, point, d, +1.0, f)
     out.hook_length = float(s_T - p_CK @ d)
     out.angle = math.degrees(math.acos(float(np.clip(-u @ d, -1.0, 1.0))))
     out.band_radius = float(radius)
-    out.p_CA, out.p_CK, out.p_CT = p_CA.tolist(), p_CK.tolist(), p_CT.tolist()
+    out.p_CK = p_CK.tolist()
+    out.p_CT = (p_CK + out.hook_length * d).tolist()
     out.accepted = True
+    if grip_whole:  # the grasp point: the grip band's outer end along the handle
+        grip_along = points["grip"] @ u
+        i = int(np.argmin(grip_along))
+        pixel, point = clouds["grip"][1][i], points["grip"][i]
+        s_A = grip_along[i] - _end_correction(mask, pixel, point, u, -1.0, f)
+        out.p_CA = (a_A + (s_A - a_A @ u) * u).tolist()
+        out.handle_length = float(s_K - s_A)
     return out

@@ -1,6 +1,8 @@
 """The hook estimator: the head camera's views of a held hook measured with
 `perception.hook`, one view per capture (the hook's counterpart of
-`systems.camera.ToolLengthEstimator`, with the same capture schedule)."""
+`systems.camera.ToolLengthEstimator`, with the same capture schedule). The handle length and
+the grasp come from the views' points with the arm's kinematics
+(`builders.hook_measurement.combine_views`), so this system gives the views' results."""
 
 from __future__ import annotations
 
@@ -11,11 +13,9 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import LeafSystem
 from pydrake.systems.sensors import CameraInfo, ImageDepth32F, ImageRgba8U
 
-from drake_tooluse.perception.hook import HookMeasurement, measure_hook_view
+from drake_tooluse.perception.hook import HookMeasurement, measure_view_of_kind
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.validation import check_in_range
-
-HOOK_OUTPUT = ("handle_length", "hook_length", "angle")
 
 
 class HookEstimator(LeafSystem):
@@ -23,8 +23,9 @@ class HookEstimator(LeafSystem):
 
     At the capture times t_k = first_capture + k * capture_period (k = 0 .. len(views) - 1,
     when the arm holds view k still) it measures view k from the current images
-    (`measure_hook_view`) and keeps the result in its abstract state; later times do nothing.
-    The outputs are computed from that state, so they hold between captures.
+    (`measure_hook_view` or `measure_grip_view`, by the view's kind) and keeps the result in
+    its abstract state; later times do nothing. The outputs are computed from that state, so
+    they hold between captures.
 
     .. pydrake_system::
 
@@ -38,13 +39,13 @@ class HookEstimator(LeafSystem):
 
     - color_image: ImageRgba8U from the RgbdSensor (or ColorImageNoise).
     - depth_image: ImageDepth32F (m) from the RgbdSensor's `depth_image_32f`.
-    - hook: [handle length (m), hook length (m), angle (deg)], each the mean over the accepted
-      views captured so far; NaN until one is accepted.
+    - hook: [hook length (m), angle (deg)], each the mean over the accepted hook views
+      captured so far; NaN until one is accepted.
     - measurement: AbstractValue[HookMeasurement], every captured view's result.
 
     Args:
         info: the camera's intrinsics (`camera_info(scenario.camera)`).
-        views: the HookViewSpecs in capture order.
+        views: the HookViewSpecs in capture order (each says its kind).
         first_capture, capture_period: capture schedule (s).
     """
 
@@ -69,7 +70,7 @@ class HookEstimator(LeafSystem):
         )
         state = {self.abstract_state_ticket(self._state)}
         self.DeclareVectorOutputPort(
-            "hook", len(HOOK_OUTPUT), weak_method(self._calc_hook), prerequisites_of_calc=state
+            "hook", 2, weak_method(self._calc_hook), prerequisites_of_calc=state
         )
         self.DeclareAbstractOutputPort(
             "measurement",
@@ -85,14 +86,14 @@ class HookEstimator(LeafSystem):
             return
         color = self._color.Eval(context).data
         depth = self._depth.Eval(context).data
-        result = measure_hook_view(color, depth, self._info, self._views[k])
+        result = measure_view_of_kind(color, depth, self._info, self._views[k])
         updated = copy.copy(measurement)
         updated.views = measurement.views + [result]
         state.get_mutable_abstract_state(self._state).set_value(updated)
 
     def _calc_hook(self, context, output):
         measurement = context.get_abstract_state(self._state).get_value()
-        output.SetFromVector([measurement.mean(q) for q in HOOK_OUTPUT])
+        output.SetFromVector([measurement.mean("hook_length"), measurement.mean("angle")])
 
     def _calc_measurement(self, context, output):
         output.set_value(context.get_abstract_state(self._state).get_value())
