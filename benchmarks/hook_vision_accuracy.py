@@ -2,7 +2,7 @@
 known geometry drawn from the hook's ranges, against the goal of 2 mm (handle length, hook
 length, grasp along the handle) and 2 deg (angle).
 
-    python benchmarks/hook_vision_accuracy.py [--count 20] [--seed 0] [--noise 0]
+    python benchmarks/hook_vision_accuracy.py [--count 20] [--seed 0] [--noise 0] [--lighting default]
 
 Geometries: the eight corners of the ranges (handle 0.15/0.35 m x hook 0.03/0.08 m x angle
 60/120 deg), then uniform seeded draws up to `--count`; each holds the hook with a grasp shift
@@ -26,6 +26,7 @@ import numpy as np
 from drake_tooluse.builders.hook_measurement import measure_hook, plan_hook_measurement
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.perception.markers import LIGHTINGS
 from drake_tooluse.robot.tool import HOOK_ANGLE_RANGE, HOOK_HANDLE_RANGE, HOOK_LENGTH_RANGE
 from drake_tooluse.world.scenario import (
     RandomizationConfig,
@@ -70,6 +71,7 @@ def main() -> None:
     ap.add_argument("--count", type=int, default=20, help="geometries (the first 8: corners)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=0.0, help="colour noise sigma, grey levels")
+    ap.add_argument("--lighting", default="default", choices=list(LIGHTINGS))
     ap.add_argument("--out", type=Path, default=OUT)
     args = ap.parse_args()
     if args.count < 1:
@@ -80,7 +82,11 @@ def main() -> None:
     rows = []
     for k, (L, h, a, along) in enumerate(geometries(args.count, args.seed)):
         result = measure_hook(
-            scenario_of(L, h, a, along), plan=plan, noise_sigma=args.noise, seed=k
+            scenario_of(L, h, a, along),
+            plan=plan,
+            noise_sigma=args.noise,
+            seed=k,
+            lighting=args.lighting,
         )
         scale = {"handle_length": 1e3, "hook_length": 1e3, "angle": 1.0, "grasp_along": 1e3}
         rows.append(
@@ -130,7 +136,8 @@ def main() -> None:
             f"{s[f'max_spread_{u}']:.2f} {u})"
         )
     print(
-        f"{len(rows)} geometries (seed {args.seed}, noise sigma {args.noise:g}); dropped views: "
+        f"{len(rows)} geometries (seed {args.seed}, noise sigma {args.noise:g}, lighting "
+        f"{args.lighting}); dropped views: "
         f"{dropped}; plan {plan_time:.1f} s, per measurement median {np.median(times):.2f} s, "
         f"max {max(times):.2f} s"
     )
@@ -140,7 +147,7 @@ def main() -> None:
         args.out,
         {
             "command": f"python benchmarks/hook_vision_accuracy.py --count {args.count} "
-            f"--seed {args.seed} --noise {args.noise:g}",
+            f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}",
             "machine": platform.platform(),
             "goals": goals,
             "summary": summary,

@@ -7,16 +7,16 @@ back-projected to 3-D with the depth image. Two kinds of view:
 
 `measure_hook_view`, a view square to the hook's plane, in the camera frame C:
 
-- the bands' axis points: a band's visible pixels sample the half of its surface that faces
-  the camera, so their mean lies πR/4 off the band's axis towards the camera (R: the grip
-  band's radius, measured across it in the image); moved back by that, the means lie on the
-  handle's and the hook's axes. The hook hides the corner band's edge on its side, so across
-  the handle the corner band's axis is taken half the grip band's width inside its other edge;
-- the handle axis u: from the grip band's axis point to the corner band's;
+- the bands' axis points: seen along its axis, a band's back-projected pixels lie on an arc
+  of a circle of its radius; the circle's centre, fitted, is on the axis. Unlike the pixels'
+  mean, it does not move when the hook hides part of the corner band or a side light leaves
+  part of a band too dark to pass the orange mask (either moved the angle by ~2 deg);
+- the handle axis u: from the grip band's axis point to the corner band's; when the near
+  finger hides part or all of the grip band (the hand holds the hook deep; a grip band
+  shorter than the corner band), the commanded tool axis (the tool runs along the gripper's z);
 - the corner K: the corner band's outer end along u (the extreme 3-D point plus the sub-pixel
   distance to the band's edge, as the straight tool's ends), on the axis; the grasp point A:
-  the grip band's outer end likewise, unless the grip band is shorter than the others (the
-  fingers hide part of it: the hand holds the hook deeper), then not given;
+  the grip band's outer end likewise, when the grip band is whole;
 - the hook's direction d: from K to the tip band's axis point; the tip: the tip band's outer
   end along d. Hook length (tip − K)·d, angle acos(−u·d) (90°: an L; less: bent back towards
   the hand), handle length (K − A)·u when A is given.
@@ -71,6 +71,9 @@ BAND_DEPTH_TOLERANCE = 0.005
 # when it is shorter along the handle than the corner band by more than this (m); whole, the
 # bands' lengths agree within ~0.5 mm.
 MAX_GRIP_BAND_SHORTFALL = 0.001
+# A band's surface point further than this from the circle first fitted across its axis is
+# left out of the second fit (m).
+MAX_ARC_RESIDUAL = 0.0005
 
 
 @dc.dataclass
@@ -159,18 +162,24 @@ def _unit(x: np.ndarray) -> np.ndarray:
     return x / np.linalg.norm(x)
 
 
-def _toward_camera(p_C: np.ndarray, axis: np.ndarray) -> np.ndarray:
-    """The unit vector from a point on a cylinder's axis towards the camera, square to the
-    axis: the direction of the visible half's offset."""
-    w = -p_C / np.linalg.norm(p_C)
-    return _unit(w - w.dot(axis) * axis)
-
-
-def _band_width(points: np.ndarray, axis: np.ndarray) -> float:
-    """A band's extent across `axis` in the image (m): between the outermost pixel centres,
-    so a pixel short of its width."""
-    across = _unit(np.cross(axis, -points.mean(axis=0)))
-    return float(np.ptp(points @ across))
+def _axis_point(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float]:
+    """A point on a band's axis and the band's radius (m), from its surface points p_CP
+    (N, 3) and its axis direction: the points, seen along the axis, lie on a circle (the arc
+    the camera sees, whatever part of it the light or the hook leaves orange); its centre,
+    fitted by least squares (Kåsa) and again without the points more than
+    MAX_ARC_RESIDUAL off the first fit (a silhouette pixel can carry the depth behind it)."""
+    c = points.mean(axis=0)
+    e1 = _unit(np.cross(axis, -c))  # across the axis in the image
+    e2 = np.cross(e1, axis)  # across the axis, along the line of sight
+    x, y = (points - c) @ e1, (points - c) @ e2
+    keep = np.ones(len(points), bool)
+    for _ in range(2):
+        A = np.column_stack([x[keep], y[keep], np.ones(keep.sum())])
+        a, b, k = np.linalg.lstsq(A, -(x[keep] ** 2 + y[keep] ** 2), rcond=None)[0]
+        cx, cy = -a / 2, -b / 2
+        radius = math.sqrt(max(cx**2 + cy**2 - k, 0.0))
+        keep = np.abs(np.hypot(x - cx, y - cy) - radius) <= MAX_ARC_RESIDUAL
+    return c + cx * e1 + cy * e2, float(radius)
 
 
 def _band_points(blob, depth: np.ndarray, info: CameraIntrinsics):
@@ -325,26 +334,15 @@ def measure_hook_view(
         out.grip_reason = "the grip band is hidden (by the fingers)"
     # The handle: with the whole grip band, through its axis point and the corner band's;
     # else along the commanded tool axis (the tool runs along the gripper's z).
-    u = _unit(means["corner"] - means["grip"]) if grip_whole else _unit(np.array(view.axis_C))
     if grip_whole:
-        width = _band_width(points["grip"], u)
-    else:  # the corner band's half on the handle's side: the hook hides none of it
-        along = points["corner"] @ u
-        width = _band_width(points["corner"][along <= np.median(along)], u)
-    radius = 0.5 * (width + means["corner"][2] / f)
-    offset = math.pi * radius / 4  # the visible half's mean, off the axis
-    a_K = means["corner"] - offset * _toward_camera(means["corner"], u)
-    # The hook hides the corner band's edge on its side: across the handle (in the image),
-    # the corner band's axis lies half a band's width inside its other edge.
-    across = _unit(np.cross(u, -a_K))
-    if across @ (means["tip"] - means["corner"]) < 0:
-        across = -across
-    a_K = a_K + (np.min(points["corner"] @ across) + 0.5 * width - a_K @ across) * across
-    if grip_whole:
-        a_A = means["grip"] - offset * _toward_camera(means["grip"], u)
-        grip_across = points["grip"] @ across
-        a_A = a_A + (0.5 * (grip_across.min() + grip_across.max()) - a_A @ across) * across
-        u = _unit(a_K - a_A)
+        u = _unit(means["corner"] - means["grip"])
+        for _ in range(2):  # each fit is across the axis found before; it barely moves
+            (a_A, r_A), (a_K, r_K) = (_axis_point(points[n], u) for n in ("grip", "corner"))
+            u = _unit(a_K - a_A)
+        radius = r_A
+    else:
+        u = _unit(np.array(view.axis_C))
+        a_K, radius = _axis_point(points["corner"], u)
     corner_along = points["corner"] @ u
     j = int(np.argmax(corner_along))
     pixel, point = clouds["corner"][1][j], points["corner"][j]
@@ -352,8 +350,8 @@ def measure_hook_view(
     p_CK = a_K + (s_K - a_K @ u) * u
     # The hook: from the corner to the tip band's axis point, then its outer end along that.
     d = _unit(means["tip"] - p_CK)
-    for _ in range(2):  # the offset's direction depends on d; d barely moves
-        a_T = means["tip"] - offset * _toward_camera(means["tip"], d)
+    for _ in range(2):
+        a_T, _ = _axis_point(points["tip"], d)
         d = _unit(a_T - p_CK)
     tip_along = points["tip"] @ d
     k = int(np.argmax(tip_along))

@@ -182,3 +182,26 @@ def test_seeded_draws_with_colour_noise_are_within_2mm_and_2deg(seed):
             hook_scenario(handle, hook, angle, along), plan=PLAN, noise_sigma=5.0, seed=k
         )
         assert_within_goal(result)
+
+
+def test_the_belief_holds_the_measured_hook_where_the_camera_saw_the_grasp(monkeypatch):
+    from drake_tooluse.builders import hook_measurement
+
+    result = hook_measurement.HookMeasurementResult(
+        handle_length=0.2512,
+        hook_length=0.0495,
+        angle=88.7,
+        grasp_along=0.0061,
+        spread={},
+        views=[],
+        truth={},
+        wall_time=0.0,
+        sim_time=0.0,
+    )
+    monkeypatch.setattr(hook_measurement, "measure_hook", lambda scenario, **kwargs: result)
+    belief, same = hook_measurement.measure_hook_belief(Scenario())
+    assert same is result
+    assert belief.tool == HookTool(0.2512, 0.0495, 88.7)
+    assert belief.grasp_offset == (0.0, 0.0061)
+    nominal, _ = hook_measurement.measure_hook_belief(Scenario(), use_grasp_estimate=False)
+    assert nominal.tool == belief.tool and nominal.grasp_offset == (0.0, 0.0)
