@@ -79,6 +79,21 @@ def test_held_deep_the_fingers_hide_the_grip_band_from_the_hook_views_not_the_gr
     assert_within_goal(result)
 
 
+def test_side_light_colour_noise_and_an_orange_distractor_keep_the_estimate():
+    from drake_tooluse.builders.measurement import orange_distractor
+
+    result = measure_hook(
+        hook_scenario(0.3, 0.04, 65.0, 0.01),
+        plan=PLAN,
+        lighting="dim_side",
+        noise_sigma=5.0,
+        scene_objects=[orange_distractor()],
+    )
+    assert not result.dropped
+    assert max(v.blob_count for v in result.views) >= 4  # three bands and the distractor
+    assert_within_goal(result)
+
+
 def test_a_straight_tool_or_no_tool_is_refused_naming_what_the_scenario_holds():
     with pytest.raises(ValueError, match=r"needs a hook in the hand .* has tool.kind='straight'"):
         measure_hook(Scenario(), plan=PLAN)
