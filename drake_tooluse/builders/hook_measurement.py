@@ -329,7 +329,7 @@ def measure_hook(
         scenario: the world; its tool (`kind: hook`) is the truth the camera sees (the robot
             never reads it). `scenario.camera` sets the intrinsics.
         plan: a plan from `plan_hook_measurement` to reuse (it depends on the robot and the
-            camera, not on the hook; planning takes ~15 s).
+            camera, not on the hook).
         noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
         lighting: "default" or "dim_side" (see systems.camera.lighting_params).
         scene_objects: extra SceneObjects (distractors, occluders).
@@ -337,8 +337,9 @@ def measure_hook(
         save_images_dir: if given, each view's colour image is written there as
             `measure_<view>.png`, all of them as one set (`check_images_dir`).
 
-    Raises ValueError if the scenario holds no hook, or (naming each view and what it missed)
-    if no view gives a measurement. Dropped views are in `result.dropped` with the reason.
+    Raises ValueError if the scenario holds no hook, or (naming the quantities, each view and
+    what it missed) if no view gives one of the four. Dropped views are in `result.dropped`
+    with the reason; a hook view that could not see the grasp says why in its `grip_reason`.
     """
     start = time.perf_counter()
     if save_images_dir is not None:

@@ -107,7 +107,7 @@ class HookViewMeasurement:
     p_CA: list = dc.field(default_factory=list)
     p_CK: list = dc.field(default_factory=list)
     p_CT: list = dc.field(default_factory=list)
-    centroids_px: list = dc.field(default_factory=list)  # (u, v) per band found: grip, ...
+    centroids_px: list = dc.field(default_factory=list)  # (u, v): corner, tip[, grip] / grip
     blob_count: int = 0
 
     def as_dict(self) -> dict:
@@ -273,9 +273,10 @@ def measure_hook_view(
     tip points in C, and the grasp point and the handle length when the grip band is whole.
 
     color_image: (H, W, 3 or 4) uint8 RGB(A); depth_image: (H, W) or (H, W, 1) float32, m.
-    A view is dropped (accepted=False, with the reason) when fewer than three bands are found,
-    when no band lies at the grip, when neither other band lies along the handle, when a band
-    touches the image border, or when a band has no valid depth."""
+    A view is dropped (accepted=False, with the reason) when the corner and the tip band are
+    not both found, when neither lies along the handle, when a band touches the image border,
+    or when a band has no valid depth. A grip band that is missing or partly hidden only
+    leaves the grasp point out (`grip_reason` says why)."""
     depth = _check_image(color_image, depth_image, info)
     mask = orange_mask(color_image)
     blobs = find_blobs(mask)
