@@ -63,7 +63,7 @@ from drake_tooluse.builders.measurement import (
     plan_measurement,
 )
 from drake_tooluse.files import atomic_dir, atomic_write_image
-from drake_tooluse.perception.hook import HookMeasurement, HookViewSpec
+from drake_tooluse.perception.hook import HookMeasurement, HookViewSpec, annotate_hook_view
 from drake_tooluse.perception.markers import LIGHTINGS, check_noise_sigma
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import (
@@ -334,8 +334,9 @@ def measure_hook(
         lighting: "default" or "dim_side" (see systems.camera.lighting_params).
         scene_objects: extra SceneObjects (distractors, occluders).
         keep_images: keep each view's (colour, depth) images in the result.
-        save_images_dir: if given, each view's colour image is written there as
-            `measure_<view>.png`, all of them as one set (`check_images_dir`).
+        save_images_dir: if given, each view is written there annotated
+            (`annotate_hook_view`) as `measure_<view>.png`, all of them as one set
+            (`check_images_dir`).
 
     Raises ValueError if the scenario holds no hook, or (naming the quantities, each view and
     what it missed) if no view gives one of the four. Dropped views are in `result.dropped`
@@ -378,10 +379,11 @@ def measure_hook(
         files = []
         if save_images_dir is not None:
             out_dir = Path(save_images_dir)
+            info = camera_info(scenario.camera)
             with atomic_dir(out_dir, replace=True) as tmp:
                 for view, (color, _) in zip(measurement.views, images):
                     name = f"measure_{view.view}.png"
-                    atomic_write_image(tmp / name, np.ascontiguousarray(color[:, :, :3]))
+                    atomic_write_image(tmp / name, annotate_hook_view(color, view, info), bgr=True)
                     files.append(out_dir / name)
         combined = combine_views(measurement.views, X_GC)
         tool = scenario.tool

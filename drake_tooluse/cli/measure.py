@@ -160,7 +160,8 @@ def format_measurement(out: dict) -> str:
 def add_parsers(sub) -> None:
     p = sub.add_parser(
         "measure",
-        help="measure the tool's length with the head camera (three views, OpenCV + depth)",
+        help="measure the tool with the head camera (OpenCV + depth): a straight tool's length "
+        "(three views), a hook's handle, hook and angle (five views; --tool-kind hook)",
     )
     add_scenario_args(p)
     p.add_argument(

@@ -39,6 +39,7 @@ from __future__ import annotations
 import dataclasses as dc
 import math
 
+import cv2
 import numpy as np
 
 from drake_tooluse.perception.markers import (
@@ -48,6 +49,7 @@ from drake_tooluse.perception.markers import (
     ViewSpec,
     _end_correction,
     _marker_points,
+    _text_block,
     _touches_border,
     find_blobs,
     orange_mask,
@@ -372,3 +374,51 @@ def measure_hook_view(
         out.p_CA = (a_A + (s_A - a_A @ u) * u).tolist()
         out.handle_length = float(s_K - s_A)
     return out
+
+
+def hook_view_text(measurement: HookViewMeasurement) -> list[str]:
+    """One view's result in words, or why it was dropped."""
+    m = measurement
+    if not m.accepted:
+        return [f"{m.view}: dropped - {m.reason}"]
+    if m.kind == "grip":
+        return [f"{m.view}: the grip band's outer end (the grasp point)"]
+    lines = [f"{m.view}: hook {m.hook_length * 1000:.1f} mm at {m.angle:.1f} deg"]
+    if m.p_CA:
+        lines.append(f"handle {m.handle_length * 1000:.1f} mm in this view")
+    else:
+        lines.append(f"no grasp point: {m.grip_reason}")
+    return lines
+
+
+def annotate_hook_view(
+    color_image: np.ndarray, measurement: HookViewMeasurement, info: CameraIntrinsics
+) -> np.ndarray:
+    """A BGR image for cv2.imwrite: the orange mask's pixels painted green, the measured
+    points projected back (red: the grasp point; yellow: the corner and the tip, joined along
+    the handle and the hook) and the result in words (`hook_view_text`) in the top left."""
+    bgr = cv2.cvtColor(np.ascontiguousarray(color_image[:, :, :3]), cv2.COLOR_RGB2BGR)
+    s = max(bgr.shape[1], 1) / 1280  # the drawing's scale
+    bgr[orange_mask(color_image) > 0] = (0, 255, 0)
+
+    def pixel(p_C):
+        x, y, z = p_C
+        return (
+            int(round(info.center_x() + info.focal_x() * x / z)),
+            int(round(info.center_y() + info.focal_y() * y / z)),
+        )
+
+    m = measurement
+    line, dot = max(1, round(2 * s)), max(2, round(4 * s))
+    if m.p_CK and m.p_CT:
+        cv2.line(bgr, pixel(m.p_CK), pixel(m.p_CT), (0, 220, 255), line)
+    if m.p_CA and m.p_CK:
+        cv2.line(bgr, pixel(m.p_CA), pixel(m.p_CK), (0, 220, 255), line)
+    for p in (m.p_CK, m.p_CT):
+        if p:
+            cv2.circle(bgr, pixel(p), dot, (0, 220, 255), -1)
+    if m.p_CA:
+        cv2.circle(bgr, pixel(m.p_CA), dot, (0, 0, 255), -1)
+    margin = round(10 * s)
+    _text_block(bgr, hook_view_text(m), (margin, margin), 0.7 * s, max(1, round(2 * s)))
+    return bgr

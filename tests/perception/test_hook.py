@@ -165,10 +165,10 @@ def test_bad_hook_options_are_one_line_errors_naming_value_and_range(capsys, arg
 
 
 @pytest.mark.slow
-def test_the_command_line_measures_a_hook(capsys):
+def test_the_command_line_measures_a_hook_and_saves_its_views(capsys, tmp_path):
     code = main(
         ["measure", "--tool-kind", "hook", "--tool-length", "0.3", "--hook-length", "0.06"]
-        + ["--hook-angle", "70", "--json"]
+        + ["--hook-angle", "70", "--save-images", str(tmp_path), "--json"]
     )
     out = json.loads(capsys.readouterr().out)
     assert code == 0 and out["tool_kind"] == "hook"
@@ -180,6 +180,8 @@ def test_the_command_line_measures_a_hook(capsys):
     }
     assert abs(out["error"]["angle_deg"]) <= 2.0 and abs(out["error"]["handle_length_m"]) <= 2e-3
     assert len(out["views"]) == len(HOOK_VIEWS) and not out["dropped"]
+    names = sorted(f"measure_{v.name}.png" for v in HOOK_VIEWS)
+    assert sorted(p.name for p in tmp_path.iterdir()) == names
 
 
 @pytest.mark.slow
