@@ -94,6 +94,18 @@ def test_side_light_colour_noise_and_an_orange_distractor_keep_the_estimate():
     assert_within_goal(result)
 
 
+def test_a_hook_view_with_the_corner_hidden_is_dropped_and_named():
+    from drake_tooluse.builders.measurement import occluder
+
+    # A plate in front of where the hook_bottom view holds a 0.25 m handle's corner.
+    result = measure_hook(
+        hook_scenario(0.25, 0.05, 90.0), plan=PLAN, scene_objects=[occluder((0.13, 0.04, 0.55))]
+    )
+    assert [d["view"] for d in result.dropped] == ["hook_bottom"]
+    assert "a band is hidden or out of frame" in result.dropped[0]["reason"]
+    assert_within_goal(result)  # from the two other hook views
+
+
 def test_a_straight_tool_or_no_tool_is_refused_naming_what_the_scenario_holds():
     with pytest.raises(ValueError, match=r"needs a hook in the hand .* has tool.kind='straight'"):
         measure_hook(Scenario(), plan=PLAN)
