@@ -54,8 +54,8 @@ from drake_tooluse.perception.markers import (
     find_blobs,
     orange_mask,
 )
+from drake_tooluse.validation import check_one_of
 
-BANDS = ("grip", "corner", "tip")
 # The kinds of view: the hook's plane square to the camera, or the grip band between the
 # fingers.
 VIEW_KINDS = ("hook", "grip")
@@ -262,8 +262,8 @@ def measure_grip_view(
 
 
 def measure_view_of_kind(color_image, depth_image, info: CameraIntrinsics, view: HookViewSpec):
-    """`measure_hook_view` or `measure_grip_view`, by `view.kind`."""
-    if view.kind == "grip":
+    """`measure_hook_view` or `measure_grip_view`, by `view.kind` (one of VIEW_KINDS)."""
+    if check_one_of(view.kind, VIEW_KINDS, "view kind") == "grip":
         return measure_grip_view(color_image, depth_image, info, view)
     return measure_hook_view(color_image, depth_image, info, view)
 
