@@ -3,6 +3,7 @@ the hand camera."""
 
 from __future__ import annotations
 
+import dataclasses as dc
 from pathlib import Path
 
 from drake_tooluse.cli.common import add_scenario_args, output_dir_arg, scenario_from_args
@@ -10,12 +11,15 @@ from drake_tooluse.perception.markers import LIGHTINGS, METHODS
 
 
 def cmd_measure(args) -> dict:
-    """The result as a dict (see MeasurementResult.as_dict)."""
+    """The result as a dict (see MeasurementResult.as_dict; a hook's: HookMeasurementResult)."""
     from drake_tooluse.builders.measurement import check_images_dir, measure_tool
 
     if args.save_images is not None:
         output_dir_arg(args.save_images, "--save-images", must_be_new=False)
         check_images_dir(args.save_images, "--save-images")
+    scenario = hook_scenario_from_args(args)
+    if scenario is not None:
+        return cmd_measure_hook(args, scenario)
     scenario = scenario_from_args(args)
     result = measure_tool(
         scenario,
@@ -25,6 +29,82 @@ def cmd_measure(args) -> dict:
         lighting=args.lighting,
     )
     return {"scenario": str(args.scenario), **result.as_dict()}
+
+
+def hook_scenario_from_args(args):
+    """The scenario with a hook in the hand when `--tool-kind hook` (or the scenario file's
+    tool is a hook), else None. Each hook option is checked against its range here, named."""
+    from drake_tooluse.robot.tool import HOOK_ANGLE_RANGE, HOOK_HANDLE_RANGE, HOOK_LENGTH_RANGE
+    from drake_tooluse.validation import check_in_range
+    from drake_tooluse.world.scenario import load_scenario, validate_scenario
+
+    given = [
+        name
+        for name, value in (("--hook-length", args.hook_length), ("--hook-angle", args.hook_angle))
+        if value is not None
+    ]
+    if args.tool_kind == "straight":
+        if given:
+            raise ValueError(f"{given[0]} is a hook's: give --tool-kind hook with it")
+        return None
+    scenario = load_scenario(args.scenario)
+    if args.tool_kind is None and scenario.tool.kind != "hook":
+        if given:
+            raise ValueError(f"{given[0]} is a hook's: give --tool-kind hook with it")
+        return None
+    if args.method != "depth":
+        raise ValueError(f"--method={args.method!r} measures a straight tool; a hook: 'depth'")
+    tool = dc.replace(scenario.tool, kind="hook", attached=True, model="")
+    for option, value, field, (lo, hi), unit in (
+        ("--tool-length", args.tool_length, "length", HOOK_HANDLE_RANGE, "m"),
+        ("--hook-length", args.hook_length, "hook_length", HOOK_LENGTH_RANGE, "m"),
+        ("--hook-angle", args.hook_angle, "hook_angle", HOOK_ANGLE_RANGE, "°"),
+    ):
+        if value is not None:
+            name = f"{option} (the hook's handle)" if field == "length" else option
+            tool = dc.replace(tool, **{field: check_in_range(value, lo, hi, name, unit=unit)})
+    return validate_scenario(dc.replace(scenario, tool=tool))
+
+
+def cmd_measure_hook(args, scenario) -> dict:
+    """A hook's measurement as a dict (see HookMeasurementResult.as_dict)."""
+    from drake_tooluse.builders.hook_measurement import measure_hook
+
+    result = measure_hook(
+        scenario,
+        save_images_dir=args.save_images,
+        noise_sigma=args.noise,
+        lighting=args.lighting,
+    )
+    return {"scenario": str(args.scenario), "tool_kind": "hook", **result.as_dict()}
+
+
+def format_hook_measurement(out: dict) -> str:
+    """Human-readable lines of `cmd_measure_hook`'s dict."""
+
+    def mm(x):
+        return float("nan") if x is None else x * 1e3
+
+    def deg(x):
+        return float("nan") if x is None else x
+
+    s, t = out["spread"], out["truth"]
+    views = len(out["views"]) - len(out["dropped"])
+    lines = [
+        f"hook: handle {mm(out['handle_length_m']):.2f} mm, hook {mm(out['hook_length_m']):.2f} mm "
+        f"at {deg(out['angle_deg']):.2f} deg; held {mm(out['grasp_along_m']):+.2f} mm along the "
+        f"handle from the gripper frame's origin ({views} views)",
+        f"spread over the views: handle {mm(s['handle_length_m']):.2f} mm, hook "
+        f"{mm(s['hook_length_m']):.2f} mm, angle {deg(s['angle_deg']):.2f} deg, grasp "
+        f"{mm(s['grasp_along_m']):.2f} mm",
+        f"the scenario's: handle {mm(t['handle_length_m']):.1f} mm, hook "
+        f"{mm(t['hook_length_m']):.1f} mm at {deg(t['angle_deg']):.1f} deg, grasp "
+        f"{mm(t['grasp_along_m']):+.1f} mm",
+    ]
+    lines += [f"dropped {d['view']}: {d['reason']}" for d in out["dropped"]]
+    lines.append(f"{out['wall_time_s']:.2f} s ({out['sim_time_s']:.1f} s simulated)")
+    lines += [f"image: {p}" for p in out["image_files"]]
+    return "\n".join(lines)
 
 
 def cmd_measure_box(args) -> dict:
@@ -56,6 +136,8 @@ def format_box_measurement(out: dict) -> str:
 
 def format_measurement(out: dict) -> str:
     """Human-readable lines of `cmd_measure`'s dict (for the CLI without --json)."""
+    if out.get("tool_kind") == "hook":
+        return format_hook_measurement(out)
     mm = {k: (v * 1e3 if v is not None else float("nan")) for k, v in out["per_view_m"].items()}
     lines = [
         f"tool length {out['tool_length_m'] * 1e3:.2f} mm ({out['method']} variant; "
@@ -78,7 +160,8 @@ def format_measurement(out: dict) -> str:
 def add_parsers(sub) -> None:
     p = sub.add_parser(
         "measure",
-        help="measure the tool's length with the head camera (three views, OpenCV + depth)",
+        help="measure the tool with the head camera (OpenCV + depth): a straight tool's length "
+        "(three views), a hook's handle, hook and angle (five views; --tool-kind hook)",
     )
     add_scenario_args(p)
     p.add_argument(
@@ -103,6 +186,22 @@ def add_parsers(sub) -> None:
     )
     p.add_argument(
         "--lighting", default="default", choices=list(LIGHTINGS), help="renderer lighting"
+    )
+    p.add_argument(
+        "--tool-kind",
+        choices=["straight", "hook"],
+        help="the tool in the hand (default: the scenario's); hook: its handle length, hook "
+        "length and angle and the grasp along the handle are measured, --tool-length is the "
+        "handle's (m, in [0.15, 0.35])",
+    )
+    p.add_argument(
+        "--hook-length", type=float, metavar="M", help="the hook's length (m, in [0.03, 0.08])"
+    )
+    p.add_argument(
+        "--hook-angle",
+        type=float,
+        metavar="DEG",
+        help="the hook's angle to the handle (degrees, in [60, 120]; 90: an L)",
     )
     p.set_defaults(run=cmd_measure, show=format_measurement)
     p = sub.add_parser(
