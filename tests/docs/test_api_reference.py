@@ -130,19 +130,28 @@ def _leaves(diagram):
 
 def test_every_port_block_names_the_systems_ports():
     """The figures tell the truth: each block lists the ports the built system declares, in
-    order (the systems as the policy and measurement diagrams build them)."""
+    order (the systems as the policy, pull, and tool and hook measurement diagrams build them)."""
     from pydrake_system import parse_system_yaml
 
+    import gymnasium as gym
+
+    import drake_tooluse  # noqa: F401  (registers the envs)
+    from drake_tooluse.builders.hook_measurement import build_hook_measurement_diagram
     from drake_tooluse.builders.measurement import build_measurement_diagram
     from drake_tooluse.learning.policy_dir import load_policy
     from drake_tooluse.paths import TRANSFER_POLICY
     from drake_tooluse.tasks.push.diagram import build_policy_diagram
-    from drake_tooluse.world.scenario import Scenario
+    from drake_tooluse.world.scenario import Scenario, ToolConfig, validate_scenario
 
     scenario = Scenario()
+    hooked = validate_scenario(Scenario(tool=ToolConfig(kind="hook", length=0.25)))
+    pull = gym.make("drake_tooluse/ToolPull-v0")
+    pull.reset(seed=0)
     diagrams = [
         build_policy_diagram(scenario, load_policy(TRANSFER_POLICY)).diagram,
         build_measurement_diagram(scenario, noise_sigma=2.0).diagram,
+        build_hook_measurement_diagram(hooked, noise_sigma=2.0).diagram,
+        pull.unwrapped.diagram,
     ]
     checked = set()
     for diagram in diagrams:

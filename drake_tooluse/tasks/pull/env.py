@@ -97,7 +97,7 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
     ## Action Space
 
     `Box(-1.0, 1.0, (3,), float32)`: the change of the hook corner's position (x, y, z in W)
-    per step, 0.02 m at |a| = 1, from where the corner is now (the push envs' `position`
+    per step, 0.02 m at an action of ±1, from where the corner is now (the push envs' `position`
     mode); the orientation is held. The exact IK on the robot model of the believed hook
     turns the corner's target into joint targets. The target stays over the table, and high
     enough that the believed hook's end clears the table top (`diagram.corner_workspace`).
