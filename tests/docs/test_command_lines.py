@@ -18,14 +18,15 @@ rule of `RULES` below (a test fails on a line no rule covers, so a new line need
   checkout (diagrams/…, models/policies/…, drake_tooluse/…) reads the checkout's. Budgets
   shrink: each flag of `BUDGETS` present in a command has its values replaced (`--timesteps
   1250000` → `--timesteps 256`, `--episodes 100` → `--episodes 2`, `--runs 10` → `--runs 1`,
-  `--seeds 0 1 2` → `--seeds 0`, …), and a rule may add flags (`train` gets small rollouts and
+  `--seeds 0 1 2` and `--tools 0.25 0.3` keep their first value, …), and a rule may add flags (`train` gets small rollouts and
   an evaluation every 128 steps, so that `best/` exists for the `evaluate` line after it).
   The command must exit 0.
 
-A block's lines run in order in one scratch directory per file (a line may read what an
-earlier one of the same file wrote: `evaluate --policy runs/ppo/best` after `train --out
-runs/ppo`). A block with a slow command is marked slow (`.ci/run` runs them with `-m slow`);
-the coverage and install checks and the IK lines run in the default suite.
+A block's lines run in order in one scratch directory per file; a block that reads a runs/
+path an earlier block of its file writes (`evaluate --policy runs/ppo/best` after `train --out
+runs/ppo`) runs that block first, if it has not run. A block with a slow command is marked
+slow (run with `python -m pytest -m slow tests/docs/test_command_lines.py`, as CI does); the
+coverage and install checks and the IK lines run in the default suite.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ import subprocess
 import sys
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -49,30 +50,20 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
 TIMEOUT_S = 1800  # one command; the slowest here (transfer_experiments.py) takes ~5 min
 
-# flag -> the values it gets (all of the flag's values are replaced).
+FIRST = None  # a budget that keeps the first of the values given
+# flag -> the values it gets instead of those given (all of them).
 BUDGETS = {
     "--timesteps": ["256"],
     "--episodes": ["2"],
     "--runs": ["1"],
-    "--seeds": ["0"],
+    "--seeds": FIRST,
+    "--tools": FIRST,
+    "--tilts": FIRST,
+    "--offsets": FIRST,
     "--eval-freq": ["128"],
     "--eval-episodes": ["1"],
     "--save-freq": ["128"],
     "--calibration-draws": ["1"],
-    # benchmarks/
-    "--steps": ["100"],
-    "--rounds": ["1"],
-    "--rebuilds": ["2"],
-    "--warmup": ["10"],
-    "--targets": ["20"],
-    "--paths": ["1"],
-    "--path-steps": ["20"],
-    "--grid": ["2"],
-    "--lengths": ["0.1"],
-    "--noise-seeds": ["1"],
-    "--tools": ["0.175"],
-    "--tilts": ["20"],
-    "--offsets": ["0.5"],
     "--num-cpus": ["1"],
 }
 # One env process, small PPO/TRPO rollouts, an evaluation (and a checkpoint) every 128 steps.
@@ -90,7 +81,6 @@ class Rule:
     add: tuple[str, ...] = ()  # flags appended to a `run` command (when not already there)
     needs: tuple[str, ...] = ()  # modules it imports that an extra may lack: skip without
     covered_by: str = ""  # `covered`: tests/<file>::<test>
-    budgets: dict = field(default_factory=dict)  # flag -> values, over BUDGETS for this rule
 
 
 RULES = [
@@ -106,7 +96,8 @@ RULES = [
     ),
     Rule(r"drake-tooluse (simulate|measure|measure-box|evaluate|demo) .*", "run"),
     Rule(r"drake-tooluse demo", "run"),
-    Rule(r"drake-tooluse (trajectory|transfer|export-csv) .*", "run"),
+    Rule(r"drake-tooluse (trajectory|transfer) .*", "run", add=("--calibration-draws", "1")),
+    Rule(r"drake-tooluse export-csv .*", "run"),
     Rule(
         r"drake-tooluse sweep --algos .*",
         "run",
@@ -127,17 +118,31 @@ RULES = [
         needs=("rl_zoo3",),
     ),
     Rule(r"python benchmarks/transfer_experiments\.py.*", "run", add=("--modes", "closed-loop")),
-    Rule(r"python benchmarks/open_loop_variants\.py .*", "run"),
-    Rule(r"python benchmarks/env_throughput\.py.*", "run", needs=("gymnasium_robotics",)),
+    Rule(r"python benchmarks/open_loop_variants\.py .*", "run", add=("--calibration-draws", "1")),
     Rule(
-        r"taskset -c 1 python benchmarks/env_throughput\.py .*",
+        r"(taskset -c 1 )?python benchmarks/env_throughput\.py.*",
         "run",
+        add=("--steps", "100", "--rounds", "1"),
         needs=("gymnasium_robotics",),
     ),
+    Rule(r"python benchmarks/env_fidelity\.py", "run", add=("--episodes", "1")),
     Rule(
-        r"python benchmarks/(env_fidelity|env_memory|ik_closed_loop|vision_accuracy)\.py.*", "run"
+        r"python benchmarks/env_memory\.py.*",
+        "run",
+        add=("--rebuilds", "2", "--warmup", "10", "--steps", "200"),
     ),
-    Rule(r"python benchmarks/ik_vs_tracik\.py.*", "run", needs=("pytracik",)),
+    Rule(r"python benchmarks/ik_closed_loop\.py", "run", add=("--grid", "2")),
+    Rule(
+        r"python benchmarks/vision_accuracy\.py",
+        "run",
+        add=("--lengths", "0.1", "--noise-seeds", "1"),
+    ),
+    Rule(
+        r"python benchmarks/ik_vs_tracik\.py",
+        "run",
+        add=("--targets", "20", "--paths", "1", "--path-steps", "20", "--lengths", "0.175"),
+        needs=("pytracik",),
+    ),
     Rule(r"python benchmarks/paper_experiments\.py --status", "run"),
     Rule(
         r"python benchmarks/paper_experiments\.py( --parallel 2)?",
@@ -228,15 +233,17 @@ def test_the_readme_test_line_is_what_ci_runs():
 
 
 def _budgeted(argv: list[str], rule: Rule) -> list[str]:
-    budgets = {**BUDGETS, **rule.budgets}
+    budgets = BUDGETS
     out, i = [], 0
     while i < len(argv):
         out.append(argv[i])
         if argv[i] in budgets:
-            out += budgets[argv[i]]
+            given = []
             i += 1
             while i < len(argv) and not argv[i].startswith("--"):
-                i += 1  # the flag's own values
+                given.append(argv[i])  # the flag's own values
+                i += 1
+            out += given[:1] if budgets[out[-1]] is FIRST else budgets[out[-1]]
             continue
         i += 1
     for j in range(0, len(rule.add)):
@@ -265,16 +272,47 @@ def _argv(text: str, rule: Rule, sandbox: Path) -> list[str]:
     return argv
 
 
+WRITES = ("--out", "-f", "--record", "--save-images")  # flags whose value a command writes
+
+
+def _paths(text: str) -> tuple[set[str], set[str]]:
+    """The runs/ paths a command reads and those it writes."""
+    words = shlex.split(text)
+    reads, writes = set(), set()
+    for k, word in enumerate(words):
+        if word.startswith("runs/"):
+            (writes if k > 0 and words[k - 1] in WRITES else reads).add(word)
+    return reads, writes
+
+
+def _needs(doc: str, block: int) -> list[int]:
+    """The earlier blocks of `doc` that write what `block` reads and does not write itself."""
+    ours = [c for c in COMMANDS if (c.doc, c.block) == (doc, block)]
+    reads = set().union(*(_paths(c.text)[0] for c in ours)) - set().union(
+        *(_paths(c.text)[1] for c in ours)
+    )
+    return sorted(
+        {
+            c.block
+            for c in COMMANDS
+            if c.doc == doc
+            and c.block < block
+            and any(r.startswith(w) for r in reads for w in _paths(c.text)[1])
+        }
+    )
+
+
 @pytest.fixture(scope="module")
 def sandboxes(tmp_path_factory):
+    """doc -> (its scratch directory, the blocks run in it)."""
     made = {}
 
-    def sandbox(doc: str) -> Path:
+    def sandbox(doc: str) -> tuple[Path, set]:
         if doc not in made:
             path = tmp_path_factory.mktemp(Path(doc).stem)
             shutil.copytree(ROOT / "benchmarks", path / "benchmarks")
             shutil.copytree(ROOT / "docs", path / "docs")
-            made[doc] = path
+            made[doc] = path, set()
         return made[doc]
 
     return sandbox
@@ -323,9 +361,10 @@ def _block_param(doc: str, block: int):
     return pytest.param(doc, block, id=f"{doc}:{block}", marks=[pytest.mark.slow] if slow else [])
 
 
-@pytest.mark.parametrize("doc, block", [_block_param(*b) for b in BLOCKS])
-def test_the_block_runs(doc, block, sandboxes):
-    sandbox = sandboxes(doc)
+def _run_block(doc: str, block: int, sandbox: Path, done: set) -> None:
+    for earlier in _needs(doc, block):  # what it reads, written by an earlier block
+        if earlier not in done:
+            _run_block(doc, earlier, sandbox, done)
     for c in COMMANDS:
         if (c.doc, c.block) != (doc, block) or c.rule is None:
             continue
@@ -335,3 +374,17 @@ def test_the_block_runs(doc, block, sandboxes):
             pytest.importorskip(module)
         argv = _argv(c.text, c.rule, sandbox)
         (_serve if c.rule.kind == "server" else _run)(argv, sandbox)
+    done.add(block)
+
+
+def test_a_block_that_reads_a_run_finds_the_block_that_writes_it():
+    evaluate = next(c for c in COMMANDS if "evaluate --policy runs/ppo/best" in c.text)
+    train = next(c for c in COMMANDS if c.doc == evaluate.doc and "--out runs/ppo" in c.text)
+    assert _needs(evaluate.doc, evaluate.block) == [train.block]
+
+
+@pytest.mark.parametrize("doc, block", [_block_param(*b) for b in BLOCKS])
+def test_the_block_runs(doc, block, sandboxes):
+    sandbox, done = sandboxes(doc)
+    if block not in done:
+        _run_block(doc, block, sandbox, done)
