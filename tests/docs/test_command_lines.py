@@ -31,6 +31,7 @@ coverage and install checks and the IK lines run in the default suite.
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shlex
@@ -246,13 +247,12 @@ def _budgeted(argv: list[str], rule: Rule) -> list[str]:
             out += given[:1] if budgets[out[-1]] is FIRST else budgets[out[-1]]
             continue
         i += 1
-    for j in range(0, len(rule.add)):
-        flag = rule.add[j]
-        if flag.startswith("-") and flag in out:
-            continue  # already given
-        if not flag.startswith("-") and j > 0 and rule.add[j - 1] in out:
-            continue  # the value of a flag already given
-        out.append(flag)
+    given = set(out)
+    for k, flag in enumerate(rule.add):
+        if not flag.startswith("-") or flag in given:
+            continue  # a value, or a flag the command gives itself
+        values = itertools.takewhile(lambda w: not w.startswith("-"), rule.add[k + 1 :])
+        out += [flag, *values]
     return out
 
 
@@ -260,8 +260,11 @@ def _argv(text: str, rule: Rule, sandbox: Path) -> list[str]:
     argv = _budgeted(shlex.split(text), rule)
     if argv[0] == "taskset":
         argv = argv[3:] if shutil.which("taskset") is None else argv
-    head = argv.index(next(a for a in argv if a in ("python", "drake-tooluse")))
-    if argv[head] == "python":
+    head = next((k for k, a in enumerate(argv) if a in ("python", "drake-tooluse")), None)
+    if head is None:  # another program of the environment (tensorboard): the venv's
+        beside = Path(sys.executable).parent / argv[0]
+        argv[0] = str(beside) if beside.exists() else argv[0]
+    elif argv[head] == "python":
         argv[head] = sys.executable
     else:
         argv[head : head + 1] = [sys.executable, "-m", "drake_tooluse.cli"]
@@ -334,22 +337,18 @@ def _run(argv: list[str], cwd: Path) -> None:
 
 
 def _serve(argv: list[str], cwd: Path) -> None:
-    process = subprocess.Popen(
-        argv,
-        cwd=cwd,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        start_new_session=True,
-    )
+    """Starts a server, waits until it says where it serves (60 s at most), stops it."""
+    log = cwd / f"server-{time.monotonic_ns()}.log"
+    with open(log, "w") as out:
+        process = subprocess.Popen(
+            argv, cwd=cwd, stdout=out, stderr=subprocess.STDOUT, start_new_session=True
+        )
     try:
-        deadline, seen = time.monotonic() + 60, ""
-        os.set_blocking(process.stdout.fileno(), False)
-        while time.monotonic() < deadline and "http://" not in seen:
-            seen += process.stdout.read() or ""
-            assert process.poll() is None, seen
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and "http://" not in log.read_text():
+            assert process.poll() is None, log.read_text()
             time.sleep(0.5)
-        assert "http://" in seen, seen
+        assert "http://" in log.read_text(), log.read_text()
     finally:
         os.killpg(process.pid, signal.SIGTERM)
         process.wait(timeout=30)
