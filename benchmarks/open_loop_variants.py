@@ -78,7 +78,7 @@ from drake_tooluse.experiments.trajectory_extraction import (
 from drake_tooluse.experiments.transfer import run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
-from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -90,7 +90,6 @@ from drake_tooluse.world.scene import initial_box_pose
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS_OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
-POLICY = Path("models") / "policies" / "ppo_toolpush_tip"
 ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
 
 
@@ -178,7 +177,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--policy", type=Path, default=ROOT / POLICY)
+    ap.add_argument("--policy", type=Path, default=TRANSFER_POLICY)
     ap.add_argument("--episodes", type=int, default=100, help="recorded episodes")
     ap.add_argument("--runs", type=int, default=10, help="replay runs per tool and world")
     ap.add_argument("--seed", type=int, default=0, help="the first replay run's seed")
@@ -342,7 +341,9 @@ def study(args) -> None:
                 if args.calibration_draws != CALIBRATION_DRAWS
                 else ""
             ),
-            "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
+            "policy": "models/policies/ppo_toolpush_tip"
+            if args.policy == TRANSFER_POLICY
+            else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
             "box_start_error_max_m": float(max(box_errors)),

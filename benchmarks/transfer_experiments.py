@@ -31,11 +31,12 @@ import sys
 from pathlib import Path
 
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.paths import MODELS_DIR, POLICIES_DIR, SCENARIOS_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS_RESULTS = ROOT / "docs" / "results" / "transfer"
-TIP = ROOT / "models" / "policies" / "ppo_toolpush_tip"
-PAPER = ROOT / "models" / "policies" / "ppo_toolpush"
+TIP = POLICIES_DIR / "ppo_toolpush_tip"
+PAPER = POLICIES_DIR / "ppo_toolpush"
 # name -> (policy, extra `transfer` arguments)
 POLICIES = {"tip": (TIP, []), "paper": (PAPER, []), "tip-length-only": (TIP, ["--length-only"])}
 # mode -> (`transfer --mode`, extra `transfer` arguments)
@@ -77,16 +78,19 @@ def run(name: str, mode: str, runs: int, episodes: int, seed: int, out_dir: Path
 
 def relative_paths(value, run_dir: Path):
     """`value` (a transfer.json's contents) with every absolute path made relative to the run's
-    directory `run_dir` where it lies inside it, else to the repository where it lies there."""
+    directory `run_dir` where it lies inside it; the package's models and scenarios as the
+    repository names them (models/…, diagrams/…), wherever the package is installed; else
+    relative to the repository where it lies there."""
     if isinstance(value, dict):
         return {k: relative_paths(v, run_dir) for k, v in value.items()}
     if isinstance(value, list):
         return [relative_paths(v, run_dir) for v in value]
     if isinstance(value, str) and os.path.isabs(value):
         path = Path(value).resolve()
-        for base in (run_dir.resolve(), ROOT):
-            if path.is_relative_to(base):
-                return str(path.relative_to(base))
+        bases = ((run_dir, ""), (MODELS_DIR, "models"), (SCENARIOS_DIR, "diagrams"), (ROOT, ""))
+        for base, name in bases:
+            if path.is_relative_to(base.resolve()):
+                return str(Path(name, path.relative_to(base.resolve())))
     return value
 
 
