@@ -4,7 +4,7 @@ For each tool (none, 0.125 m, 0.175 m) the tip is sent, with the tool pointing d
 of table-top targets 2 cm above the table; after each move it settles and the true tip's error
 is measured in the world plant. The box is moved out of the way. A second condition shifts the
 true grasp (default 5 mm along and 2 mm across the tool) while the robot believes the nominal
-grasp: the error the camera issue's measurement must remove; a third condition has the robot
+grasp: the error the camera's measurement must remove; a third condition has the robot
 model hold the length the head camera measured (with the same shifted grasp), and a fourth
 adds the camera's estimate of the grasp shift along the tool.
 

@@ -1,4 +1,4 @@
-"""What makes the paper's open-loop transfer push the box to the goal, or not (issue 13, item 2):
+"""What makes the paper's open-loop transfer push the box to the goal, or not:
 one recording of a policy's episodes, several ways of making one trajectory of them, each
 replayed open loop in the nominal simulation and in reality (diagrams/reality.yaml) with the
 paper's tools and longer ones the policy never saw (it trained with 0.175 m), as `drake-tooluse
@@ -7,7 +7,7 @@ transfer --mode open-loop` replays its trajectory.
     python benchmarks/open_loop_variants.py [--episodes 100] [--runs 10] [--tools M ...]
                                             [--variants NAME ...] [--tilts DEG ...]
                                             [--offsets CM ...] [--calibration-draws N]
-                                            [--out FILE]
+                                            [--out FILE | --update-docs]
 
 Variants, each changing one thing of the one above it:
 
@@ -43,8 +43,9 @@ geometric centring, as `--calibration-draws 0`).
 
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
-tool measured by the head camera and the box's start by the hand camera. Prints a Markdown table and writes
-docs/results/open_loop_variants.json (or --out).
+tool measured by the head camera and the box's start by the hand camera. Prints a Markdown table
+and writes it as JSON to a new file (default runs/open_loop_variants-<time>.json, or --out);
+`--update-docs` writes docs/results/open_loop_variants.json, which docs/TRANSFER.md quotes.
 """
 
 import argparse
@@ -66,6 +67,7 @@ from drake_tooluse.experiments.line_contact import (
     line_contact_for_task,
     side_of,
 )
+from drake_tooluse.experiments.runs import new_run_dir
 from drake_tooluse.experiments.trajectory_extraction import (
     average_episodes,
     filter_reachable,
@@ -76,7 +78,7 @@ from drake_tooluse.experiments.trajectory_extraction import (
 from drake_tooluse.experiments.transfer import run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
-from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -87,8 +89,7 @@ from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import initial_box_pose
 
 ROOT = Path(__file__).resolve().parent.parent
-OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
-POLICY = Path("models") / "policies" / "ppo_toolpush_tip"
+DOCS_OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
 ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
 
 
@@ -176,7 +177,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--policy", type=Path, default=ROOT / POLICY)
+    ap.add_argument("--policy", type=Path, default=TRANSFER_POLICY)
     ap.add_argument("--episodes", type=int, default=100, help="recorded episodes")
     ap.add_argument("--runs", type=int, default=10, help="replay runs per tool and world")
     ap.add_argument("--seed", type=int, default=0, help="the first replay run's seed")
@@ -196,8 +197,20 @@ def main() -> None:
         default=CALIBRATION_DRAWS,
         help="line-contact row: nominal replays per offset across the push (0: not calibrated)",
     )
-    ap.add_argument("--out", type=Path, default=OUT)
+    out = ap.add_mutually_exclusive_group()
+    out.add_argument(
+        "--out", type=Path, help="JSON file (default runs/open_loop_variants-<time>.json)"
+    )
+    out.add_argument(
+        "--update-docs",
+        action="store_true",
+        help=f"write {DOCS_OUT.relative_to(ROOT)}, which docs/TRANSFER.md quotes",
+    )
     args = ap.parse_args()
+    if args.update_docs:
+        args.out = DOCS_OUT
+    elif args.out is None:
+        args.out = Path(f"{new_run_dir('open_loop_variants')}.json")
     try:  # bad input: one line naming the value, not a traceback
         check_int(args.episodes, 1, 10_000, "--episodes")
         check_int(args.runs, 1, 10_000, "--runs")
@@ -328,7 +341,9 @@ def study(args) -> None:
                 if args.calibration_draws != CALIBRATION_DRAWS
                 else ""
             ),
-            "policy": str(POLICY) if args.policy == ROOT / POLICY else str(args.policy),
+            "policy": "models/policies/ppo_toolpush_tip"
+            if args.policy == TRANSFER_POLICY
+            else str(args.policy),
             "episodes_recorded": args.episodes,
             "episodes_at_goal": successes,
             "box_start_error_max_m": float(max(box_errors)),

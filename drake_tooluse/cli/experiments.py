@@ -3,6 +3,7 @@ and an episode to show."""
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 
@@ -119,6 +120,7 @@ def cmd_export_csv(args) -> dict:
         check_clearance,
         check_left_arm,
         export_baxter_csv,
+        velocity_excess,
     )
     from drake_tooluse.experiments.trajectory_extraction import filter_reachable
     from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -135,6 +137,14 @@ def cmd_export_csv(args) -> dict:
             f"the conservative joint limits (at t = {times} s …); nothing written"
         )
     times = (report.kept.times - report.kept.times[0]) * scale
+    slowdown, fastest = velocity_excess(times, report.joint_positions)
+    if slowdown > 1.0:
+        # Joint speeds scale as 1 / --time-scale: round the smallest passing scale up.
+        smallest = math.ceil(scale * slowdown * 100 * (1 + 1e-9)) / 100
+        raise ValueError(
+            f"at --time-scale {scale:g} {fastest}; the smallest --time-scale that keeps "
+            f"every joint within its velocity limit is {smallest:g}; nothing written"
+        )
     table = load_scenario(args.scenario).table
     clearance = check_clearance(report.joint_positions, left_q, length, table, times=times)
     path = export_baxter_csv(args.out, times, report.joint_positions, left_q)

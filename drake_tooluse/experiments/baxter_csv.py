@@ -181,6 +181,22 @@ def check_clearance(
     return {k: (v if np.isfinite(v) else None) for k, v in worst.items()}
 
 
+def velocity_excess(times, right_q) -> tuple[float, str]:
+    """How many times slower the joint trajectory (`right_q` at `times`) must run for every
+    right-arm joint to stay within its velocity limit (V_MAX; ≤ 1 when it already does), and
+    which joint moves fastest against its limit, where, in words."""
+    times, right_q = np.asarray(times, float), np.asarray(right_q, float)
+    if len(times) < 2:
+        return 0.0, "the trajectory does not move"
+    ratio = np.abs(np.diff(right_q, axis=0)) / np.diff(times)[:, None] / np.asarray(V_MAX)
+    j, i = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+    speed = ratio[j, i] * V_MAX[i]
+    return float(ratio[j, i]), (
+        f"{RIGHT_ARM_JOINTS[i]} moves at {speed:.3g} rad/s between t={times[j]:.3g} and "
+        f"{times[j + 1]:.3g} s; its limit is {V_MAX[i]:g} rad/s"
+    )
+
+
 def export_baxter_csv(path, times, right_q, left_q=LEFT_ARM_SAFE, gripper: float = 0.0) -> Path:
     """Writes a joint trajectory in the Baxter SDK playback format
     (`joint_trajectory_file_playback.py`): time in s from the start, both arms, both grippers
@@ -207,16 +223,9 @@ def export_baxter_csv(path, times, right_q, left_q=LEFT_ARM_SAFE, gripper: float
                 f"{times[bad[0]]:.3g} s is outside [{Q_LOWER[i]:.4g}, "
                 f"{Q_UPPER[i]:.4g}] rad"
             )
-    if len(times) > 1:
-        v = np.abs(np.diff(right_q, axis=0)) / np.diff(times)[:, None]
-        for i in range(7):
-            j = int(np.argmax(v[:, i]))
-            if v[j, i] > V_MAX[i]:
-                raise ValueError(
-                    f"{RIGHT_ARM_JOINTS[i]} moves at {v[j, i]:.3g} rad/s between "
-                    f"t={times[j]:.3g} and {times[j + 1]:.3g} s; its limit is "
-                    f"{V_MAX[i]:g} rad/s (slow the trajectory down)"
-                )
+    slowdown, fastest = velocity_excess(times, right_q)
+    if slowdown > 1.0:
+        raise ValueError(f"{fastest}: run it at least {slowdown:.3g}× slower")
     rows = [",".join(CSV_HEADER)]
     for t, q in zip(times, right_q):
         values = [t, *left_q, gripper, *q, gripper]

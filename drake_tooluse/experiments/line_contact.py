@@ -1,5 +1,4 @@
-"""The open-loop trajectory made to push with the tool's shaft, through the box's centre line
-(issue 13, item 2).
+"""The open-loop trajectory made to push with the tool's shaft, through the box's centre line.
 
 The paper's averaged trajectory brings the tool down vertically, so its point meets the box:
 a point contact, along which the box turns and slides off the push line, with nothing to bring

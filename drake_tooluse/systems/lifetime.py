@@ -4,7 +4,8 @@ A LeafSystem written in Python, once added to a DiagramBuilder, is kept alive by
 and through pydrake's reference bookkeeping (the `ref_cycle` peers it holds) it keeps its
 builder and the whole Diagram alive with it: plant, scene graph, contexts, caches. Python's
 garbage collector cannot see the C++ edge, so every built-and-dropped diagram with a Python
-system stays in memory (Drake issues #22515, #23161; measured here ≈ 2–3 MB per push env).
+system stays in memory (upstream: RobotLocomotion/drake/issues/22515 and /23161; measured
+here ≈ 2–3 MB per push env).
 `release_diagram` clears the Python systems' attributes (their ports, models and that
 bookkeeping): the Diagram is then freed with its last reference. A system whose calc
 callbacks are its own bound methods stays behind as an empty shell (≈ 70 kB with its C++

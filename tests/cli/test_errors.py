@@ -1,4 +1,4 @@
-"""Every bad input of issue 12 (items 4, 6, 7, 10, 11) is one line on stderr naming the value,
+"""Every bad input (a value, option, file or path) is one line on stderr naming the value,
 the file or option and what is allowed, exit code 2, and no traceback; what each exit code
 means."""
 
@@ -63,7 +63,7 @@ def files(tmp_path):
 
 
 CASES = [
-    # item 7: scenario files
+    # scenario files
     (
         SIMULATE + ["--scenario", "{d}/syntax.yaml"],
         r"syntax.yaml': not YAML: .*\(line 2, column 1\)",
@@ -73,7 +73,7 @@ CASES = [
         r"tool=5 must be a group of values \(length,",
     ),
     (SIMULATE + ["--scenario", "{d}/wrong_type.yaml"], r"box.size=0.04 must be a list of numbers"),
-    # item 7: output paths, checked before any work
+    # output paths, checked before any work
     (SIMULATE + ["--record", "{d}/a_dir"], r"--record '.*a_dir' is a directory; give a file name"),
     (
         SIMULATE + ["--record", "{d}/a_file/x.html"],
@@ -113,7 +113,7 @@ CASES = [
         ],
         r"--out '.*a_dir' is a directory",
     ),
-    # item 7: JSON options
+    # JSON options
     (
         ["evaluate", "--policy", TRANSFER_POLICY, "--env-kwargs", '{"colour": 1}'],
         r"unknown argument\(s\) \['colour'\] for a drake_tooluse env",
@@ -132,7 +132,7 @@ CASES = [
         ["train", "--out", "{d}/run", "--hyperparams", '{"n_envs": 0}'],
         r"n_envs=0 is outside the allowed range \[1, 64\]",
     ),
-    # item 7, 10: seeds name their option
+    # seeds name their option
     (
         ["evaluate", "--policy", TRANSFER_POLICY, "--seed", "-1"],
         r"--seed=-1 is outside the allowed range \[0, 4294967295\]",
@@ -141,12 +141,12 @@ CASES = [
     (["transfer", "--seed", "-1", "--out", "{d}/t"], r"--seed=-1 is outside the allowed range"),
     (["demo", "--seed", "-1", "--out", "{d}/t"], r"--seed=-1 is outside the allowed range"),
     (["sweep", "--seeds", "0", "-1", "--out", "{d}/s"], r"--seeds=-1 is outside the allowed range"),
-    # item 7: policy.json with env_kwargs "x"
+    # policy.json with env_kwargs "x"
     (
         ["evaluate", "--policy", "{d}/policy"],
         r"policy.json': env_kwargs must be a mapping .* got str 'x'",
     ),
-    # item 10
+    # non-finite and out-of-range numbers
     (
         ["fk", "--tool-length", "nan", "--q", *["0"] * 7],
         r"--tool-length=nan must be a finite number in the allowed range \(0, 0.6\] m",
@@ -171,7 +171,7 @@ CASES = [
         ["simulate", *SIMULATE[1:], "--believed-tool-length", "0.9"],
         r"--believed-tool-length=0.9 m is outside",
     ),
-    # item 11, through the command line
+    # env kwargs, through the command line
     (
         ["evaluate", "--policy", TRANSFER_POLICY, "--env-kwargs", '{"randomize": "yes"}'],
         r"randomize='yes' must be True or False",
@@ -180,7 +180,7 @@ CASES = [
         ["evaluate", "--policy", TRANSFER_POLICY, "--env-kwargs", '{"include_tool_length": "no"}'],
         r"include_tool_length='no' must be True or False",
     ),
-    # item 4: the sweep checks everything before Ray starts
+    # the sweep checks everything before Ray starts
     (["sweep", "--episodes", "0", "--out", "{d}/s"], r"--episodes=0 is outside the allowed range"),
     (
         ["sweep", "--timesteps", "0", "--out", "{d}/s"],

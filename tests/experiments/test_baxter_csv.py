@@ -1,6 +1,8 @@
 """The real-robot export checks both arms against each other and the table over the whole
-trajectory before it writes anything, and the left arm stays where the operator says
-(issue 12 item 12)."""
+trajectory before it writes anything, the left arm stays where the operator says, and a
+trajectory too fast for the arm is refused with the smallest `--time-scale` that passes."""
+
+import re
 
 import numpy as np
 import pytest
@@ -51,13 +53,31 @@ def test_an_arm_or_tool_too_close_to_the_table_is_refused():
         check_clearance(HOME, None, 0.175, TableConfig(top_z=0.05))
 
 
-def _trajectory(tmp_path):
+def _trajectory(tmp_path, dt=0.5):
     q = RollPitchYaw(*TOOL_DOWN_RPY).ToQuaternion().wxyz()
     path = tmp_path / "t.npz"
     TipTrajectory(
-        [0, 0.5, 1.0], [[0.62, -0.3, -0.1], [0.63, -0.29, -0.1], [0.64, -0.28, -0.1]], [q] * 3
+        [0, dt, 2 * dt],
+        [[0.62, -0.3, -0.1], [0.63, -0.29, -0.1], [0.64, -0.28, -0.1]],
+        [q] * 3,
     ).save(path)
     return path
+
+
+def test_a_trajectory_too_fast_names_the_smallest_time_scale_that_passes(tmp_path, capsys):
+    argv = ["export-csv", "--trajectory", str(_trajectory(tmp_path, dt=0.01)), "--tool-length"]
+    argv += ["0.175", "--out", str(tmp_path / "fast.csv")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    found = re.search(r"the smallest --time-scale that keeps every joint .* is ([0-9.]+);", err)
+    assert found and "rad/s" in err and "nothing written" in err, err
+    smallest = float(found.group(1))
+    assert smallest > 1 and not (tmp_path / "fast.csv").exists()
+    assert main([*argv, "--time-scale", f"{smallest - 0.01:g}"]) == 2
+    assert f"is {smallest:g};" in capsys.readouterr().err  # the same answer from any scale
+    assert main([*argv, "--time-scale", f"{smallest:g}"]) == 0
+    data = read_baxter_csv(tmp_path / "fast.csv")
+    assert data["time"][-1] == pytest.approx(0.02 * smallest, abs=1e-6)
 
 
 def test_export_csv_keeps_the_left_arm_where_the_operator_says(tmp_path, capsys):

@@ -1,10 +1,14 @@
 """The rl-baselines3-zoo hyperparameter file (`learning/hyperparams/rl_zoo3.yaml`, read with
 `python -m rl_zoo3.train --conf-file`) holds the project's values (ppo.yaml's), and rl-zoo3
-reads it as meant (skipped where rl_zoo3 is not installed: the bench extra)."""
+reads it as meant, evaluations included (skipped where rl_zoo3 is not installed: the bench and
+test extras hold it)."""
 
 import argparse
+import ast
+import itertools
 import os
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -62,6 +66,24 @@ def test_the_readme_and_the_file_give_rl_zoo3_the_run_settings_as_flags():
     assert flags in " ".join(header.replace("\\", " ").split())
 
 
+def _readme_env_kwargs() -> dict:
+    """The README's `--env-kwargs` for rl_zoo3, read as rl_zoo3 reads them (`key:value`, the
+    value a Python literal)."""
+    readme = " ".join(README.read_text().split())
+    (command,) = re.findall(r"python -m rl_zoo3\.train [^`\n]*?(?=```|$)", readme)
+    words = shlex.split(command)
+    start = words.index("--env-kwargs") + 1
+    pairs = itertools.takewhile(lambda w: not w.startswith("-"), words[start:])
+    return {key: ast.literal_eval(value) for key, value in (w.split(":", 1) for w in pairs)}
+
+
+def test_the_readme_gives_rl_zoo3_the_files_env_kwargs_for_both_envs():
+    # rl_zoo3 builds its evaluation env from the command line's env kwargs only: the README's
+    # must be the file's, or its first evaluation meets the wrong action space.
+    conf = yaml.safe_load(CONF.read_text())
+    assert _readme_env_kwargs() == conf["drake_tooluse/ToolPush-v0"]["env_kwargs"]
+
+
 def test_rl_zoo3_reads_the_file_into_the_projects_run(tmp_path):
     pytest.importorskip("rl_zoo3")
     from rl_zoo3.exp_manager import ExperimentManager
@@ -108,8 +130,12 @@ def test_rl_zoo3_trains_the_env_with_the_file(tmp_path):
         "--hyperparams",
         "n_steps:128",
         "batch_size:64",
+        "--env-kwargs",
+        *(f"{key}:{value!r}" for key, value in _readme_env_kwargs().items()),
         "--eval-freq",
-        "-1",
+        "128",
+        "--eval-episodes",
+        "1",
         "-f",
         str(tmp_path),
         "--seed",
@@ -124,6 +150,7 @@ def test_rl_zoo3_trains_the_env_with_the_file(tmp_path):
     )
     assert done.returncode == 0, done.stderr[-2000:]
     assert f"Loading hyperparameters from: {CONF}" in done.stdout
+    assert "Eval num_timesteps=" in done.stdout  # an evaluation ran, with the file's env kwargs
     (run,) = (tmp_path / "ppo").iterdir()
     assert (run / "drake_tooluse-ToolPush-v0.zip").is_file()
     # rl-zoo3 saves what it ran with as a tagged OrderedDict: read its pairs without the tag.

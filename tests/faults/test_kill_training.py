@@ -1,4 +1,4 @@
-"""Training killed or failing at the named moments (issue 12 items 1, 2, 8): a complete
+"""Training killed or failing at the named moments: a complete
 checkpoint is always where resume looks, nothing of the killed process is left behind, and
 the resumed run's logs, evaluations, best policy and summary are one run's."""
 
@@ -26,7 +26,7 @@ from tests.faults.common import (
     tiny_config,
 )
 
-# -- item 1: a kill at any moment of the checkpoint write leaves a resumable run -------------
+# -- a kill at any moment of the checkpoint write leaves a resumable run -------------
 
 
 def _die_on_second_checkpoint(moment: str):
@@ -145,7 +145,7 @@ def test_training_leaves_no_temporary_files_of_a_killed_process(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == [live.name, "demo"]
 
 
-# -- item 2: kill + resume keeps one run's history -------------------------------------------
+# -- kill + resume keeps one run's history -------------------------------------------
 
 FAULTY = {"eval_freq": 192, "checkpoint_freq": 128}  # evaluations at 192, 384, 576, 768
 STEPS, KILL_AT, CHECKPOINT = 768, 620, 512  # killed after the evaluation at 576
@@ -219,7 +219,7 @@ def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path):
     assert read_json(out / "best" / "policy.json")["evaluation"] == best
 
 
-# -- item 8: a run that fails to start can be resumed or reused -----------------------------
+# -- a run that fails to start can be resumed or reused -----------------------------
 
 
 def test_a_run_that_fails_to_start_leaves_a_directory_that_can_be_reused(tmp_path):

@@ -1,4 +1,4 @@
-"""Simulation failures injected into Drake's simulator (issue 12 item 5): a `RuntimeError`
+"""Simulation failures injected into Drake's simulator: a `RuntimeError`
 from `Simulator.AdvanceTo`, and a state gone NaN. Nothing non-finite reaches a learner, an
 evaluation counts the failure, an experiment records it per run and goes on."""
 

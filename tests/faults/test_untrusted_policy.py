@@ -1,4 +1,4 @@
-"""Booby-trapped policy directories (issue 12 item 3): a pickle whose `__reduce__` runs code,
+"""Booby-trapped policy directories: a pickle whose `__reduce__` runs code,
 beside a policy or inside its SB3 zip. Loading runs no code from a policy's files; the older
 pickle format loads only with the explicit opt-in, and then the code does run."""
 

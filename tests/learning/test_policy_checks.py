@@ -1,5 +1,5 @@
 """A policy directory's files are checked against each other and against the env they name,
-the same way in every command (issue 12 item 6)."""
+the same way in every command."""
 
 import json
 import shutil

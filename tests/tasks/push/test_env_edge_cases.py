@@ -1,5 +1,5 @@
-"""The env's edge cases are errors naming the argument (issue 12 item 11), and a closed env
-lets its diagram go (item 9)."""
+"""The env's edge cases are errors naming the argument, and a closed env
+lets its diagram go."""
 
 import gc
 

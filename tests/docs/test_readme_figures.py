@@ -1,0 +1,22 @@
+"""The README's table of the shipped policies quotes what their `metrics.json` holds (the
+evaluation `tests/learning/test_shipped_policy.py` re-runs), so it cannot drift from them."""
+
+import json
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_shipped_policies_table_is_their_metrics():
+    readme = (ROOT / "README.md").read_text()
+    rows = re.findall(r"^\| `models/policies/(\w+)`.*\| ([0-9.]+) cm, ([0-9]+) % \|$", readme, re.M)
+    assert {name for name, *_ in rows} == {
+        p.name for p in (ROOT / "models" / "policies").iterdir() if p.is_dir()
+    }
+    for name, cm, percent in rows:
+        metrics = json.loads((ROOT / "models" / "policies" / name / "metrics.json").read_text())
+        evaluation = metrics["evaluation"]
+        assert (evaluation["episodes"], evaluation["seed"]) == (100, 1000)
+        assert cm == f"{evaluation['final_box_to_goal_mean_m'] * 100:.2f}", name
+        assert int(percent) == round(evaluation["success_rate"] * 100), name
