@@ -135,9 +135,13 @@ def add_joint_command(builder, world: World, command, control: TipControl) -> No
     builder.Connect(command, world.plant.get_desired_state_input_port(world.baxter))
 
 
-def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str) -> TipControl:
+def add_tip_control(
+    builder, world: World, ik: ToolTipIK, q0, action_mode: str, max_joint_speed=None
+) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
-    plant. The target's `action` input is left for the caller to connect."""
+    plant. The target's `action` input is left for the caller to connect. `max_joint_speed`
+    (7, rad/s; default None: unbounded) bounds how fast the joint targets move
+    (`ToolTipIKSystem`)."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -153,7 +157,7 @@ def add_tip_control(builder, world: World, ik: ToolTipIK, q0, action_mode: str) 
     )
     control = TipControl(target, ik, np.asarray(q0, float))
     control.ik_system = builder.AddNamedSystem(
-        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period)
+        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period, max_joint_speed)
     )
     builder.Connect(
         target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from pydrake.geometry import Meshcat
 from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -43,6 +44,7 @@ from drake_tooluse.builders.visualization import (
     save_recording,
     show_task,
 )
+from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
@@ -56,6 +58,11 @@ from drake_tooluse.tasks.push.metrics import (
     reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
+from drake_tooluse.tasks.push.sanity import (
+    PUSH_PHYSICAL_LIMITS,
+    PhysicalSanityReader,
+    past_limits,
+)
 from drake_tooluse.validation import (
     all_finite,
     check_bool,
@@ -88,6 +95,9 @@ class EnvConfig:
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
     # The earlier protocol: terminate at the first success (default: run to the step limit).
     end_at_success: bool = False
+    # Bound the joint targets' speed at Baxter's rated joint speeds (`V_MAX`: 1.5 rad/s for the
+    # shoulder and elbow, 4.0 for the wrist). Off by default: the env's behaviour stays as it was.
+    bound_joint_speed: bool = False
 
 
 # Values earlier versions wrote into policy files and run configurations, read as today's.
@@ -132,10 +142,16 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_bool(config.include_tool_length, "include_tool_length")
     check_bool(config.randomize, "randomize")
     check_bool(config.end_at_success, "end_at_success")
+    check_bool(config.bound_joint_speed, "bound_joint_speed")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
         config.tool_length_range = _check_length_range(config)
+    if config.meshcat is not None and not isinstance(config.meshcat, Meshcat):
+        raise ValueError(
+            f"meshcat={config.meshcat!r} must be a pydrake.geometry.Meshcat (e.g. "
+            "start_meshcat()) or None"
+        )
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
@@ -181,6 +197,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
+    PHYSICAL_LIMITS = PUSH_PHYSICAL_LIMITS
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
@@ -243,6 +260,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             config.observation_mode,
             config.include_tool_length,
             config.reward_type,
+            max_joint_speed=V_MAX if config.bound_joint_speed else None,
         )
         task.export(builder)
         self.task = task
@@ -261,6 +279,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         # The step reads the task's metrics from the plant with the reader `task.outcome`
         # uses, and forms the reward and success from them as its ports do (`_read_metrics`).
         self._metrics_reader = PushMetricsReader(self.world)
+        self._sanity_reader = PhysicalSanityReader(self.world)
         self._simulator = Simulator(self.diagram)
 
     def _next_tool(self, generator) -> Simulator:
@@ -358,6 +377,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             terminated = False
         else:
             self._last = (observation, m)
+            self._sanity = self._sanity_reader.read(self._plant_context, x)
             self._last_reward = reward(m, self.config.reward_type)
             terminated = self.config.end_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
@@ -386,6 +406,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "observation_system",
             "visualizer",
             "_metrics_reader",
+            "_sanity_reader",
             "_context",
             "_plant_context",
             "_ik_context",
@@ -444,6 +465,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         finite state; `step` makes its own from the metrics it read."""
         m = self._read_metrics()
         self._last = (np.asarray(self.observation_port.Eval(self._context), np.float32), m)
+        x = self.world.plant.GetPositionsAndVelocities(self._plant_context)
+        self._sanity = self._sanity_reader.read(self._plant_context, x)
         return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
@@ -458,6 +481,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "gripper_touched_box_in_episode": self._episode["gripper_touched"],
             "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
             "sim_error": sim_error,
+            # Physical sanity of the last finite state (`tasks.push.sanity`): figures, flags.
+            **self._sanity,
+            **past_limits(self._sanity),
         }
 
 
