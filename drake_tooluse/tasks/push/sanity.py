@@ -71,46 +71,44 @@ PUSH_PHYSICAL_LIMITS = (
 )
 
 
-class _TableDepths:
-    """How far the tool's and the gripper's collision geometries reach below the table's top,
-    from one body's pose: the tool and the gripper are welded together (the grasp), so one
-    pose the plant has cached places every piece. Each shape's extent along −z is its support
-    function: a box Σ hᵢ|zᵢ|, a cylinder h|z₃| + r√(1 − z₃²), a sphere r (z: W's z axis in
-    the shape's frame); another shape counts as its frame's origin."""
+class _TableDepth:
+    """How far a rigid group of collision geometries (bodies welded to `reference`, in poses
+    relative to it that no context parameter changes) reaches below the table's top, from
+    the one pose of `reference` the plant has cached. Each shape's extent along −z is its
+    support function: a box Σ hᵢ|zᵢ|, a cylinder h|z₃| + r√(1 − z₃²), a sphere r (z: W's z
+    axis in the shape's frame); another shape counts as its frame's origin."""
 
-    def __init__(self, plant, inspector, reference, parts: dict, footprint):
+    def __init__(self, plant, inspector, reference, bodies, footprint):
         context = plant.CreateDefaultContext()
         welded = {int(b.index()) for b in plant.GetBodiesWeldedTo(reference)}
-        columns, self._pieces = [], []  # pieces: (part, (a1, a2, a3), b, c)
-        for part, bodies in parts.items():
-            for body in bodies:
-                if int(body.index()) not in welded:
-                    raise ValueError(f"{body.name()} is not welded to {reference.name()}")
-                X_RB = plant.CalcRelativeTransform(
-                    context, reference.body_frame(), body.body_frame()
-                )
-                for g in plant.GetCollisionGeometriesForBody(body):
-                    X_RG = X_RB @ inspector.GetPoseInFrame(g)
-                    columns += [X_RG.translation(), *X_RG.rotation().matrix().T]
-                    self._pieces.append((part, *_support(inspector.GetShape(g))))
+        columns, self._pieces = [], []  # pieces: ((a1, a2, a3), b, c)
+        for body in bodies:
+            if int(body.index()) not in welded:
+                raise ValueError(f"{body.name()} is not welded to {reference.name()}")
+            X_RB = plant.CalcRelativeTransform(context, reference.body_frame(), body.body_frame())
+            for g in plant.GetCollisionGeometriesForBody(body):
+                X_RG = X_RB @ inspector.GetPoseInFrame(g)
+                columns += [X_RG.translation(), *X_RG.rotation().matrix().T]
+                self._pieces.append(_support(inspector.GetShape(g)))
         self._reference = reference
         # Per piece four columns: p_RG, then the rows of R_RG (so that R_WR @ them gives p in
         # W's axes and, in row 2, W's z axis in the piece's frame).
-        self._columns = np.array(columns).T  # 3 × 4n
-        self._parts = tuple(parts)
+        self._columns = np.array(columns).T if columns else None  # 3 × 4n
         self._footprint = footprint  # (x_lo, x_hi, y_lo, y_hi, top_z)
 
-    def depths(self, plant_context) -> dict:
-        """{part: how far its lowest point lies below the table's top (m; 0 when above)},
+    def depth(self, plant_context) -> float:
+        """How far the group's lowest point lies below the table's top (m; 0 when above),
         counting the pieces whose centre is over the table's footprint."""
+        if self._columns is None:
+            return 0.0
         x_lo, x_hi, y_lo, y_hi, top = self._footprint
         X_WR = self._reference.EvalPoseInWorld(plant_context)
         # One product places every piece; the rest is a few floats per piece (numpy's cost
         # per call exceeds the arithmetic here).
         rows = (X_WR.rotation().matrix() @ self._columns).tolist()
         px, py, pz = X_WR.translation().tolist()
-        deepest = dict.fromkeys(self._parts, 0.0)
-        for i, (part, (a1, a2, a3), b, c) in enumerate(self._pieces):
+        deepest = 0.0
+        for i, ((a1, a2, a3), b, c) in enumerate(self._pieces):
             k = 4 * i
             x, y = px + rows[0][k], py + rows[1][k]
             if not (x_lo <= x <= x_hi and y_lo <= y <= y_hi):
@@ -120,9 +118,7 @@ class _TableDepths:
             extent = a1 * abs(z1) + a2 * abs(z2) + a3 * abs(z3) + c
             if b:
                 extent += b * math.sqrt(max(0.0, 1.0 - z3 * z3))
-            depth = top - (pz + z[k] - extent)
-            if depth > deepest[part]:
-                deepest[part] = depth
+            deepest = max(deepest, top - (pz + z[k] - extent))
         return deepest
 
 
@@ -146,11 +142,14 @@ class PhysicalSanityReader:
         table = world.scenario.table
         (cx, cy), (sx, sy) = table.center_xy, table.size_xy
         footprint = (cx - sx / 2, cx + sx / 2, cy - sy / 2, cy + sy / 2, table.top_z)
+        inspector = world.scene_graph.model_inspector()
+        # The tool from its own pose: its grasp (where it sits in the hand) is a parameter
+        # each randomized episode sets, so its pose relative to the hand is not fixed.
+        hand = world.gripper_frame.body()
+        tool = [world.tool] if world.tool is not None else []  # none: nothing to measure
+        self._tool = _TableDepth(plant, inspector, tool[0] if tool else hand, tool, footprint)
         gripper = [plant.GetBodyByName(name, world.baxter) for name in GRIPPER_BODIES]
-        parts = {"tool": [world.tool] if world.tool is not None else [], "gripper": gripper}
-        self._depths = _TableDepths(
-            plant, world.scene_graph.model_inspector(), gripper[-1], parts, footprint
-        )
+        self._gripper = _TableDepth(plant, inspector, hand, gripper, footprint)
         nq = plant.num_positions()
         # Indices into the plant's state [q, v]: the box's translational velocity (a floating
         # body's v is [ω_WB, v_WB]) and the arm's joint velocities.
@@ -163,10 +162,9 @@ class PhysicalSanityReader:
 
     def read(self, plant_context, x) -> dict:
         """The figures of the plant's state `x` ([q, v], the state in `plant_context`)."""
-        depth = self._depths.depths(plant_context)
         return {
-            "tool_table_penetration": depth["tool"],
-            "gripper_table_penetration": depth["gripper"],
+            "tool_table_penetration": self._tool.depth(plant_context),
+            "gripper_table_penetration": self._gripper.depth(plant_context),
             "box_speed": math.hypot(*x[self._box_v].tolist()),
             "arm_joint_speed": max(map(abs, x[self._arm_v].tolist())),
         }
