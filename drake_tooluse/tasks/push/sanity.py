@@ -82,6 +82,7 @@ class _TableDepth:
         context = plant.CreateDefaultContext()
         welded = {int(b.index()) for b in plant.GetBodiesWeldedTo(reference)}
         columns, self._pieces = [], []  # pieces: ((a1, a2, a3), b, c)
+        self._reach = 0.0  # no point of the group lies farther than this from R's origin
         for body in bodies:
             if int(body.index()) not in welded:
                 raise ValueError(f"{body.name()} is not welded to {reference.name()}")
@@ -89,7 +90,10 @@ class _TableDepth:
             for g in plant.GetCollisionGeometriesForBody(body):
                 X_RG = X_RB @ inspector.GetPoseInFrame(g)
                 columns += [X_RG.translation(), *X_RG.rotation().matrix().T]
-                self._pieces.append(_support(inspector.GetShape(g)))
+                (a1, a2, a3), b, c = support = _support(inspector.GetShape(g))
+                size = math.hypot(a1, a2, a3 + b) + c  # ≥ the piece's extent in any direction
+                self._reach = max(self._reach, np.linalg.norm(X_RG.translation()) + size)
+                self._pieces.append(support)
         self._reference = reference
         # Per piece four columns: p_RG, then the rows of R_RG (so that R_WR @ them gives p in
         # W's axes and, in row 2, W's z axis in the piece's frame).
@@ -103,10 +107,12 @@ class _TableDepth:
             return 0.0
         x_lo, x_hi, y_lo, y_hi, top = self._footprint
         X_WR = self._reference.EvalPoseInWorld(plant_context)
+        px, py, pz = X_WR.translation().tolist()
+        if pz - self._reach > top:  # all of it above the table's top (nearly every step)
+            return 0.0
         # One product places every piece; the rest is a few floats per piece (numpy's cost
         # per call exceeds the arithmetic here).
         rows = (X_WR.rotation().matrix() @ self._columns).tolist()
-        px, py, pz = X_WR.translation().tolist()
         deepest = 0.0
         for i, ((a1, a2, a3), b, c) in enumerate(self._pieces):
             k = 4 * i
