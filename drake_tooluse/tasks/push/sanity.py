@@ -46,28 +46,28 @@ PUSH_PHYSICAL_LIMITS = (
         "tool_table_penetration",
         TABLE_PENETRATION_LIMIT,
         "m",
-        "the tool's lowest point is this far below the table's top surface",
+        "the arm drives the tool through the table's contact: a real table would stop it",
     ),
     PhysicalLimit(
         "gripper_in_table",
         "gripper_table_penetration",
         TABLE_PENETRATION_LIMIT,
         "m",
-        "the gripper's lowest point is this far below the table's top surface",
+        "the arm drives the gripper through the table's contact: a real table would stop it",
     ),
     PhysicalLimit(
         "box_too_fast",
         "box_speed",
         BOX_SPEED_LIMIT,
         "m/s",
-        "the box moves faster than a push can move it",
+        "the box was launched, not pushed: faster than twice the tool tip's commanded speed",
     ),
     PhysicalLimit(
         "arm_too_fast",
         "arm_joint_speed",
         ARM_JOINT_SPEED_LIMIT,
         "rad/s",
-        "the fastest arm joint moves faster than Baxter's fastest rated joint",
+        "an arm joint moves faster than any of the real Baxter's joints can",
     ),
 )
 
