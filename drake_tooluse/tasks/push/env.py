@@ -80,7 +80,9 @@ class EnvConfig:
     # The earlier protocol: terminate at the first success (default: run to the step limit).
     end_at_success: bool = False
     # Bound the joint targets' speed at Baxter's rated joint speeds (`V_MAX`: 1.5 rad/s for the
-    # shoulder and elbow, 4.0 for the wrist). Off by default: the env's behaviour stays as it was.
+    # shoulder and elbow, 4.0 for the wrist): extreme actions then cannot fling the arm through
+    # the table, but the arm is slower than the policies trained without it expect. Off by
+    # default: the env's behaviour stays as it was.
     bound_joint_speed: bool = False
 
 
@@ -320,7 +322,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     | render_mode | None | None, "rgb_array" (a fixed scene camera's colour image) or "human" |
     | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
     | end_at_success | False | terminate at the first success (Episode End) |
-    | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0) |
+    | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
 
     ### Info
 
