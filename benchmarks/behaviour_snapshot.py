@@ -7,13 +7,15 @@ layout) and writes their results to one JSON file; `compare` checks two such fil
 figure, exactly (per-episode values included), and exits 1 if anything differs.
 
     python benchmarks/behaviour_snapshot.py capture --out FILE.json [--repo DIR] [--quick]
-    python benchmarks/behaviour_snapshot.py compare A.json B.json
+    python benchmarks/behaviour_snapshot.py compare A.json B.json [--allow-added]
 
 Each command runs with cwd = --repo (default: this file's checkout) and the `drake-tooluse` next
 to --python (default: this interpreter), one BLAS/OpenMP thread. Left out of the comparison: wall
 clock times (keys with "time" ending in `_s` other than `sim_time_s`, and `times`), which differ
 run to run. Absolute paths are written as <repo> and <out>. A full capture takes ~2.5 min on 2
-cores; two captures of one commit are identical.
+cores; two captures of one commit are identical. With `--allow-added`, figures only B has (outputs
+a change added, e.g. new `info` figures) are listed apart and not counted as differing; every
+figure A has must still be in B with the same value.
 """
 
 from __future__ import annotations
@@ -192,8 +194,9 @@ def compare(args) -> int:
     if a["meta"]["quick"] != b["meta"]["quick"]:
         print("warning: one snapshot is --quick, the other not")
     la, lb = dict(leaves(a["results"])), dict(leaves(b["results"]))
+    added = [p for p in lb if p not in la] if args.allow_added else []
     rows, bad = {}, []  # figure (list indices as [*]) -> [count, differing, max |a - b|]
-    for path in [*la, *(p for p in lb if p not in la)]:
+    for path in [*la, *(p for p in lb if p not in la and p not in added)]:
         row = rows.setdefault(re.sub(r"\[\d+\]", "[*]", path), [0, 0, 0.0])
         row[0] += 1
         x, y = la.get(path, "<absent>"), lb.get(path, "<absent>")
@@ -216,6 +219,10 @@ def compare(args) -> int:
         f"\n{len(bad)} of {total} values differ in {sum(1 for r in rows.values() if r[1])} figures"
     )
     print("\n".join(bad[:40]) + ("\n  ..." if len(bad) > 40 else ""))
+    if added:
+        figures = sorted({re.sub(r"\[\d+\]", "[*]", p) for p in added})
+        print(f"\n{len(added)} values only in B (added), in {len(figures)} figures:")
+        print("\n".join(f"  {f}" for f in figures))
     return 1 if bad else 0
 
 
@@ -231,6 +238,9 @@ def main() -> int:
     p = sub.add_parser("compare", help="compare two snapshots exactly (exit 1 if any differs)")
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
+    p.add_argument(
+        "--allow-added", action="store_true", help="figures only B has are listed, not differing"
+    )
     p.set_defaults(run=compare)
     args = parser.parse_args()
     return args.run(args)

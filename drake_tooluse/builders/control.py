@@ -142,12 +142,21 @@ def add_joint_command(builder, world: World, command, control: TipControl) -> No
 
 
 def add_tip_control(
-    builder, world: World, ik: ToolTipIK, q0, action_mode: str, home=None, workspace=None
+    builder,
+    world: World,
+    ik: ToolTipIK,
+    q0,
+    action_mode: str,
+    home=None,
+    workspace=None,
+    max_joint_speed=None,
 ) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
     plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
     (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
-    `Workspace.above_table`). The target's `action` input is left for the caller to connect."""
+    `Workspace.above_table`). The target's `action` input is left for the caller to connect.
+    `max_joint_speed` (7, rad/s; default None: unbounded) bounds how fast the joint targets
+    move (`ToolTipIKSystem`)."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -163,7 +172,7 @@ def add_tip_control(
     )
     control = TipControl(target, ik, np.asarray(q0, float))
     control.ik_system = builder.AddNamedSystem(
-        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period)
+        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period, max_joint_speed)
     )
     builder.Connect(
         target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")

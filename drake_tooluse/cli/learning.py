@@ -196,12 +196,24 @@ def format_convert_policy(out: dict) -> str:
     return f"converted {out['converted']} -> {out['out']} (loads without pickles)"
 
 
+def format_flagged(out: dict) -> str:
+    """The episodes past a physical limit, per flag, where there are any ("" if none)."""
+    flagged = {k: n for k, n in out.get("flagged_episodes", {}).items() if n}
+    if not flagged:
+        return ""
+    return "; past a physical limit: " + ", ".join(f"{k} in {n}" for k, n in flagged.items())
+
+
 def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
     if "final_box_to_goal_mean_m" not in out:  # another task: its figures as they are
         skip = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
+        skip += ("flagged_episodes",)
         figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
-        return f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
+        return (
+            f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
+            + format_flagged(out)
+        )
     return (
         f"{out['episodes']} episodes from seed {out['seed']}{ends}: final box-goal distance "
         f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
@@ -212,6 +224,7 @@ def format_evaluate(out: dict) -> str:
         f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
         f"{out['gripper_touched_rate'] * 100:.0f} %"
         + (f"; {out['sim_errors']} simulation failure(s)" if out.get("sim_errors") else "")
+        + format_flagged(out)
     )
 
 

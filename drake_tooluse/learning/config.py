@@ -12,12 +12,18 @@ import inspect
 import json
 import math
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import stable_baselines3 as sb3
 from sb3_contrib import TRPO
 
-from drake_tooluse.files import read_json, read_yaml
+from drake_tooluse.files import atomic_write_bytes, atomic_write_json, read_json, read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
+from drake_tooluse.learning.scenario_files import (
+    resolve_scenario,
+    scenario_files,
+    scenario_identity,
+)
 from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs
 from drake_tooluse.paths import HYPERPARAMS_DIR
 from drake_tooluse.validation import (
@@ -184,23 +190,60 @@ class TrainConfig:
     init_from: str | None = None
 
     def comparable(self) -> dict:
-        """What a resumed run must share with the original (the budget may grow)."""
+        """What a resumed run must share with the original (the budget may grow). The env's
+        scenario is compared as what it is (`scenario_identity`: a shipped scenario's name,
+        else its contents), not where its file lies: a run resumes after it or the checkout
+        moved."""
         d = asdict(self)
         d.pop("timesteps")
+        scenario = self.hyperparams.get("env_kwargs", {}).get("scenario")
+        if scenario is not None:
+            d["hyperparams"]["env_kwargs"]["scenario"] = scenario_identity(scenario)
         return d
 
 
-def read_run_config(path) -> TrainConfig:
-    """A run's configuration from its config.json (the command that started it left out);
-    errors name the file."""
+RUN_CONFIG = "config.json"
+
+
+def write_run_config(out, config: TrainConfig, command: str) -> Path:
+    """Writes a run's config.json in the run directory `out` (atomically), with the command
+    that started it. The env's scenario is stored by name (`scenario_files`: a shipped
+    scenario's file name, else `scenario.yaml`, written whole into `out`), so the file names
+    no path of the machine that wrote it."""
+    out = Path(out)
+    data = {**asdict(config), "command": command}
+    env_kwargs = config.hyperparams.get("env_kwargs", {})
+    if env_kwargs.get("scenario") is not None:
+        name, files = scenario_files(env_kwargs["scenario"])
+        for file_name, content in files.items():
+            atomic_write_bytes(out / file_name, content)
+        data["hyperparams"]["env_kwargs"]["scenario"] = name
+    return atomic_write_json(out / RUN_CONFIG, data)
+
+
+def read_run_config(path) -> tuple[TrainConfig, str]:
+    """(a run's configuration, the command that started it) from its config.json; the env's
+    scenario resolved on this machine (`resolve_scenario`: a file of the run directory or a
+    scenario the package ships; an absolute path, as runs wrote before, is kept). Errors name
+    the file."""
+    path = Path(path)
     raw = read_json(path, "run configuration")
     if not isinstance(raw, dict):
         raise ValueError(f"corrupt run configuration {str(path)!r}: not a JSON object")
-    raw.pop("command", None)
+    command = raw.pop("command", "")
     try:
-        return TrainConfig(**raw)
+        config = TrainConfig(**raw)
     except TypeError as e:
         raise ValueError(f"corrupt run configuration {str(path)!r}: {e}") from None
+    env_kwargs = (
+        config.hyperparams.get("env_kwargs") if isinstance(config.hyperparams, dict) else None
+    )
+    scenario = env_kwargs.get("scenario") if isinstance(env_kwargs, dict) else None
+    if isinstance(scenario, str) and not Path(scenario).is_absolute():
+        env_kwargs["scenario"] = resolve_scenario(
+            scenario, path.parent, f"{str(path)!r}: ", what="run"
+        )
+    return config, command
 
 
 def config_differences(saved: dict, asked: dict, prefix: str = "") -> list[str]:

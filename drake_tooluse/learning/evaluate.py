@@ -26,6 +26,8 @@ class EvalResult:
     metrics: dict
     # Episodes the simulation failed in (truncated with finite values; counted as failures).
     sim_errors: int = 0
+    # Per flag of the task's `PHYSICAL_LIMITS`: the episodes in which any step was past it.
+    flagged_episodes: dict = field(default_factory=dict)
     # Each episode ran to its step limit and was judged where it ended: the env runs to its
     # limit, or `to_time_limit` ran it on past an early end at success (see `run_episode`).
     to_time_limit: bool = False
@@ -39,10 +41,30 @@ class EvalResult:
             success_rate=self.success_rate,
             episode_length_mean=self.episode_length_mean,
             sim_errors=self.sim_errors,
+            flagged_episodes=dict(self.flagged_episodes),
             to_time_limit=self.to_time_limit,
             per_episode=self.per_episode,
         )
         return d
+
+
+class PhysicalSanity:
+    """One episode's physical sanity, step by step (`run_episode`'s `on_step`): for each of the
+    task's `PHYSICAL_LIMITS`, whether any step was past it and the figure's largest value."""
+
+    def __init__(self, limits):
+        self._limits = limits
+        self._flagged = {lim.flag: False for lim in limits}
+        self._peak = {lim.info_key: 0.0 for lim in limits}
+
+    def add(self, step: int, info: dict) -> None:
+        for lim in self._limits:
+            self._flagged[lim.flag] |= bool(info[lim.flag])
+            self._peak[lim.info_key] = max(self._peak[lim.info_key], float(info[lim.info_key]))
+
+    def row(self) -> dict:
+        """The episode's flags (`flag`: any step past the limit) and peaks (`peak_<info_key>`)."""
+        return {**self._flagged, **{f"peak_{k}": v for k, v in self._peak.items()}}
 
 
 def make_policy_env(
@@ -103,6 +125,7 @@ def evaluate(
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
     task_env = type(env.unwrapped)
     task_metrics = task_env.EPISODE_METRICS
+    limits = task_env.PHYSICAL_LIMITS
     kwargs = env.spec.kwargs if env.spec is not None else {}
     to_time_limit = to_time_limit or not task_env.ends_at_success(kwargs)
     rows = []
@@ -116,7 +139,10 @@ def evaluate(
     )
     try:
         for ep in range(episodes):
-            info, steps = run_episode(env, policy, seed + ep, to_time_limit=to_time_limit)
+            sanity = PhysicalSanity(limits)
+            info, steps = run_episode(
+                env, policy, seed + ep, on_step=sanity.add, to_time_limit=to_time_limit
+            )
             rows.append(
                 {
                     "seed": seed + ep,
@@ -124,6 +150,7 @@ def evaluate(
                     "success": bool(info["is_success"]) and not info["sim_error"],
                     "length": steps,
                     "sim_error": bool(info["sim_error"]),
+                    **sanity.row(),
                 }
             )
             bar.update(1)
@@ -141,6 +168,7 @@ def evaluate(
         episode_length_mean=float(np.mean([r["length"] for r in rows])),
         metrics=metrics,
         sim_errors=sum(r["sim_error"] for r in rows),
+        flagged_episodes={lim.flag: sum(r[lim.flag] for r in rows) for lim in limits},
         to_time_limit=bool(to_time_limit),
         per_episode=rows,
     )

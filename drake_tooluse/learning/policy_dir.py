@@ -40,7 +40,6 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from pydrake.common.yaml import yaml_dump_typed
 from safetensors import SafetensorError
 from safetensors.torch import load_file, save_file
 from stable_baselines3.common.running_mean_std import RunningMeanStd
@@ -61,16 +60,19 @@ from drake_tooluse.learning.config import (
     check_policy_kwargs,
     net_arch_lists,
 )
+from drake_tooluse.learning.scenario_files import (  # noqa: F401  (this module's names too)
+    SCENARIO,
+    resolve_scenario,
+    shipped_scenarios,
+)
+from drake_tooluse.learning.scenario_files import scenario_files as _scenario_files
 from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs, env_spaces
-from drake_tooluse.paths import SCENARIOS_DIR
 from drake_tooluse.validation import check_one_of, refused_by_library, shown
-from drake_tooluse.world.scenario import Scenario, load_scenario
 
 FORMAT = 2
 META = "policy.json"
 WEIGHTS = "policy.safetensors"
 NORMALIZATION = "normalization.json"
-SCENARIO = "scenario.yaml"  # the env's scenario, when it is not one the package ships
 LEGACY_MODEL = "policy.zip"
 LEGACY_NORMALIZATION = "vecnormalize.pkl"
 # A policy's weights: the shipped ones are 0.1 MB; a network of 4096 x 4096 layers is 0.2 GB.
@@ -105,52 +107,6 @@ class PolicyMeta:
 
 
 # -- the scenario: the one place a policy directory's paths are resolved ------------------
-
-
-def shipped_scenarios() -> list[str]:
-    """The names of the scenarios the package ships (`paths.SCENARIOS_DIR`)."""
-    return sorted(p.name for p in SCENARIOS_DIR.glob("*.yaml"))
-
-
-def resolve_scenario(name, directory: Path, where: str = "") -> str:
-    """The file a policy directory's `env_kwargs.scenario` names: a file name (no folder), of
-    a file in `directory` or else of a scenario the package ships; that scenario loads with
-    every file it reads inside those two folders (`load_scenario(within=...)`). Returns its
-    path; anything else is a ValueError starting with `where`."""
-    directory = Path(directory)
-    allowed = (
-        f"the name of a scenario file in the policy directory ({SCENARIO}) or of one the "
-        f"package ships ({', '.join(shipped_scenarios())})"
-    )
-    if not isinstance(name, str) or name in ("", ".", "..") or Path(name).name != name:
-        raise ValueError(f"{where}env_kwargs.scenario={shown(name)} must be {allowed}")
-    path = directory / name if (directory / name).is_file() else SCENARIOS_DIR / name
-    if not path.is_file():
-        raise ValueError(f"{where}env_kwargs.scenario={name!r} is not {allowed}")
-    try:
-        load_scenario(path, within=(directory, SCENARIOS_DIR))
-    except (OSError, ValueError) as e:
-        raise ValueError(f"{where}env_kwargs.scenario={name!r}: {e}") from None
-    return str(path.resolve())
-
-
-def _scenario_files(scenario) -> tuple[str, dict]:
-    """What a saved policy directory holds of the env's scenario (a Scenario, or a YAML file
-    as the env reads one): (its `env_kwargs.scenario`, {file name: bytes}). A scenario the
-    package ships is named; any other is written whole (its bases merged in, its tool model
-    beside it) as `scenario.yaml`."""
-    if not isinstance(scenario, Scenario):
-        path = Path(scenario).resolve()
-        if path.parent == SCENARIOS_DIR.resolve():
-            return path.name, {}
-        scenario = load_scenario(path)
-    files = {}
-    model = scenario.tool.model
-    if model and not model.startswith("package://"):
-        files[Path(model).name] = Path(model).read_bytes()
-        scenario = dc.replace(scenario, tool=dc.replace(scenario.tool, model=Path(model).name))
-    files[SCENARIO] = yaml_dump_typed(dc.replace(scenario, base=""), schema=Scenario).encode()
-    return SCENARIO, files
 
 
 def _shape(value, name: str, path: Path) -> list:

@@ -561,7 +561,7 @@ def check_sweep(
 def _check_same_run(run_dir: Path, config) -> None:
     """A cell's run (started) continues only with the settings it started with (as `train`
     checks, but before Ray starts: an edited sweep_config.json is refused at once)."""
-    saved = read_run_config(run_dir / "config.json")
+    saved, _ = read_run_config(run_dir / "config.json")
     differences = config_differences(saved.comparable(), config.comparable())
     if differences:
         raise ValueError(

@@ -44,11 +44,9 @@ import contextlib
 import copy
 import dataclasses
 import io
-import json
 import shutil
 import signal
 import time
-from dataclasses import asdict
 from pathlib import Path
 
 import gymnasium as gym
@@ -76,10 +74,13 @@ from drake_tooluse.learning.checkpoint import (
 )
 from drake_tooluse.learning.config import (
     OFF_POLICY,
+    RUN_CONFIG,
     RUN_KEYS,
     TrainConfig,
     check_hyperparams,
     config_differences,
+    read_run_config,
+    write_run_config,
 )
 from drake_tooluse.learning.policy_dir import (
     PolicyMeta,
@@ -271,16 +272,6 @@ def _npz(**arrays) -> bytes:
 # -- the run ------------------------------------------------------------------------------
 
 
-def _read_config(out: Path) -> tuple[TrainConfig, str]:
-    path = out / "config.json"
-    try:
-        raw = json.loads(path.read_text())
-        command = raw.pop("command", "")
-        return TrainConfig(**raw), command
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, TypeError, AttributeError) as e:
-        raise ValueError(f"corrupt run configuration {str(path)!r}: {e}") from None
-
-
 def check_train_config(config: TrainConfig) -> None:
     """Every setting of a run, checked before anything is written or started."""
     check_int(config.timesteps, 1, 10**10, "timesteps")
@@ -315,12 +306,12 @@ def _open_run(out: Path, config: TrainConfig, resume: bool, command: str):
     for name in ("best", "final"):
         recover_dir(out / name)
     if not resume:
-        if (out / "config.json").exists() and _started(out):
+        if (out / RUN_CONFIG).exists() and _started(out):
             raise FileExistsError(
                 f"{str(out)!r} already holds a run; resume it (resume=True) or give a new directory"
             )
         return None, command
-    saved, first_command = _read_config(out)
+    saved, first_command = read_run_config(out / RUN_CONFIG)
     differences = config_differences(saved.comparable(), config.comparable())
     if differences:
         raise ValueError(
@@ -395,7 +386,7 @@ def train(
     check_train_config(config)
     hp = config.hyperparams
     env_kwargs = dict(hp.get("env_kwargs", {}))
-    if resume and not (out / "config.json").is_file():
+    if resume and not (out / RUN_CONFIG).is_file():
         raise FileNotFoundError(f"nothing to resume in {str(out)!r}: it has no config.json")
     with run_lock(out), contextlib.ExitStack() as stack:
         checkpoint, first_command = _open_run(out, config, resume, command)
@@ -422,7 +413,7 @@ def train(
                 _set_initial_policy(model, init, config)
                 if normalize and init.obs_rms is not None:
                     venv.obs_rms = init.obs_rms
-        atomic_write_json(out / "config.json", {**asdict(config), "command": first_command})
+        write_run_config(out, config, first_command)
         steps = int(state.get("timesteps", 0))
         resumed = checkpoint is not None
 

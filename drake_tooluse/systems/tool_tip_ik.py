@@ -42,14 +42,26 @@ class ToolTipIKSystem(LeafSystem):
         status: [success (1/0), tip position error (m), orientation error (rad),
             consecutive failures] of the last solve. On an unreachable target the system holds
             its last valid solution and reports success 0 with the residual of the attempt.
+
+    With `max_joint_speed` (7, rad/s), each joint target moves at most that speed × `period`
+    per solve towards the IK's answer (a bound on the commanded joint velocity; the status
+    still reports the solve). Default None: the IK's answer is the target.
     """
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
-    def __init__(self, ik: ToolTipIK, q0, period: float):
+    def __init__(self, ik: ToolTipIK, q0, period: float, max_joint_speed=None):
         super().__init__()
         self._ik = ik
         q0 = ik.check_q(q0, "q0")
+        self._max_step = None
+        if max_joint_speed is not None:
+            speed = np.asarray(max_joint_speed, float).reshape(-1)
+            if speed.shape != (7,) or not np.all(speed > 0) or not np.all(np.isfinite(speed)):
+                raise ValueError(
+                    f"max_joint_speed={speed.tolist()} must be 7 finite values > 0 rad/s"
+                )
+            self._max_step = speed * period
         self._pose_port = self.DeclareVectorInputPort("tip_pose_desired", 7)
         # Two state groups, each its own output port: Drake copies them out with no Python call.
         self._desired = self.DeclareDiscreteState(np.concatenate([q0, np.zeros(7)]))
@@ -89,7 +101,11 @@ class ToolTipIKSystem(LeafSystem):
         result = self._ik.solve(self._pose_port.Eval(context), q_seed=desired[:7])
         errors = result.position_error, result.orientation_error
         if result.success:  # q* written; its velocities stay zeros (every write keeps them)
-            desired[:7] = result.q
+            if self._max_step is None:
+                desired[:7] = result.q
+            else:  # towards the answer at the bounded speed
+                step = np.clip(result.q - desired[:7], -self._max_step, self._max_step)
+                desired[:7] += step
             status[:] = (1.0, *errors, 0.0)
         else:  # hold the last valid solution (the desired state is left as it was)
             status[:] = (0.0, *errors, status[3] + 1)

@@ -11,7 +11,10 @@ gives:
   `registration` module (which imports no Drake), each class able to check its keyword
   arguments and give its spaces without being built;
 - **metrics** (`EpisodeMetric`): what an evaluation reports of an episode, read from the last
-  step's `info`.
+  step's `info`;
+- **physical limits** (`PhysicalLimit`): figures of physical sanity its envs report every step
+  in `info` (a penetration, a speed), each with the limit past which the step is flagged there;
+  an evaluation counts the episodes with a flagged step, per flag.
 
 `learning/` trains and evaluates any registered env whose class is a `TaskEnv`: it finds the
 class through Gymnasium's registry and imports no task (tests/test_architecture.py checks it).
@@ -61,13 +64,29 @@ class EpisodeMetric:
         return bool(value) if self.flag else float(value)
 
 
+@dataclass(frozen=True)
+class PhysicalLimit:
+    """A figure of physical sanity every step's `info` holds (`info[info_key]`, in `unit`) and
+    its limit: where the figure is past `limit`, `info[flag]` is True. `why` says, in one
+    line, what a step past it means."""
+
+    flag: str
+    info_key: str
+    limit: float
+    unit: str
+    why: str
+
+
 class TaskEnv:
     """The class-level part of a task env's contract (a mixin of the task's env class, which
     is a `pydrake.gym.DrakeGymEnv`). Every step's `info` holds `is_success`, `sim_error` and
-    the keys its `EPISODE_METRICS` read."""
+    the keys its `EPISODE_METRICS` read, and each of its `PHYSICAL_LIMITS`' figure and flag."""
 
     # What an evaluation reports of each episode, in order (the first is the headline).
     EPISODE_METRICS: tuple[EpisodeMetric, ...] = ()
+    # The physical-sanity figures every step reports, with their limits (an evaluation counts
+    # the episodes in which any step was past each).
+    PHYSICAL_LIMITS: tuple[PhysicalLimit, ...] = ()
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:

@@ -5,6 +5,7 @@ import pytest
 
 from drake_tooluse.cli import main
 from drake_tooluse.learning.config import resolve_config
+from drake_tooluse.paths import SHIPPED_POLICY
 
 ENV = "drake_tooluse/ToolPush-v0"
 
@@ -27,6 +28,8 @@ def test_env_kwargs_merge_over_the_yaml():
         (["--env-kwargs", '{"bogus": 1}'], "unknown argument(s) ['bogus']"),
         (["--env-kwargs", "[1"], "--env-kwargs"),
         (["--scenario", "no/such.yaml"], "no/such.yaml"),
+        (["--env-kwargs", '{"meshcat": 3}'], "meshcat=3 must be a pydrake.geometry.Meshcat"),
+        (["--env-kwargs", '{"meshcat": "x"}'], "meshcat='x' must be a pydrake.geometry.Meshcat"),
     ],
 )
 def test_bad_env_options_are_one_line_errors(argv, message, tmp_path, capsys):
@@ -34,3 +37,20 @@ def test_bad_env_options_are_one_line_errors(argv, message, tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and message in err and "Traceback" not in err
     assert not (tmp_path / "run" / "config.json").exists()
+
+
+def test_evaluate_refuses_a_meshcat_kwarg_of_the_wrong_type(capsys):
+    code = main(
+        [
+            "evaluate",
+            "--policy",
+            str(SHIPPED_POLICY),
+            "--episodes",
+            "1",
+            "--env-kwargs",
+            '{"meshcat": 3}',
+        ]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and "meshcat=3 must be a pydrake.geometry.Meshcat" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1

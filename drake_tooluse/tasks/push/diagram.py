@@ -63,14 +63,16 @@ def add_push_task(
     observation_mode: str,
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
+    max_joint_speed=None,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
-    `action` input is left unconnected."""
+    `action` input is left unconnected. `max_joint_speed` (7, rad/s): the bound on the joint
+    targets' speed (`add_tip_control`; default None: none)."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
-    control = add_tip_control(builder, world, ik, q0, action_mode)
+    control = add_tip_control(builder, world, ik, q0, action_mode, max_joint_speed)
     observation = builder.AddNamedSystem(
         "observation",
         ToolPushObservation(

@@ -5,24 +5,8 @@ action ──► TipTargetSystem ──X_WT*──► ToolTipIKSystem ──q*�
            (tool-tip space)           (robot model)                                 ToolPushObservation ──► observation
 ```
 
-Registered ids (on `import drake_tooluse`), each truncated at 100 steps of 40 ms:
-
-| id | paper | reward |
-| --- | --- | --- |
-| `drake_tooluse/ToolPush-v0` | Env1 | −(d(x, x*) + d(x, y)) |
-| `drake_tooluse/ToolPushBoxReward-v0` | Env2 | −d(x, x*) |
-| `drake_tooluse/ToolPushFar-v0` | Env3 | as Env1, the goal 0.10 m further |
-
-x: box centre, x*: goal, y: the true tool tip. Success when d(x, x*) + d(x, y) ≤ 0.05 m,
-reported every step as `info["is_success"]`. Episodes run to their step limit, as Gym's Fetch
-envs and the paper's env do: an episode is judged where it ends, so a policy must push the box
-to the goal and hold it there. `end_at_success=True` is the earlier protocol: the episode
-terminates at the first success (the paper study's first table used it). The box starts at
-(0.70, −0.25) on the table and is pushed along +y: the goal is 0.20 m away (Env3: 0.30 m).
-
-A simulation failure (a `RuntimeError` from Drake, or a state that is no longer finite)
-truncates the episode with `info["sim_error"] = True` and finite values: the last finite
-observation, the last finite reward and metrics (NaN would poison a `VecNormalize`).
+`ToolPushEnv`'s docstring is the envs' spec: spaces per mode, rewards per registered id, starting
+state, episode end, arguments and `info` (tests/tasks/push/test_env_spec.py holds it to the code).
 """
 
 from __future__ import annotations
@@ -33,6 +17,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from pydrake.geometry import Meshcat
 from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
@@ -44,6 +29,7 @@ from drake_tooluse.builders.visualization import (
     save_recording,
     show_task,
 )
+from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.camera import (
     SCENE_CAMERA_POSITION,
@@ -65,6 +51,11 @@ from drake_tooluse.tasks.push.metrics import (
     reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
+from drake_tooluse.tasks.push.sanity import (
+    PUSH_PHYSICAL_LIMITS,
+    PhysicalSanityReader,
+    past_limits,
+)
 from drake_tooluse.validation import (
     all_finite,
     check_bool,
@@ -102,6 +93,11 @@ class EnvConfig:
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
     # The earlier protocol: terminate at the first success (default: run to the step limit).
     end_at_success: bool = False
+    # Bound the joint targets' speed at Baxter's rated joint speeds (`V_MAX`: 1.5 rad/s for the
+    # shoulder and elbow, 4.0 for the wrist): extreme actions then cannot fling the arm through
+    # the table, but the arm is slower than the policies trained without it expect. Off by
+    # default: the env's behaviour stays as it was.
+    bound_joint_speed: bool = False
 
 
 # Values earlier versions wrote into policy files and run configurations, read as today's.
@@ -149,10 +145,16 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_bool(config.include_tool_length, "include_tool_length")
     check_bool(config.randomize, "randomize")
     check_bool(config.end_at_success, "end_at_success")
+    check_bool(config.bound_joint_speed, "bound_joint_speed")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
         config.tool_length_range = _check_length_range(config)
+    if config.meshcat is not None and not isinstance(config.meshcat, Meshcat):
+        raise ValueError(
+            f"meshcat={config.meshcat!r} must be a pydrake.geometry.Meshcat (e.g. "
+            "start_meshcat()) or None"
+        )
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
@@ -188,16 +190,189 @@ def _scenario(config: EnvConfig) -> Scenario:
 
 
 class ToolPushEnv(TaskEnv, DrakeGymEnv):
-    """The push task as a Gymnasium env (see the module docstring for ids and rewards).
+    """The push task as a Gymnasium env: Baxter's right arm, holding a tool, pushes a box
+    across the table to a goal with the tool's tip.
 
-    Keyword arguments (`EnvConfig`): scenario, tool_length, reward_type ("tool_and_box" or
-    "box"), goal_extra, action_mode ("position_quaternion", "pose", "position"),
-    include_tool_length, observation_mode ("gripper_joints", "tip"), end_at_success,
-    randomize, render_mode (None, "rgb_array", "human"), meshcat.
+    ### Description
+
+    The paper's task (Kothavale & Boddepalli, arXiv 2510.26551): the robot holds a straight
+    tool rigidly in its right gripper and pushes a wooden box (0.04 m cube) along +y on the
+    table. The policy acts in tool-tip space: each action moves a desired tool-tip pose X_WT*
+    from where the tip is now; the exact tool-tip IK on the robot's model (the believed tool
+    length) turns it into joint targets, which the plant's joint PD controllers track. One
+    step is one control period of 40 ms (the plant steps at 20 ms, SAP, point contact). The
+    world holds the true tool; the metrics, the reward and `info` are the truth's.
+
+    Notation: x the box centre, x* the goal, y the true tool tip, all in W (Baxter's base
+    frame, m). The tip target is kept in a box above the table
+    (`systems.tip_target.Workspace`): x in [0.40, 1.00] m, y in [−0.70, 0.35] m, z from
+    5 mm to 0.40 m above the table's top.
+
+    ### Action Space
+
+    `Box(-1.0, 1.0, (n,), float32)`, n by `action_mode`; values outside [-1, 1] are clipped,
+    NaN or infinite values are a ValueError. Each moves the tool-tip target by, at |a| = 1:
+
+    #### action_mode = position_quaternion
+
+    The paper's action (a mocap change of position and quaternion); the default.
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0 | change of the tip target's x | [-1, 1] × 0.02 | m |
+    | 1 | change of the tip target's y | [-1, 1] × 0.02 | m |
+    | 2 | change of the tip target's z | [-1, 1] × 0.02 | m |
+    | 3 | change of the target quaternion's w (then normalized) | [-1, 1] × 0.05 | — |
+    | 4 | change of the target quaternion's x (then normalized) | [-1, 1] × 0.05 | — |
+    | 5 | change of the target quaternion's y (then normalized) | [-1, 1] × 0.05 | — |
+    | 6 | change of the target quaternion's z (then normalized) | [-1, 1] × 0.05 | — |
+
+    #### action_mode = pose
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0 | change of the tip target's x | [-1, 1] × 0.02 | m |
+    | 1 | change of the tip target's y | [-1, 1] × 0.02 | m |
+    | 2 | change of the tip target's z | [-1, 1] × 0.02 | m |
+    | 3 | rotation of the target about W's x (rotation vector) | [-1, 1] × 0.10 | rad |
+    | 4 | rotation of the target about W's y (rotation vector) | [-1, 1] × 0.10 | rad |
+    | 5 | rotation of the target about W's z (rotation vector) | [-1, 1] × 0.10 | rad |
+
+    #### action_mode = position
+
+    The orientation is held.
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0 | change of the tip target's x | [-1, 1] × 0.02 | m |
+    | 1 | change of the tip target's y | [-1, 1] × 0.02 | m |
+    | 2 | change of the tip target's z | [-1, 1] × 0.02 | m |
+
+    ### Observation Space
+
+    `Box(-inf, inf, (n,), float32)`, n by `observation_mode`, one more with
+    `include_tool_length` (the last index, marked "optional"). Rows of a slice a:b are
+    indices a … b−1, in the order x, y, z or s0 … w2. The tool tip in the observation is on
+    the robot's model (the believed length), not the truth.
+
+    #### observation_mode = gripper_joints
+
+    The paper's observation, in its order; the default.
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0:3 | goal x* | (-inf, inf) | m |
+    | 3:6 | box position x | (-inf, inf) | m |
+    | 6:9 | tool-tip position (believed tool) | (-inf, inf) | m |
+    | 9:12 | gripper position | (-inf, inf) | m |
+    | 12:16 | gripper quaternion w, x, y, z | [-1, 1] | — |
+    | 16:23 | right-arm joint angles s0 … w2 | Baxter's joint limits | rad |
+    | 23:30 | right-arm joint velocities s0 … w2 | (-inf, inf) | rad/s |
+    | 30 | believed tool length (optional) | (0, 0.60] | m |
+
+    #### observation_mode = tip
+
+    The task in tool-tip space only: the same for any tool the IK tracks.
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0:3 | goal x* | (-inf, inf) | m |
+    | 3:6 | box position x | (-inf, inf) | m |
+    | 6:9 | tool-tip position (believed tool) | (-inf, inf) | m |
+    | 9:12 | tool-tip velocity, J(q) v (believed tool) | (-inf, inf) | m/s |
+    | 12 | believed tool length (optional) | (0, 0.60] | m |
+
+    ### Rewards
+
+    Dense, every step, from the truth:
+
+    | id | paper | reward_type | reward |
+    | --- | --- | --- | --- |
+    | `drake_tooluse/ToolPush-v0` | Env1 | tool_and_box | −(d(x, x*) + d(x, y)) |
+    | `drake_tooluse/ToolPushBoxReward-v0` | Env2 | box | −d(x, x*) |
+    | `drake_tooluse/ToolPushFar-v0` | Env3 | tool_and_box | −(d(x, x*) + d(x, y)), the goal 0.10 m further (`goal_extra`) |
+
+    Success (`info["is_success"]`, every step, for every id): d(x, x*) + d(x, y) ≤ 0.05 m.
+
+    ### Starting State
+
+    The arm starts at the home configuration the robot's IK computes for the tool it believes
+    it holds: the tip at (0.62, −0.30) m, 0.10 m above the table's top, pointing down. The
+    box starts at (0.70, −0.25) m on the table, yaw 0; the goal is 0.20 m along +y from it
+    (plus `goal_extra`: ToolPushFar-v0's 0.30 m). These are the scenario's (`scenario`;
+    default diagrams/push.yaml's values, a 0.175 m tool).
+
+    With `randomize=True`, each reset draws uniformly, from the env's generator seeded by
+    `reset(seed=...)`, within the scenario's `randomization`: the box's start x and y each
+    ±0.02 m and yaw ±0.2 rad, its mass × [0.7, 1.3] and friction × [0.7, 1.3], the true
+    grasp ±0.01 m along the tool and ±0.005 m across it (the goal moves with the box). With
+    `tool_length_range=[lo, hi]`, each reset draws the tool's length uniformly from it (the
+    world's and the robot's belief alike). Otherwise every reset starts the same.
+
+    ### Episode End
+
+    - Truncation: at the step limit of every registered id, 100 steps (4 s); episodes run
+      to it and are judged where they end, as Gymnasium-Robotics' Fetch envs do — a policy
+      must bring the box to the goal and hold it there.
+    - Termination: only with `end_at_success=True` (the earlier protocol), at the first step
+      that succeeds, judged once per control step.
+    - A simulation failure (a `RuntimeError` from Drake, or a state no longer finite)
+      truncates the episode with `info["sim_error"] = True` and finite values: the last
+      finite observation, reward, metrics and physical figures.
+
+    ### Arguments
+
+    `gym.make(id, **kwargs)` or `ToolPushEnv(**kwargs)` (`EnvConfig`; a bad name or value is a
+    ValueError naming it):
+
+    | argument | default | meaning |
+    | --- | --- | --- |
+    | scenario | None | a Scenario, or a scenario YAML file; None: the default scenario (diagrams/push.yaml's values) |
+    | tool_length | None | the tool's length (m, in (0, 0.60]), over the scenario's |
+    | tool_length_range | None | [lo, hi] m: each episode's tool length drawn uniformly (not with tool_length) |
+    | reward_type | "tool_and_box" | "tool_and_box" (Env1, Env3) or "box" (Env2); set by the id |
+    | goal_extra | 0.0 | m added to the goal's distance along y, in [-0.15, 0.25]; set by the id |
+    | action_mode | "position_quaternion" | "position_quaternion", "pose" or "position" (Action Space) |
+    | include_tool_length | False | the believed tool length as the observation's last value |
+    | observation_mode | "gripper_joints" | "gripper_joints" or "tip" (Observation Space) |
+    | randomize | False | draw the starting state per reset (Starting State) |
+    | render_mode | None | None, "rgb_array" (a fixed scene camera's colour image) or "human" |
+    | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
+    | end_at_success | False | terminate at the first success (Episode End) |
+    | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
+
+    ### Info
+
+    Every step's `info` (and the reset's), from the truth:
+
+    | key | meaning | unit |
+    | --- | --- | --- |
+    | is_success | d(x, x*) + d(x, y) ≤ 0.05 m | bool |
+    | box_to_goal | d(x, x*) | m |
+    | tip_to_box | d(x, y), the true tip | m |
+    | box_travel | the box centre's distance in the table's plane from where it started | m |
+    | tool_touches_box | the tool touches the box now | bool |
+    | gripper_touches_box | the robot (not the tool) touches the box now | bool |
+    | tool_touched_box_in_episode | the tool has touched the box in this episode | bool |
+    | gripper_touched_box_in_episode | the robot has touched the box in this episode | bool |
+    | ik_ok | the IK's last solve succeeded (and the step did not fail) | bool |
+    | sim_error | the simulation failed in this step (the episode is truncated) | bool |
+    | tool_table_penetration | how far the tool's lowest point lies below the table's top, over the table | m |
+    | gripper_table_penetration | the same for the gripper (hand, gripper base and fingers) | m |
+    | box_speed | the box centre's speed | m/s |
+    | arm_joint_speed | the largest of the 7 right-arm joint speeds | rad/s |
+    | tool_in_table | tool_table_penetration past 0.005 m | bool |
+    | gripper_in_table | gripper_table_penetration past 0.005 m | bool |
+    | box_too_fast | box_speed past 1 m/s | bool |
+    | arm_too_fast | arm_joint_speed past 4 rad/s | bool |
+
+    The last eight are the task's physical sanity (`tasks.push.sanity`: the limits and why);
+    `drake-tooluse evaluate` counts the episodes with a step past each limit.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
+    PHYSICAL_LIMITS = PUSH_PHYSICAL_LIMITS
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
@@ -260,6 +435,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             config.observation_mode,
             config.include_tool_length,
             config.reward_type,
+            max_joint_speed=V_MAX if config.bound_joint_speed else None,
         )
         task.export(builder)
         self.task = task
@@ -287,6 +463,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         # The step reads the task's metrics from the plant with the reader `task.outcome`
         # uses, and forms the reward and success from them as its ports do (`_read_metrics`).
         self._metrics_reader = PushMetricsReader(self.world)
+        self._sanity_reader = PhysicalSanityReader(self.world)
         self._simulator = Simulator(self.diagram)
 
     def _next_tool(self, generator) -> Simulator:
@@ -384,6 +561,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             terminated = False
         else:
             self._last = (observation, m)
+            self._sanity = self._sanity_reader.read(self._plant_context, x)
             self._last_reward = reward(m, self.config.reward_type)
             terminated = self.config.end_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
@@ -413,6 +591,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "observation_system",
             "visualizer",
             "_metrics_reader",
+            "_sanity_reader",
             "_context",
             "_plant_context",
             "_ik_context",
@@ -485,6 +664,8 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         finite state; `step` makes its own from the metrics it read."""
         m = self._read_metrics()
         self._last = (np.asarray(self.observation_port.Eval(self._context), np.float32), m)
+        x = self.world.plant.GetPositionsAndVelocities(self._plant_context)
+        self._sanity = self._sanity_reader.read(self._plant_context, x)
         return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
@@ -499,6 +680,9 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             "gripper_touched_box_in_episode": self._episode["gripper_touched"],
             "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
             "sim_error": sim_error,
+            # Physical sanity of the last finite state (`tasks.push.sanity`): figures, flags.
+            **self._sanity,
+            **past_limits(self._sanity),
         }
 
 

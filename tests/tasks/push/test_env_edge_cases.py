@@ -33,6 +33,9 @@ def test_a_step_before_reset_is_refused():
         ({"randomize": 1}, r"randomize=1 must be True or False"),
         ({"tool_length": float("nan")}, r"tool_length=nan must be a finite number in the allowed"),
         ({"scenario": 5}, r"scenario=5 must be a Scenario, a YAML file name or None"),
+        ({"meshcat": 3}, r"meshcat=3 must be a pydrake.geometry.Meshcat .* or None"),
+        ({"meshcat": "localhost:7000"}, r"meshcat='localhost:7000' must be a pydrake"),
+        ({"bound_joint_speed": "on"}, r"bound_joint_speed='on' must be True or False"),
         ({"colour": "red"}, r"unknown argument\(s\) \['colour'\]"),
     ],
 )
