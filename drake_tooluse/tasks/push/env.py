@@ -336,7 +336,10 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
     | include_tool_length | False | the believed tool length as the observation's last value |
     | observation_mode | "gripper_joints" | "gripper_joints" or "tip" (Observation Space) |
     | randomize | False | draw the starting state per reset (Starting State) |
-    | render_mode | None | None, "rgb_array" (a fixed scene camera's colour image) or "human" |
+    | render_mode | None | None, "rgb_array" (a scene camera's colour image: the task in view, the goal drawn) or "human" |
+    | render_size | (640, 480) | `rgb_array`'s image (width, height) px, each in [32, 2048] |
+    | render_camera_position | (1.8, -1.1, 0.6) | `rgb_array`'s camera position (W, m) |
+    | render_camera_target | (0.4, -0.1, 0.1) | the point `rgb_array`'s camera looks at (W, m) |
     | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
     | end_at_success | False | terminate at the first success (Episode End) |
     | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
