@@ -131,9 +131,8 @@ def _leaves(diagram):
 def test_every_port_block_names_the_systems_ports():
     """The figures tell the truth: each block lists the ports the built system declares, in
     order (the systems as the policy, pull, and tool and hook measurement diagrams build them)."""
-    from pydrake_system import parse_system_yaml
-
     import gymnasium as gym
+    from pydrake_system import parse_system_yaml
 
     import drake_tooluse  # noqa: F401  (registers the envs)
     from drake_tooluse.builders.hook_measurement import build_hook_measurement_diagram

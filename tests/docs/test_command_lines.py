@@ -66,6 +66,7 @@ BUDGETS = {
     "--save-freq": ["128"],
     "--calibration-draws": ["1"],
     "--num-cpus": ["1"],
+    "--count": ["2"],
 }
 # One env process, small PPO/TRPO rollouts, an evaluation (and a checkpoint) every 128 steps.
 SMALL_TRAINING = (
@@ -144,13 +145,23 @@ RULES = [
         add=("--targets", "20", "--paths", "1", "--path-steps", "20", "--lengths", "0.175"),
         needs=("pytracik",),
     ),
-    Rule(r"python benchmarks/paper_experiments\.py --status", "run"),
+    Rule(r"drake-tooluse --version", "run", slow=False),
+    Rule(r"drake-tooluse record-video .*", "run", add=("--every", "10")),
+    Rule(r"drake-tooluse study( --update-docs)? --status", "run"),
     Rule(
-        r"python benchmarks/paper_experiments\.py( --parallel 2)?",
+        r"drake-tooluse study( .*)?",
         "covered",
         covered_by="tests/faults/test_paper_study_runner.py",
     ),
-    Rule(r"python benchmarks/paper_report\.py( --check)?", "run", needs=("rliable",)),
+    Rule(r"drake-tooluse study-report( .*)?", "run", needs=("rliable",)),
+    Rule(r"python benchmarks/hook_vision_accuracy\.py.*", "run"),
+    Rule(r"python benchmarks/pull_scripted\.py.*", "run"),
+    Rule(r"python benchmarks/env_sanity\.py.*", "run", add=("--steps", "100")),
+    Rule(
+        r"python -m sphinx .*",
+        "covered",
+        covered_by="tests/docs/test_api_reference.py::test_push_outcome_ports_render",
+    ),
 ]
 
 
@@ -329,7 +340,16 @@ def _run(argv: list[str], cwd: Path) -> None:
             p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p
         ),
     }
-    done = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, timeout=TIMEOUT_S, env=env)
+    # stdin at end-of-input: `--meshcat` waits for a line or its end before it closes the view.
+    done = subprocess.run(
+        argv,
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT_S,
+        env=env,
+        stdin=subprocess.DEVNULL,
+    )
     assert done.returncode == 0, (
         f"{shlex.join(argv)} (in {cwd}) exited {done.returncode}:\n"
         f"{done.stdout[-2000:]}\n{done.stderr[-3000:]}"

@@ -72,9 +72,7 @@ def add_push_task(
     targets' speed (`add_tip_control`; default None: none)."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
-    control = add_tip_control(
-        builder, world, ik, q0, action_mode, max_joint_speed=max_joint_speed
-    )
+    control = add_tip_control(builder, world, ik, q0, action_mode, max_joint_speed=max_joint_speed)
     observation = builder.AddNamedSystem(
         "observation",
         ToolPushObservation(
