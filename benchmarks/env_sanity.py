@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 import time
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -23,6 +24,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import drake_tooluse  # noqa: E402,F401
+from drake_tooluse.cli.common import run_script
 
 
 def measure(env_id: str, env_kwargs: dict, steps: int, actions: str, seed: int) -> dict:
@@ -91,4 +93,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -8,12 +8,14 @@ Prints a Markdown table, and each failed episode's hook.
 """
 
 import argparse
+import sys
 import time
 
 import gymnasium as gym
 import numpy as np
 
 import drake_tooluse  # noqa: F401  (registers the envs)
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 
 
@@ -60,4 +62,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

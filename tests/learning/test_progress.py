@@ -20,6 +20,7 @@ class Stderr(io.StringIO):
 
 class Env:
     EPISODE_METRICS = PUSH_EPISODE_METRICS
+    PHYSICAL_LIMITS = ()
     spec = None
 
     @staticmethod

@@ -15,6 +15,7 @@ from drake_tooluse.robot.tool import (
     BoxShape,
     CompositeTool,
     CylinderShape,
+    HookTool,
     Piece,
     Pose,
     StraightTool,
@@ -26,11 +27,16 @@ DIAGRAMS = Path(__file__).resolve().parents[2] / "diagrams"
 
 
 @pytest.mark.parametrize("path", sorted(DIAGRAMS.glob("*.yaml")), ids=lambda p: p.name)
-def test_every_scenario_file_gives_its_straight_tool(path):
+def test_every_scenario_file_gives_its_tool(path):
     t = load_scenario(path).tool
     tool = t.description()
-    assert tool == StraightTool(t.length, t.radius, t.mass, t.marker_length)
-    assert tool.reach() == t.length
+    if t.kind == "hook":
+        assert tool == HookTool(
+            t.length, t.hook_length, t.hook_angle, t.radius, t.mass, t.marker_length
+        )
+    else:
+        assert tool == StraightTool(t.length, t.radius, t.mass, t.marker_length)
+        assert tool.reach() == t.length
 
 
 def test_no_tool_attached_is_none():
