@@ -36,7 +36,14 @@ from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS
 from drake_tooluse.validation import EnvironmentProblem
 
 # The paper's figures, set beside the cells judged in its protocol (to the step limit) only.
-PAPER_CM = {"hold_ppo_env1": 7.74, "hold_trpo_env1": 11.9, "hold_a2c_env1": 40.9}
+# Its PPO acted with the 7-d action (position and quaternion change), so its figure stands
+# beside both PPO cells: the one with that action and the one with the position action.
+PAPER_CM = {
+    "hold_ppo_env1_paper": 7.74,
+    "hold_ppo_env1": 7.74,
+    "hold_trpo_env1": 11.9,
+    "hold_a2c_env1": 40.9,
+}
 PAPER_STEPS = 1_250_000  # the paper's budget per algorithm
 ALGORITHMS = {"ppo_env1": "PPO", "trpo_env1": "TRPO", "a2c_env1": "A2C", "ddpg_env1": "DDPG"}
 BOOTSTRAP_REPS = 2000

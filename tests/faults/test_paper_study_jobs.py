@@ -341,13 +341,27 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
     """`study --update-docs` picks up the committed results and archive as the earlier runner
     left them: a stopped run is restored and continued with `train --resume` (the earlier
     runner's command line), a trained one is evaluated, and the results keep every other
-    entry. (No training here: the commands are recorded and fail.)"""
+    entry. (No training here: the commands are recorded and fail.) The committed cell is
+    finished; the test sets it back to how an earlier job left it: seed 1 trained but its
+    evaluation lost, seed 2 stopped at a checkpoint."""
     results = ROOT / "docs" / "results" / "paper_study.json"
     archived = ROOT / "docs" / "results" / "paper_study" / "hold_ppo_env1_paper"
     (tmp_path / "pyproject.toml").write_text("")
     (tmp_path / "docs" / "results").mkdir(parents=True)
-    shutil.copy(results, tmp_path / "docs" / "results" / "paper_study.json")
-    shutil.copytree(archived, tmp_path / "docs" / "results" / "paper_study" / archived.name)
+    committed = json.loads(results.read_text())
+    seeds = committed["hold_ppo_env1_paper"]["seeds"]
+    seeds["1"] = {"error": "an earlier try failed"}
+    del seeds["2"]
+    (tmp_path / "docs" / "results" / "paper_study.json").write_text(json.dumps(committed))
+    copy = tmp_path / "docs" / "results" / "paper_study" / archived.name
+    shutil.copytree(archived, copy)
+    (copy / "s2" / "summary.json").unlink()
+    stopped = copy / "s2" / "checkpoints" / "ckpt-000000350208"
+    stopped.mkdir(parents=True)
+    (stopped / "checkpoint.json").write_text("{}")
+    (copy / "s2" / "checkpoints" / "latest.json").write_text(
+        json.dumps({"timesteps": 350208, "checkpoint": stopped.name})
+    )
     issued = []
 
     def refused(cmd, *args):
@@ -369,7 +383,7 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
         f"--seed 2 --no-progress --resume {runs}/s2 --hyperparams {hyperparams}",
     ]
     after = json.loads((tmp_path / "docs" / "results" / "paper_study.json").read_text())
-    before = json.loads(results.read_text())
+    before = committed
     assert after["hold_ppo_env1_paper"]["seeds"]["2"]["error"] == "stopped by the test"
     assert {c: v for c, v in after.items() if c != "hold_ppo_env1_paper"} == {
         c: v for c, v in before.items() if c != "hold_ppo_env1_paper"
