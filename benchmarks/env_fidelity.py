@@ -4,9 +4,10 @@ scripted push (randomized starts) at 5, 10 and 20 ms.
 (A first check compared the retired first-order IK mode with the exact IK; with one IK in the
 loop it has nothing left to compare.)
 
-    python benchmarks/env_fidelity.py [--episodes 20] [--out FILE]
+    python benchmarks/env_fidelity.py [--episodes 20] [--out FILE | --update-docs]
 
-Prints Markdown tables and writes docs/results/env_fidelity.json (or --out).
+Prints Markdown tables and writes them as JSON to a new runs/env_fidelity-<time>/env_fidelity.json
+(or --out; `--update-docs`: docs/results/env_fidelity.json, which docs/BENCHMARKS.md quotes).
 """
 
 import argparse
@@ -21,11 +22,12 @@ import numpy as np
 
 import drake_tooluse  # noqa: F401
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.tasks.push.scripted import ScriptedPush
 from drake_tooluse.world.scenario import Scenario
 
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_fidelity.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 
 
 def time_steps(episodes: int) -> list:
@@ -64,8 +66,9 @@ def time_steps(episodes: int) -> list:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=20)
-    ap.add_argument("--out", type=Path, default=OUT)
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    out = OUTPUT.path(args)
     steps = time_steps(args.episodes)
     print(f"Scripted push, randomized starts, {args.episodes} episodes per plant step\n")
     print("| plant step (ms) | success | steps (mean) | final box–goal (cm) | box travel (cm) |")
@@ -77,14 +80,14 @@ def main() -> None:
             f"{r['box_travel_mean_m'] * 100:.2f} |"
         )
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": f"python benchmarks/env_fidelity.py --episodes {args.episodes}",
             "machine": platform.platform(),
             "time_steps": steps,
         },
     )
-    print(f"\nwrote {args.out}")
+    print(f"\nwrote {out}")
 
 
 if __name__ == "__main__":

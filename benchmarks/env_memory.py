@@ -1,6 +1,7 @@
 """Memory over a long run and over env rebuilds; the process must not grow.
 
-    python benchmarks/env_memory.py [--steps 200000] [--rebuilds 40] [--without-release] [--out FILE]
+    python benchmarks/env_memory.py [--steps 200000] [--rebuilds 40] [--without-release]
+        [--out FILE | --update-docs]
 
 Two loops, each after a warm-up:
 
@@ -12,7 +13,9 @@ Two loops, each after a warm-up:
   reported, from a second pass under tracemalloc: the growth of Python's own allocations, and
   the drake_tooluse systems still alive (their attributes cleared: empty shells).
 
-Prints the resident set sizes and writes docs/results/env_memory.json (or --out).
+Prints the resident set sizes and writes them as JSON to a new
+runs/env_memory-<time>/env_memory.json (or --out; `--update-docs`: docs/results/env_memory.json,
+which docs/BENCHMARKS.md quotes).
 """
 
 import argparse
@@ -29,9 +32,10 @@ from pydrake.systems.framework import LeafSystem
 
 import drake_tooluse  # noqa: F401
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results"
+OUTPUT = BenchmarkOutput(Path(__file__))
 
 
 def rss_mb() -> float:
@@ -127,9 +131,9 @@ def main() -> None:
     ap.add_argument(
         "--without-release", action="store_true", help="close() does not release the diagram"
     )
-    ap.add_argument("--out", type=Path, help="JSON file (default docs/results/env_memory.json)")
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
-    out = args.out or OUT / "env_memory.json"
+    out = OUTPUT.path(args)
     if args.without_release:
         import drake_tooluse.tasks.push.env as push_env
 

@@ -3,9 +3,11 @@ FetchPushDense-v4 (MuJoCo) measured in the same run (interleaved rounds: the med
 the median of the per-round ratios), and where a step's time goes.
 
     pip install -e ".[bench]"        # mujoco < 3.4 + gymnasium-robotics 1.4.2 (optional)
-    python benchmarks/env_throughput.py [--steps 4000] [--out FILE]
+    python benchmarks/env_throughput.py [--steps 4000] [--out FILE | --update-docs]
 
-Prints a Markdown table and writes docs/results/env_throughput.json (or --out).
+Prints a Markdown table and writes it as JSON to a new
+runs/env_throughput-<time>/env_throughput.json (or --out; `--update-docs`:
+docs/results/env_throughput.json, which docs/BENCHMARKS.md quotes).
 """
 
 import argparse
@@ -20,10 +22,11 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import drake_tooluse  # noqa: E402,F401
+from drake_tooluse.experiments.runs import BenchmarkOutput  # noqa: E402
 from drake_tooluse.files import atomic_write_json  # noqa: E402
 
 FETCH = "FetchPushDense-v4 (MuJoCo)"
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "env_throughput.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 
 
 def run_random(env, steps: int, seed: int = 0) -> float:
@@ -180,8 +183,9 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=4000, help="random-action steps per env")
     ap.add_argument("--rounds", type=int, default=8, help="interleaved rounds (median taken)")
     ap.add_argument("--core", type=int, default=1, help="the one CPU core to run on")
-    ap.add_argument("--out", type=Path, default=OUT)
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    out = OUTPUT.path(args)
     os.sched_setaffinity(0, {args.core})  # one core, as FetchPush runs
     envs = {}
     fetch_env = fetch_push_env()
@@ -232,7 +236,7 @@ def main() -> None:
     for k, v in parts.items():
         print(f"| {k} | {v:.3f} |")
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": f"python benchmarks/env_throughput.py --steps {args.steps} "
             f"--rounds {args.rounds}",
@@ -242,7 +246,7 @@ def main() -> None:
             "breakdown_ms": parts,
         },
     )
-    print(f"\nwrote {args.out}")
+    print(f"\nwrote {out}")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@ known geometry drawn from the hook's ranges, against the goal of 2 mm (handle le
 length, grasp along the handle) and 2 deg (angle).
 
     python benchmarks/hook_vision_accuracy.py [--count 20] [--seed 0] [--noise 0] [--lighting default]
+        [--out FILE | --update-docs]
 
 Geometries: the eight corners of the ranges (handle 0.15/0.35 m x hook 0.03/0.08 m x angle
 60/120 deg), then uniform seeded draws up to `--count`; each holds the hook with a grasp shift
@@ -10,7 +11,8 @@ along the handle drawn uniformly from the scenario's range, [-0.03, 0.03] m (neg
 in the hand, where the fingers hide the grip band from the hook views; see
 `builders.hook_measurement`). One plan serves every geometry. Prints a Markdown table (true,
 measured, error per quantity), the max and mean |error| per quantity and the goals met or
-missed, and writes the figures as JSON (`--out`, default docs/results/hook_vision_accuracy.json).
+missed, and writes the figures as JSON to a new runs/hook_vision_accuracy-<time>/ (or `--out
+FILE`; `--update-docs`: docs/results/hook_vision_accuracy.json, which docs/BENCHMARKS.md quotes).
 Errors are measured minus true, mm and deg.
 """
 
@@ -25,6 +27,7 @@ import numpy as np
 
 from drake_tooluse.builders.hook_measurement import measure_hook, plan_hook_measurement
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.perception.markers import LIGHTINGS
 from drake_tooluse.robot.tool import HOOK_ANGLE_RANGE, HOOK_HANDLE_RANGE, HOOK_LENGTH_RANGE
@@ -35,7 +38,7 @@ from drake_tooluse.world.scenario import (
     validate_scenario,
 )
 
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "hook_vision_accuracy.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 GOAL = {"handle_length": 2.0, "hook_length": 2.0, "angle": 2.0, "grasp_along": 2.0}
 UNITS = {"handle_length": "mm", "hook_length": "mm", "angle": "deg", "grasp_along": "mm"}
 GRASP_ALONG_RANGE = (-0.03, 0.03)  # m, as the scenario's tool.grasp_offset_along
@@ -72,8 +75,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--noise", type=float, default=0.0, help="colour noise sigma, grey levels")
     ap.add_argument("--lighting", default="default", choices=list(LIGHTINGS))
-    ap.add_argument("--out", type=Path, default=OUT)
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    out = OUTPUT.path(args)
     if args.count < 1:
         raise ValueError(f"--count={args.count} must be at least 1")
     start = time.perf_counter()
@@ -144,7 +148,7 @@ def main() -> None:
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": f"python benchmarks/hook_vision_accuracy.py --count {args.count} "
             f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}",
@@ -154,7 +158,7 @@ def main() -> None:
             "results": rows,
         },
     )
-    print(f"wrote {args.out}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

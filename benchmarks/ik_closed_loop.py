@@ -9,10 +9,12 @@ model hold the length the head camera measured (with the same shifted grasp), an
 adds the camera's estimate of the grasp shift along the tool.
 
     python benchmarks/ik_closed_loop.py [--grid 5] [--settle 1.5] [--grasp-shift 0.005 0.002]
-        [--out FILE] [--figure FILE]
+        [--out FILE | --update-docs] [--figure FILE]
 
-Prints a Markdown table, writes docs/results/ik_closed_loop.json (or --out) and
-docs/figures/ik_closed_loop.png (or --figure).
+Prints a Markdown table, writes it as JSON to a new runs/ik_closed_loop-<time>/ik_closed_loop.json
+(or --out) and a figure beside it (or --figure); `--update-docs` writes
+docs/results/ik_closed_loop.json and docs/figures/ik_closed_loop.png, which docs/BENCHMARKS.md
+quotes.
 """
 
 import argparse
@@ -31,11 +33,12 @@ from pydrake.math import RigidTransform, RollPitchYaw  # noqa: E402
 
 from drake_tooluse.builders.trajectory_diagram import simulate_waypoints  # noqa: E402
 from drake_tooluse.cli.common import run_script  # noqa: E402
+from drake_tooluse.experiments.runs import BenchmarkOutput  # noqa: E402
 from drake_tooluse.files import atomic_write_json  # noqa: E402
 from drake_tooluse.robot.model import TOOL_DOWN_RPY, RobotBelief  # noqa: E402
 from drake_tooluse.world.scenario import Scenario, validate_scenario  # noqa: E402
 
-DOCS = Path(__file__).resolve().parent.parent / "docs"
+OUTPUT = BenchmarkOutput(Path(__file__))
 TOOLS = [None, 0.125, 0.175]
 
 
@@ -119,9 +122,19 @@ def main() -> None:
         help="second condition: the true grasp shifted along and across the tool "
         "(m) while the robot believes the nominal grasp",
     )
-    ap.add_argument("--out", type=Path, default=DOCS / "results" / "ik_closed_loop.json")
-    ap.add_argument("--figure", type=Path, default=DOCS / "figures" / "ik_closed_loop.png")
+    OUTPUT.add_arguments(ap)
+    ap.add_argument(
+        "--figure",
+        type=Path,
+        help="PNG file (default: beside the JSON; with --update-docs docs/figures/ik_closed_loop.png)",
+    )
     args = ap.parse_args()
+    out = OUTPUT.path(args)
+    figure = args.figure or (
+        OUTPUT.docs_dir / "figures" / "ik_closed_loop.png"
+        if args.update_docs
+        else out.with_suffix(".png")
+    )
     along, across = args.grasp_shift
     results = [run_condition(L, 0.0, 0.0, args) for L in TOOLS]
     results += [run_condition(L, along, across, args) for L in TOOLS if L is not None]
@@ -167,12 +180,12 @@ def main() -> None:
         fontsize=9,
     )
     fig.tight_layout()
-    args.figure.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.figure.with_name(f".{args.figure.stem}.tmp.png")
+    figure.parent.mkdir(parents=True, exist_ok=True)
+    tmp = figure.with_name(f".{figure.stem}.tmp.png")
     fig.savefig(tmp, dpi=120)
-    tmp.replace(args.figure)
+    tmp.replace(figure)
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": f"python benchmarks/ik_closed_loop.py --grid {args.grid} "
             f"--move-time {args.move_time} --settle {args.settle} "
@@ -181,7 +194,7 @@ def main() -> None:
             "results": results,
         },
     )
-    print(f"wrote {args.out}, {args.figure}")
+    print(f"wrote {out}, {figure}")
 
 
 if __name__ == "__main__":

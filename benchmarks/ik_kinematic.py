@@ -2,9 +2,11 @@
 configurations within the limits), solved from the nominal mid-limit pose.
 
     python benchmarks/ik_kinematic.py [--poses 10000] [--lengths 0 0.125 0.175 0.30]
+        [--out FILE | --update-docs]
 
 Prints a Markdown table (length 0 = no tool: the tip frame is the gripper frame) and writes the
-figures as JSON to docs/results/ik_kinematic.json.
+figures as JSON to a new runs/ik_kinematic-<time>/ik_kinematic.json (or --out;
+`--update-docs`: docs/results/ik_kinematic.json, which docs/BENCHMARKS.md quotes).
 """
 
 import argparse
@@ -16,11 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.robot.baxter_model import Q_LOWER, Q_MID, Q_UPPER
 from drake_tooluse.robot.ik import ToolTipIK
 
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "ik_kinematic.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 
 
 def bench(length: float, poses: int, seed: int) -> dict:
@@ -64,8 +67,9 @@ def main() -> None:
     ap.add_argument("--poses", type=int, default=10000)
     ap.add_argument("--lengths", type=float, nargs="+", default=[0.0, 0.125, 0.175, 0.30])
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=OUT)
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    out = OUTPUT.path(args)
     results = [bench(L, args.poses, args.seed) for L in args.lengths]
     print(
         "| tool (m) | poses | success | tip err median / max (mm) | orient. err median / max "
@@ -82,14 +86,14 @@ def main() -> None:
             f"{r['joint_limit_violations']} |"
         )
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": f"python benchmarks/ik_kinematic.py --poses {args.poses} --seed {args.seed}",
             "machine": platform.platform(),
             "results": results,
         },
     )
-    print(f"wrote {args.out}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -44,8 +44,8 @@ geometric centring, as `--calibration-draws 0`).
 The policy acts deterministically in the nominal env with randomized starts (seeds 0, 1, ...);
 each replay run i draws the reality of `drake-tooluse transfer` run i (seed + i), the robot's
 tool measured by the head camera and the box's start by the hand camera. Prints a Markdown table
-and writes it as JSON to a new file (default runs/open_loop_variants-<time>.json, or --out);
-`--update-docs` writes docs/results/open_loop_variants.json, which docs/TRANSFER.md quotes.
+and writes it as JSON to a new runs/open_loop_variants-<time>/open_loop_variants.json (or
+--out); `--update-docs` writes docs/results/open_loop_variants.json, which docs/TRANSFER.md quotes.
 """
 
 import argparse
@@ -67,7 +67,7 @@ from drake_tooluse.experiments.line_contact import (
     line_contact_for_task,
     side_of,
 )
-from drake_tooluse.experiments.runs import new_run_dir
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.experiments.trajectory_extraction import (
     average_episodes,
     filter_reachable,
@@ -88,8 +88,7 @@ from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import initial_box_pose
 
-ROOT = Path(__file__).resolve().parent.parent
-DOCS_OUT = ROOT / "docs" / "results" / "open_loop_variants.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 ACHIEVED, COMMANDED = slice(0, 7), slice(7, 14)
 
 
@@ -197,20 +196,9 @@ def main() -> None:
         default=CALIBRATION_DRAWS,
         help="line-contact row: nominal replays per offset across the push (0: not calibrated)",
     )
-    out = ap.add_mutually_exclusive_group()
-    out.add_argument(
-        "--out", type=Path, help="JSON file (default runs/open_loop_variants-<time>.json)"
-    )
-    out.add_argument(
-        "--update-docs",
-        action="store_true",
-        help=f"write {DOCS_OUT.relative_to(ROOT)}, which docs/TRANSFER.md quotes",
-    )
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
-    if args.update_docs:
-        args.out = DOCS_OUT
-    elif args.out is None:
-        args.out = Path(f"{new_run_dir('open_loop_variants')}.json")
+    args.out = OUTPUT.path(args)
     try:  # bad input: one line naming the value, not a traceback
         check_int(args.episodes, 1, 10_000, "--episodes")
         check_int(args.runs, 1, 10_000, "--runs")

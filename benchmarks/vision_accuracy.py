@@ -4,13 +4,15 @@ and the paper's pixel variant, and the time of a whole measurement (IK plan, dia
 dynamic simulation through the three views, rendering, estimation).
 
     python benchmarks/vision_accuracy.py [--lengths ...] [--noise 5] [--noise-seeds 3]
+        [--out FILE | --update-docs]
 
 Goals: the depth variant's error of the three-view mean within 1 mm, and every single view
 within 3 mm, per length with clean images; within 3 mm with noise; at most 5 s per
 measurement. Also the grasp estimate (where the hand holds the tool along it, see
 `measure.estimate_grasp_along`): the clean run holds the nominal grasp, the noisy runs hold it
 shifted by GRASP_SHIFTS. Prints a Markdown table and the goals met or missed, and writes the
-figures as JSON to docs/results/vision_accuracy.json. Errors are measured minus true, mm.
+figures as JSON to a new runs/vision_accuracy-<time>/vision_accuracy.json (or --out;
+`--update-docs`: docs/results/vision_accuracy.json, which docs/BENCHMARKS.md quotes). Errors are measured minus true, mm.
 """
 
 import argparse
@@ -24,10 +26,11 @@ import numpy as np
 
 from drake_tooluse.builders.measurement import measure_tool
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.world.scenario import Scenario, validate_scenario, with_tool_length
 
-OUT = Path(__file__).resolve().parent.parent / "docs" / "results" / "vision_accuracy.json"
+OUTPUT = BenchmarkOutput(Path(__file__))
 LENGTHS = (0.05, 0.10, 0.125, 0.175, 0.25, 0.35, 0.50)
 GOAL_CLEAN_MEAN_MM = 1.0
 GOAL_CLEAN_VIEW_MM = 3.0
@@ -74,8 +77,9 @@ def main() -> None:
     ap.add_argument("--lengths", type=float, nargs="+", default=list(LENGTHS))
     ap.add_argument("--noise", type=float, default=5.0, help="colour noise sigma, grey levels")
     ap.add_argument("--noise-seeds", type=int, default=3, help="noisy runs per length")
-    ap.add_argument("--out", type=Path, default=OUT)
+    OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    out = OUTPUT.path(args)
     rows = []
     for length in args.lengths:
         clean = run(length, 0.0, 0)
@@ -152,7 +156,7 @@ def main() -> None:
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
     atomic_write_json(
-        args.out,
+        out,
         {
             "command": "python benchmarks/vision_accuracy.py --lengths "
             + " ".join(f"{x:g}" for x in args.lengths)
@@ -163,7 +167,7 @@ def main() -> None:
             "results": rows,
         },
     )
-    print(f"wrote {args.out}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":

@@ -127,15 +127,15 @@ RULES = [
         add=("--steps", "100", "--rounds", "1"),
         needs=("gymnasium_robotics",),
     ),
-    Rule(r"python benchmarks/env_fidelity\.py", "run", add=("--episodes", "1")),
+    Rule(r"python benchmarks/env_fidelity\.py( --update-docs)?", "run", add=("--episodes", "1")),
     Rule(
         r"python benchmarks/env_memory\.py.*",
         "run",
         add=("--rebuilds", "2", "--warmup", "10", "--steps", "200"),
     ),
-    Rule(r"python benchmarks/ik_closed_loop\.py", "run", add=("--grid", "2")),
+    Rule(r"python benchmarks/ik_closed_loop\.py( --update-docs)?", "run", add=("--grid", "2")),
     Rule(
-        r"python benchmarks/vision_accuracy\.py",
+        r"python benchmarks/vision_accuracy\.py( --update-docs)?",
         "run",
         add=("--lengths", "0.1", "--noise-seeds", "1"),
     ),
