@@ -9,6 +9,7 @@ success, the oracle's (some tool succeeds), their ratio (goals: ratio >= 0.90, e
 >= 0.75), and the time per choice.
 
     python benchmarks/tool_choice.py [--instances 20] [--tasks push-far pull] [--rollouts 3]
+        [--delay-margin 0.06]
 """
 
 import argparse
@@ -18,6 +19,7 @@ import numpy as np
 
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
+    DELAY_MARGIN,
     TASKS,
     Policies,
     TaskInstance,
@@ -45,6 +47,9 @@ def main() -> None:
     ap.add_argument("--tasks", nargs="+", default=["push-far", "pull"], help=f"of {TASKS}")
     ap.add_argument("--tools", nargs="+", help="the rack (default: the default rack)")
     ap.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
+    ap.add_argument(
+        "--delay-margin", type=float, default=DELAY_MARGIN, help="see tool_choice.predict (s)"
+    )
     args = ap.parse_args()
     if args.instances < 1:
         ap.error(f"--instances={args.instances} must be at least 1")
@@ -57,7 +62,14 @@ def main() -> None:
     results = []
     for i in range(args.instances):
         instance = TaskInstance(args.tasks[i % len(args.tasks)], args.seed + i)
-        out = choose_tool(instance, rack, args.rollouts, oracle=True, policies=policies)
+        out = choose_tool(
+            instance,
+            rack,
+            args.rollouts,
+            oracle=True,
+            policies=policies,
+            delay_margin=args.delay_margin,
+        )
         results.append(out)
         if not out["success"]:
             print(
@@ -68,7 +80,8 @@ def main() -> None:
     seconds = time.perf_counter() - start
     rack_text = " ".join(c["tool"] for c in results[0]["candidates"])
     print(
-        f"\ntool choice, rack [{rack_text}], {args.rollouts} rollouts per tool, seeds "
+        f"\ntool choice, rack [{rack_text}], {args.rollouts} rollouts per tool (actuation delays up to "
+        f"{args.delay_margin * 1000:.0f} ms), seeds "
         f"{args.seed}…{args.seed + args.instances - 1}\n"
     )
     print(

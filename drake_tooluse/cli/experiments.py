@@ -234,7 +234,9 @@ def cmd_choose_tool(args) -> dict:
     from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
 
     rack = args.tools or DEFAULT_RACK
-    return choose_tool(args.task, rack, rollouts, args.seed, oracle=args.oracle)
+    return choose_tool(
+        args.task, rack, rollouts, args.seed, oracle=args.oracle, delay_margin=args.delay_margin
+    )
 
 
 def format_choose_tool(out: dict) -> str:
@@ -464,10 +466,18 @@ def add_parsers(sub) -> None:
         nargs="+",
         metavar="TOOL",
         help="the rack, 1-5 tools: straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg) "
-        "(default: straight:0.06 straight:0.3 hook:0.25,0.05,90)",
+        "(default: straight:0.03 straight:0.3 hook:0.25,0.05,90 hook:0.35,0.08,60)",
     )
     p.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
     p.add_argument("--oracle", action="store_true", help="also run every tool in reality")
+    p.add_argument(
+        "--delay-margin",
+        type=float,
+        default=0.06,
+        metavar="S",
+        help="the rollouts' actuation delays span 0 to this (s, in [0, 0.2], multiples of "
+        "0.02 taken); 0: the plain nominal world",
+    )
     p.set_defaults(run=cmd_choose_tool, show=format_choose_tool)
 
     p = sub.add_parser(

@@ -20,7 +20,11 @@ the best, and does the task with it in the perturbed "reality".
 - **Prediction**: the tool measured in reality (`measure_belief`, `measure_hook_belief`),
   then K rollouts in the nominal world holding the *measured* tool (the instance's box start;
   each rollout its own draw of the nominal mass, friction and grasp) → predicted success rate
-  and mean final distance. The choice is the highest rate, ties broken by the nearer mean
+  and mean final distance. The robot does not know reality's actuation delay; with a
+  `delay_margin` (default DELAY_MARGIN) its rollouts span delays from 0 to the margin
+  (`rollout_delays`), so a tool whose success hangs on prompt actuation is predicted to
+  fail sometimes (measured: the long J-hook's scripted pull succeeds without a delay and
+  fails with reality's 40 ms). `delay_margin=0` predicts in the plain nominal world. The choice is the highest rate, ties broken by the nearer mean
   final distance.
 - **The oracle** runs every tool in reality on the same instance (the same draw); the chosen
   tool's reality run is the oracle's run of that tool (the worlds are deterministic).
@@ -45,7 +49,7 @@ from drake_tooluse.robot.tool import HookTool, StraightTool
 from drake_tooluse.tasks.pull.env import with_hook
 from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
-from drake_tooluse.validation import check_int, check_one_of, check_seed
+from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
 
@@ -54,11 +58,22 @@ FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v0's goal_extra)
 MIN_TOOLS, MAX_TOOLS = 1, 5
 MAX_ROLLOUTS = 20
 DEFAULT_ROLLOUTS = 3
-# A short straight tool, a long one and a hook: which one succeeds depends on the task.
-DEFAULT_RACK = (StraightTool(0.06), StraightTool(0.30), HookTool(0.25, 0.05, 90.0))
+# Which tool succeeds depends on the task and the instance: a very short straight tool
+# (misses some pushes), a long one, an L-hook, and a long J-hook the scripted pull succeeds
+# with in the nominal simulation but not in reality (benchmarks/tool_choice.py).
+DEFAULT_RACK = (
+    StraightTool(0.03),
+    StraightTool(0.30),
+    HookTool(0.25, 0.05, 90.0),
+    HookTool(0.35, 0.08, 60.0),
+)
 # The nominal rollouts' draws: seeded apart from the instance seeds (which draw reality).
 ROLLOUT_SEED_STRIDE = 1000
 ROLLOUT_SEED_BASE = 10_000_000
+# s: the actuation delay the robot budgets for in its rollouts (1.5 control periods; it
+# does not know reality's).
+DELAY_MARGIN = 0.06
+MAX_DELAY_MARGIN = 0.2  # s, the scenario's limit
 
 
 @dc.dataclass(frozen=True)
@@ -250,24 +265,43 @@ def believed_tool_label(belief: RobotBelief) -> str:
     return tool_label(belief.tool)
 
 
+def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list[float]:
+    """The actuation delay of each rollout (s): evenly from 0 to `delay_margin` (the margin
+    alone for one rollout), each a multiple of the plant's `time_step`."""
+    fractions = np.linspace(0.0, 1.0, rollouts) if rollouts > 1 else [1.0]
+    return [round(f * delay_margin / time_step) * time_step for f in fractions]
+
+
 def predict(
-    policy: ToolPolicy, nominal: Scenario, belief: RobotBelief, rollouts: int, seed: int
+    policy: ToolPolicy,
+    nominal: Scenario,
+    belief: RobotBelief,
+    rollouts: int,
+    seed: int,
+    delay_margin: float = DELAY_MARGIN,
 ) -> dict:
     """K rollouts of `policy` in the nominal world holding the believed tool where the robot
     believes it holds it, each with its own draw of the nominal mass, friction and grasp
-    (the box's start is the instance's): the predicted success rate and mean final distance."""
+    (the box's start is the instance's) and its own actuation delay (`rollout_delays`): the
+    predicted success rate and mean final distance."""
     world = holding(nominal, belief.tool, belief.grasp_offset[1])
+    delays = rollout_delays(rollouts, delay_margin, world.plant.time_step)
     outcomes = []
-    for k in range(rollouts):
-        draw = draw_randomization(world, np.random.default_rng(seed * ROLLOUT_SEED_STRIDE + k))
+    for k, delay in enumerate(delays):
+        rng = np.random.default_rng(ROLLOUT_SEED_BASE + seed * ROLLOUT_SEED_STRIDE + k)
+        draw = draw_randomization(world, rng)
         draw.box_dxy, draw.box_dyaw = [0.0, 0.0], 0.0  # the instance's box start
-        outcome, error = _attempt(policy.run, apply_draw(world, draw), belief)
+        rollout = apply_draw(world, draw)
+        rollout = validate_scenario(
+            dc.replace(rollout, control=dc.replace(rollout.control, actuation_delay=delay))
+        )
+        outcome, error = _attempt(policy.run, rollout, belief)
         outcomes.append(outcome or Outcome(False, math.nan, error))
     finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
     return {
         "predicted_success": float(np.mean([o.success for o in outcomes])),
         "predicted_final_distance_m": float(np.mean(finals)) if finals else None,
-        "rollouts": [o.as_dict() for o in outcomes],
+        "rollouts": [{**o.as_dict(), "actuation_delay_s": d} for o, d in zip(outcomes, delays)],
     }
 
 
@@ -283,9 +317,10 @@ def choose_tool(
     seed: int = 0,
     oracle: bool = False,
     policies: Policies | None = None,
+    delay_margin: float = DELAY_MARGIN,
 ) -> dict:
-    """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each),
-    chooses the best and does the instance with it in reality. `instance` is a TaskInstance
+    """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
+    actuation delays up to `delay_margin` s), chooses the best and does the instance with it in reality. `instance` is a TaskInstance
     or a task kind (TASKS, then drawn with `seed`). With `oracle`, every tool is also run in
     reality (`oracle_success`: whether any tool succeeds). Returns a dict (see
     `format_choice`)."""
@@ -293,8 +328,12 @@ def choose_tool(
         instance = TaskInstance(instance, seed)
     rack = check_rack(rack)
     check_int(rollouts, 1, MAX_ROLLOUTS, "rollouts")
+    check_in_range(delay_margin, 0.0, MAX_DELAY_MARGIN, "delay_margin", unit="s")
     policies = policies or Policies()
     nominal, reality = task_scenarios(instance.task)
+    for tool in rack:  # a tool the world cannot hold is refused before any work
+        if no_policy_reason(instance.task, tool) is None:
+            holding(nominal, tool)
     start = time.perf_counter()
     candidates = []
     worlds = {}
@@ -321,7 +360,12 @@ def choose_tool(
         candidate["_belief"] = belief
         candidate.update(
             predict(
-                policies.for_task(instance.task), nominal_world, belief, rollouts, instance.seed
+                policies.for_task(instance.task),
+                nominal_world,
+                belief,
+                rollouts,
+                instance.seed,
+                delay_margin,
             )
         )
         candidates.append(candidate)
@@ -334,6 +378,7 @@ def choose_tool(
         "task": instance.task,
         "seed": instance.seed,
         "rollouts": rollouts,
+        "delay_margin_s": delay_margin,
         "chosen": candidates[chosen]["tool"],
         "chosen_index": chosen,
         "success": candidates[chosen]["reality"]["success"],
@@ -368,7 +413,10 @@ def _reality_run(instance, candidate, worlds, policies: Policies) -> dict:
 
 
 def format_choice(out: dict) -> str:
-    lines = [f"{out['task']} (seed {out['seed']}), {out['rollouts']} predicted rollouts per tool:"]
+    lines = [
+        f"{out['task']} (seed {out['seed']}), {out['rollouts']} predicted rollouts per tool "
+        f"(actuation delays up to {out['delay_margin_s'] * 1000:.0f} ms):"
+    ]
     for i, c in enumerate(out["candidates"]):
         mark = "*" if i == out["chosen_index"] else " "
         final = c["predicted_final_distance_m"]

@@ -16,6 +16,7 @@ from drake_tooluse.experiments.tool_choice import (
     no_policy_reason,
     parse_tool,
     pull_reality,
+    rollout_delays,
     task_scenarios,
     tool_label,
 )
@@ -57,6 +58,8 @@ def test_a_bad_instance_is_refused():
         TaskInstance("shove")
     with pytest.raises(ValueError, match="seed"):
         TaskInstance("pull", -1)
+    with pytest.raises(ValueError, match="tool.length=0.02 m must exceed twice"):
+        choose_tool("push", ["straight:0.3", "straight:0.02"], policies=Policies(pull=None))
     with pytest.raises(ValueError, match="rollouts"):
         choose_tool("pull", ["straight:0.1"], rollouts=0)
 
@@ -83,6 +86,13 @@ def test_the_worlds_pose_the_task():
     far, far_real = task_scenarios("push-far")
     assert far.goal_offset[1] == pytest.approx(near.goal_offset[1] + 0.10)
     assert far_real.goal_offset == far.goal_offset
+
+
+def test_rollouts_span_the_delay_margin():
+    assert rollout_delays(3, 0.06, 0.02) == pytest.approx([0.0, 0.04, 0.06])
+    assert rollout_delays(1, 0.06, 0.02) == pytest.approx([0.06])
+    assert rollout_delays(2, 0.0, 0.02) == [0.0, 0.0]
+    assert rollout_delays(4, 0.06, 0.02) == pytest.approx([0.0, 0.02, 0.04, 0.06])
 
 
 def test_the_pull_runner_judges_the_cube():
@@ -128,7 +138,9 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
 
 
 def test_choose_pull_with_the_scripted_pull_succeeds_in_reality():
-    out = choose_tool("pull", ["straight:0.3", "hook:0.25,0.05,90"], 1, seed=0, oracle=True)
+    rack = ["straight:0.3", "hook:0.25,0.05,90"]
+    out = choose_tool("pull", rack, 1, seed=0, oracle=True, delay_margin=0.0)
+    assert out["candidates"][1]["rollouts"][0]["actuation_delay_s"] == 0.0
     assert out["chosen"] == "hook:0.25,0.05,90" and out["success"]
     assert out["candidates"][1]["predicted_success"] == 1.0
     assert out["oracle_success"] and out["oracle_tools"] == ["hook:0.25,0.05,90"]
@@ -147,6 +159,7 @@ def test_choose_pull_with_the_scripted_pull_succeeds_in_reality():
         (["--tools", "hammer:1"], "tool 'hammer:1' is not straight:L"),
         (["--rollouts", "0"], "--rollouts=0 is outside the allowed range [1, 20]"),
         (["--seed", "-1"], "--seed"),
+        (["--delay-margin", "0.5"], "delay_margin=0.5 s is outside the allowed range [0, 0.2]"),
     ],
 )
 def test_cli_refuses_bad_input(capsys, argv, message):
@@ -157,11 +170,11 @@ def test_cli_refuses_bad_input(capsys, argv, message):
 
 def test_cli_prints_the_choice(capsys):
     argv = ["choose-tool", "--task", "pull", "--tools", "straight:0.3", "hook:0.25,0.05,90"]
-    assert main([*argv, "--rollouts", "1", "--json"]) == 0
+    assert main([*argv, "--rollouts", "1", "--delay-margin", "0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["chosen"] == "hook:0.25,0.05,90"
     assert [c["predicted_success"] for c in out["candidates"]] == [0.0, 1.0]
-    assert main([*argv, "--rollouts", "1"]) == 0
+    assert main([*argv, "--rollouts", "1", "--delay-margin", "0"]) == 0
     text = capsys.readouterr().out
     assert "* hook:0.25,0.05,90" in text and "predicted success 100 %" in text
 
@@ -177,3 +190,19 @@ def test_the_default_rack_chooses_per_task():
     far = choose_tool("push-far", DEFAULT_RACK, 3, seed=1, oracle=True, policies=policies)
     # The shipped tip policy knows the 0.20 m push only: no tool gets the box 0.30 m.
     assert not far["oracle_success"] and not far["success"]
+
+
+@pytest.mark.slow
+def test_the_delay_margin_tells_the_hooks_apart():
+    """The long J-hook's pull fails with reality's 40 ms actuation delay: the rollouts with
+    that much delay show it, and the robot takes the L-hook, which succeeds in reality."""
+    rack = ["hook:0.25,0.05,90", "hook:0.35,0.08,60"]
+    out = choose_tool("pull", rack, 3, seed=1, oracle=True)
+    assert out["oracle_tools"] == ["hook:0.25,0.05,90"]
+    j_hook = out["candidates"][1]
+    assert [r["actuation_delay_s"] for r in j_hook["rollouts"]] == pytest.approx([0, 0.04, 0.06])
+    assert not any(r["success"] for r in j_hook["rollouts"][1:])
+    assert j_hook["predicted_success"] < out["candidates"][0]["predicted_success"]
+    assert out["chosen"] == "hook:0.25,0.05,90" and out["success"]
+    plain = choose_tool("pull", rack, 2, seed=1, delay_margin=0.0)
+    assert all(r["actuation_delay_s"] == 0 for c in plain["candidates"] for r in c["rollouts"])
