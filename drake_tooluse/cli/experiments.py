@@ -1,5 +1,5 @@
 """`trajectory`, `export-csv`, `transfer`, `demo` and `record-video`: the paper's experiments,
-and an episode to show."""
+and an episode to show; `choose-tool`: the robot chooses its tool from a rack."""
 
 from __future__ import annotations
 
@@ -238,6 +238,23 @@ def format_demo(out: dict) -> str:
     return format_result(out)
 
 
+def cmd_choose_tool(args) -> dict:
+    rollouts = count_arg(args.rollouts, "--rollouts", 1, 20)
+    seed_arg(args.seed)
+    from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
+
+    rack = args.tools or DEFAULT_RACK
+    return choose_tool(
+        args.task, rack, rollouts, args.seed, oracle=args.oracle, delay_margin=args.delay_margin
+    )
+
+
+def format_choose_tool(out: dict) -> str:
+    from drake_tooluse.experiments.tool_choice import format_choice
+
+    return format_choice(out)
+
+
 def add_tip_poses_arg(p, when: str = "") -> None:
     """--tip-poses: which tip poses of the episodes are averaged (once `--record`, a name
     `simulate` gives its Meshcat recording file: refused here, naming this one)."""
@@ -446,6 +463,32 @@ def add_parsers(sub) -> None:
     )
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_transfer, show=format_transfer)
+
+    p = sub.add_parser(
+        "choose-tool",
+        help="measure each tool of a rack, predict its success in simulation, choose the "
+        "best and do the task with it in the perturbed reality",
+    )
+    p.add_argument("--task", default="pull", help="push, push-far or pull (default pull)")
+    p.add_argument("--seed", type=int, default=0, help="the task instance's draw")
+    p.add_argument(
+        "--tools",
+        nargs="+",
+        metavar="TOOL",
+        help="the rack, 1-5 tools: straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg) "
+        "(default: straight:0.03 straight:0.3 hook:0.25,0.05,90 hook:0.35,0.08,60)",
+    )
+    p.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
+    p.add_argument("--oracle", action="store_true", help="also run every tool in reality")
+    p.add_argument(
+        "--delay-margin",
+        type=float,
+        default=0.06,
+        metavar="S",
+        help="the rollouts' actuation delays span 0 to this (s, in [0, 0.2], multiples of "
+        "0.02 taken); 0: the plain nominal world",
+    )
+    p.set_defaults(run=cmd_choose_tool, show=format_choose_tool)
 
     p = sub.add_parser(
         "demo",

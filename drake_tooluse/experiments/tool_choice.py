@@ -1,0 +1,439 @@
+"""The robot chooses its tool (Brown & Sammut's "choose the tool"): given a task instance and
+a rack of tools, it measures each tool with the head camera, predicts how well each would do
+by rolling out that tool's policy in its own nominal simulation of the measured tool, takes
+the best, and does the task with it in the perturbed "reality".
+
+- **Task instances** (`TaskInstance`, seeded): `push` (the push world, `diagrams/push.yaml`,
+  goal 0.20 m along y), `push-far` (the same, goal 0.10 m further: ToolPushFar-v0's) and
+  `pull` (`diagrams/pull.yaml`: a cube beyond the bare gripper's reach, pulled 0.20 m
+  back). The seed draws the instance's randomization (`world.randomization`): the box's
+  start, and in reality its mass, friction and the grasp of whichever tool is held.
+- **Reality** is the transfer experiment's (`experiments.transfer.run_worlds`): for a push,
+  `diagrams/reality.yaml`; for the pull, `diagrams/pull.yaml` with what reality.yaml changes
+  (actuation delay, conservative joint limits, camera noise) — `pull_reality`.
+- **Policies per (task, tool kind)** (`ToolPolicy`, the interface a learned policy plugs
+  into): a straight tool pushes with the shipped tool-tip policy (`paths.TRANSFER_POLICY`);
+  a hook pulls with `tasks.pull.scripted.ScriptedPull` (no learned pull policy exists yet).
+  No policy exists for a hook pushing or a straight tool pulling (the pull's control acts on
+  a hook's inner corner, which a straight tool lacks): such a candidate is predicted 0 with
+  that reason, and the oracle counts it 0 too (the robot has no way to use it).
+- **Prediction**: the tool measured in reality (`measure_belief`, `measure_hook_belief`),
+  then K rollouts in the nominal world holding the *measured* tool (the instance's box start;
+  each rollout its own draw of the nominal mass, friction and grasp) → predicted success rate
+  and mean final distance. The robot does not know reality's actuation delay; with a
+  `delay_margin` (default DELAY_MARGIN) its rollouts span delays from 0 to the margin
+  (`rollout_delays`), so a tool whose success hangs on prompt actuation is predicted to
+  fail sometimes (measured: the long J-hook's scripted pull succeeds without a delay and
+  fails with reality's 40 ms). `delay_margin=0` predicts in the plain nominal world. The choice is the highest rate, ties broken by the nearer mean
+  final distance.
+- **The oracle** runs every tool in reality on the same instance (the same draw); the chosen
+  tool's reality run is the oracle's run of that tool (the worlds are deterministic).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import time
+from typing import Protocol
+
+import numpy as np
+
+from drake_tooluse.builders.hook_measurement import measure_hook_belief
+from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.experiments.transfer import MAX_STEPS, run_closed_loop
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.paths import DEFAULT_SCENARIO, PULL_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.tasks.pull.env import with_hook
+from drake_tooluse.tasks.pull.run import run_pull
+from drake_tooluse.tasks.pull.scripted import ScriptedPull
+from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
+
+TASKS = ("push", "push-far", "pull")
+FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v0's goal_extra)
+MIN_TOOLS, MAX_TOOLS = 1, 5
+MAX_ROLLOUTS = 20
+DEFAULT_ROLLOUTS = 3
+# Which tool succeeds depends on the task and the instance: a very short straight tool
+# (misses some pushes), a long one, an L-hook, and a long J-hook the scripted pull succeeds
+# with in the nominal simulation but not in reality (benchmarks/tool_choice.py).
+DEFAULT_RACK = (
+    StraightTool(0.03),
+    StraightTool(0.30),
+    HookTool(0.25, 0.05, 90.0),
+    HookTool(0.35, 0.08, 60.0),
+)
+# The nominal rollouts' draws: seeded apart from the instance seeds (which draw reality).
+ROLLOUT_SEED_STRIDE = 1000
+ROLLOUT_SEED_BASE = 10_000_000
+# s: the actuation delay the robot budgets for in its rollouts (1.5 control periods; it
+# does not know reality's).
+DELAY_MARGIN = 0.06
+MAX_DELAY_MARGIN = 0.2  # s, the scenario's limit
+
+
+@dc.dataclass(frozen=True)
+class TaskInstance:
+    """One task to do: its kind (TASKS) and the seed of its draw."""
+
+    task: str
+    seed: int = 0
+
+    def __post_init__(self):
+        check_one_of(self.task, TASKS, "task")
+        check_seed(self.seed, "seed")
+
+
+def tool_label(tool) -> str:
+    """`straight:0.3` or `hook:0.25,0.05,90` (what `parse_tool` reads)."""
+    if isinstance(tool, HookTool):
+        return f"hook:{tool.handle_length:g},{tool.hook_length:g},{tool.angle:g}"
+    return f"straight:{tool.length:g}"
+
+
+def parse_tool(text: str):
+    """A tool from `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, °); ValueError names the
+    text and the forms allowed."""
+    forms = "straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg), e.g. hook:0.25,0.05,90"
+    kind, _, values = str(text).partition(":")
+    try:
+        numbers = [float(v) for v in values.split(",")]
+    except ValueError:
+        raise ValueError(f"tool {text!r} is not {forms}") from None
+    if kind == "straight" and len(numbers) == 1:
+        return StraightTool(numbers[0])
+    if kind == "hook" and len(numbers) == 3:
+        return HookTool(*numbers)
+    raise ValueError(f"tool {text!r} is not {forms}")
+
+
+def check_rack(rack) -> tuple:
+    rack = tuple(parse_tool(t) if isinstance(t, str) else t for t in rack)
+    if not MIN_TOOLS <= len(rack) <= MAX_TOOLS:
+        raise ValueError(f"the rack holds {len(rack)} tools; give {MIN_TOOLS} to {MAX_TOOLS}")
+    for tool in rack:
+        if not isinstance(tool, (StraightTool, HookTool)):
+            raise ValueError(f"tool {tool!r} must be a StraightTool or a HookTool")
+    return rack
+
+
+# -- the worlds --------------------------------------------------------------------------
+
+
+def pull_reality(pull: Scenario, reality: Scenario) -> Scenario:
+    """The pull world as reality meets it: `pull` with reality's actuation delay,
+    conservative joint limits and camera noise."""
+    return validate_scenario(
+        dc.replace(
+            pull,
+            control=dc.replace(pull.control, actuation_delay=reality.control.actuation_delay),
+            robot=dc.replace(pull.robot, conservative_limits=reality.robot.conservative_limits),
+            camera=dc.replace(pull.camera, noise_sigma=reality.camera.noise_sigma),
+        )
+    )
+
+
+def task_scenarios(task: str) -> tuple[Scenario, Scenario]:
+    """(nominal, reality) scenarios of a task kind, before any tool or draw."""
+    reality = load_scenario(REALITY_SCENARIO)
+    if task == "pull":
+        pull = load_scenario(PULL_SCENARIO)
+        return pull, pull_reality(pull, reality)
+    nominal = load_scenario(DEFAULT_SCENARIO)
+    if task == "push-far":
+        goal = list(nominal.goal_offset)
+        goal[1] += FAR_GOAL_EXTRA
+        nominal = dc.replace(nominal, goal_offset=goal)
+        reality = dc.replace(reality, goal_offset=goal)
+    return nominal, reality
+
+
+def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scenario:
+    """`scenario` with `tool` in the hand (and, if given, held `grasp_along` m along it)."""
+    if isinstance(tool, HookTool):
+        s = with_hook(scenario, (tool.handle_length, tool.hook_length, tool.angle))
+    else:
+        s = validate_scenario(
+            dc.replace(
+                scenario, tool=dc.replace(scenario.tool, kind="straight", length=tool.length)
+            )
+        )
+    if grasp_along is not None:
+        s = validate_scenario(
+            dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=grasp_along))
+        )
+    return s
+
+
+# -- the policies ------------------------------------------------------------------------
+
+
+@dc.dataclass
+class Outcome:
+    """One run of a tool on a task: from the world's truth."""
+
+    success: bool
+    final_distance: float  # m, the object (box or cube) from the goal
+    error: str | None = None
+
+    def as_dict(self) -> dict:
+        return {
+            "success": self.success,
+            "final_distance_m": self.final_distance,
+            **({"error": self.error} if self.error else {}),
+        }
+
+
+class ToolPolicy(Protocol):
+    """A way to do a task with a kind of tool: `run(scenario, belief)` in a world holding the
+    true tool, the robot's IK holding `belief`."""
+
+    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome: ...
+
+
+class PushTipPolicy:
+    """A straight tool pushes with a learned tool-tip policy (default the shipped one)."""
+
+    def __init__(self, policy_dir=TRANSFER_POLICY):
+        self.policy = load_policy(policy_dir)
+        check_policy_env(self.policy)
+
+    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
+        push = run_closed_loop(scenario, self.policy, belief)
+        return Outcome(push.success, push.final_box_to_goal, push.error)
+
+
+class ScriptedPullPolicy:
+    """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`)."""
+
+    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
+        pull = run_pull(scenario, ScriptedPull(scenario.table.top_z), belief, MAX_STEPS)
+        return Outcome(pull.success, pull.final_object_to_goal, pull.error)
+
+
+NO_POLICY = {
+    (
+        "push",
+        HookTool,
+    ): "no push policy for a hook (the tool-tip policy is trained on straight tools)",
+    ("pull", StraightTool): "no pull policy for a straight tool (the pull's control acts on a "
+    "hook's inner corner, which a straight tool lacks)",
+}
+
+
+def no_policy_reason(task: str, tool) -> str | None:
+    """Why the robot has no way to do `task` with `tool`, or None when it has one."""
+    return NO_POLICY.get(("pull" if task == "pull" else "push", type(tool)))
+
+
+class Policies:
+    """The policy for each (task, tool kind); loaded once, on first use."""
+
+    def __init__(self, push_policy_dir=TRANSFER_POLICY, pull: ToolPolicy | None = None):
+        self._push_dir, self._push, self._pull = push_policy_dir, None, pull
+
+    def for_task(self, task: str) -> ToolPolicy:
+        if task == "pull":
+            self._pull = self._pull or ScriptedPullPolicy()
+            return self._pull
+        self._push = self._push or PushTipPolicy(self._push_dir)
+        return self._push
+
+
+# -- measuring, predicting, choosing -----------------------------------------------------
+
+
+def _attempt(run, *args, **kwargs):
+    try:
+        return run(*args, **kwargs), None
+    except (RuntimeError, ValueError) as e:
+        return None, f"{type(e).__name__}: {str(e).splitlines()[0][:300]}"
+
+
+def measure(reality: Scenario, tool, seed: int) -> RobotBelief:
+    """What the robot believes of `tool` (held in `reality`) after the head camera measures it."""
+    if isinstance(tool, HookTool):
+        return measure_hook_belief(reality, seed=seed)[0]
+    return measure_belief(reality, seed=seed)[0]
+
+
+def believed_tool_label(belief: RobotBelief) -> str:
+    return tool_label(belief.tool)
+
+
+def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list[float]:
+    """The actuation delay of each rollout (s): evenly from 0 to `delay_margin` (the margin
+    alone for one rollout), each a multiple of the plant's `time_step`."""
+    fractions = np.linspace(0.0, 1.0, rollouts) if rollouts > 1 else [1.0]
+    return [round(f * delay_margin / time_step) * time_step for f in fractions]
+
+
+def predict(
+    policy: ToolPolicy,
+    nominal: Scenario,
+    belief: RobotBelief,
+    rollouts: int,
+    seed: int,
+    delay_margin: float = DELAY_MARGIN,
+) -> dict:
+    """K rollouts of `policy` in the nominal world holding the believed tool where the robot
+    believes it holds it, each with its own draw of the nominal mass, friction and grasp
+    (the box's start is the instance's) and its own actuation delay (`rollout_delays`): the
+    predicted success rate and mean final distance."""
+    world = holding(nominal, belief.tool, belief.grasp_offset[1])
+    delays = rollout_delays(rollouts, delay_margin, world.plant.time_step)
+    outcomes = []
+    for k, delay in enumerate(delays):
+        rng = np.random.default_rng(ROLLOUT_SEED_BASE + seed * ROLLOUT_SEED_STRIDE + k)
+        draw = draw_randomization(world, rng)
+        draw.box_dxy, draw.box_dyaw = [0.0, 0.0], 0.0  # the instance's box start
+        rollout = apply_draw(world, draw)
+        rollout = validate_scenario(
+            dc.replace(rollout, control=dc.replace(rollout.control, actuation_delay=delay))
+        )
+        outcome, error = _attempt(policy.run, rollout, belief)
+        outcomes.append(outcome or Outcome(False, math.nan, error))
+    finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
+    return {
+        "predicted_success": float(np.mean([o.success for o in outcomes])),
+        "predicted_final_distance_m": float(np.mean(finals)) if finals else None,
+        "rollouts": [{**o.as_dict(), "actuation_delay_s": d} for o, d in zip(outcomes, delays)],
+    }
+
+
+def _rank_key(candidate: dict):
+    final = candidate["predicted_final_distance_m"]
+    return (-candidate["predicted_success"], math.inf if final is None else final)
+
+
+def choose_tool(
+    instance: TaskInstance | str = "pull",
+    rack=DEFAULT_RACK,
+    rollouts: int = DEFAULT_ROLLOUTS,
+    seed: int = 0,
+    oracle: bool = False,
+    policies: Policies | None = None,
+    delay_margin: float = DELAY_MARGIN,
+) -> dict:
+    """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
+    actuation delays up to `delay_margin` s), chooses the best and does the instance with it in reality. `instance` is a TaskInstance
+    or a task kind (TASKS, then drawn with `seed`). With `oracle`, every tool is also run in
+    reality (`oracle_success`: whether any tool succeeds). Returns a dict (see
+    `format_choice`)."""
+    if not isinstance(instance, TaskInstance):
+        instance = TaskInstance(instance, seed)
+    rack = check_rack(rack)
+    check_int(rollouts, 1, MAX_ROLLOUTS, "rollouts")
+    check_in_range(delay_margin, 0.0, MAX_DELAY_MARGIN, "delay_margin", unit="s")
+    policies = policies or Policies()
+    nominal, reality = task_scenarios(instance.task)
+    for tool in rack:  # a tool the world cannot hold is refused before any work
+        if no_policy_reason(instance.task, tool) is None:
+            holding(nominal, tool)
+    start = time.perf_counter()
+    candidates = []
+    worlds = {}
+    for i, tool in enumerate(rack):
+        candidate = {"tool": tool_label(tool)}
+        reason = no_policy_reason(instance.task, tool)
+        if reason is not None:
+            candidate.update(predicted_success=0.0, predicted_final_distance_m=None, reason=reason)
+            candidates.append(candidate)
+            continue
+        nominal_world, reality_world = _worlds(nominal, reality, tool, instance.seed)
+        worlds[i] = (nominal_world, reality_world)
+        belief, error = _attempt(measure, reality_world, tool, instance.seed)
+        if belief is None:
+            candidate.update(
+                predicted_success=0.0,
+                predicted_final_distance_m=None,
+                reason=f"measurement failed: {error}",
+            )
+            candidates.append(candidate)
+            continue
+        candidate["believed"] = believed_tool_label(belief)
+        candidate["believed_grasp_along_m"] = belief.grasp_offset[1]
+        candidate["_belief"] = belief
+        candidate.update(
+            predict(
+                policies.for_task(instance.task),
+                nominal_world,
+                belief,
+                rollouts,
+                instance.seed,
+                delay_margin,
+            )
+        )
+        candidates.append(candidate)
+    choice_time = time.perf_counter() - start
+    chosen = min(range(len(candidates)), key=lambda i: _rank_key(candidates[i]))
+    for i, candidate in enumerate(candidates):
+        if oracle or i == chosen:
+            candidate["reality"] = _reality_run(instance, candidate, worlds.get(i), policies)
+    result = {
+        "task": instance.task,
+        "seed": instance.seed,
+        "rollouts": rollouts,
+        "delay_margin_s": delay_margin,
+        "chosen": candidates[chosen]["tool"],
+        "chosen_index": chosen,
+        "success": candidates[chosen]["reality"]["success"],
+        "final_distance_m": candidates[chosen]["reality"]["final_distance_m"],
+        "choice_time_s": choice_time,
+        "wall_time_s": time.perf_counter() - start,
+        "candidates": [{k: v for k, v in c.items() if not k.startswith("_")} for c in candidates],
+    }
+    if oracle:
+        result["oracle_success"] = any(c["reality"]["success"] for c in candidates)
+        result["oracle_tools"] = [c["tool"] for c in candidates if c["reality"]["success"]]
+    return result
+
+
+def _worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
+    """(nominal, reality) holding `tool`, with the instance's draw (`run_worlds`' rule: the
+    nominal world takes only the box's start)."""
+    reality = holding(reality, tool)
+    draw = draw_randomization(reality, np.random.default_rng(seed))
+    return apply_draw(holding(nominal, tool), draw, box_pose_only=True), apply_draw(reality, draw)
+
+
+def _reality_run(instance, candidate, worlds, policies: Policies) -> dict:
+    """The candidate's run in reality, with the belief the camera gave; a tool the robot has
+    no way to use (or could not measure) is not run and counts as a failure."""
+    belief = candidate.get("_belief")
+    if worlds is None or belief is None:
+        return {"success": False, "final_distance_m": None, "run": False}
+    outcome, error = _attempt(policies.for_task(instance.task).run, worlds[1], belief)
+    outcome = outcome or Outcome(False, math.nan, error)
+    return {**outcome.as_dict(), "run": True}
+
+
+def format_choice(out: dict) -> str:
+    lines = [
+        f"{out['task']} (seed {out['seed']}), {out['rollouts']} predicted rollouts per tool "
+        f"(actuation delays up to {out['delay_margin_s'] * 1000:.0f} ms):"
+    ]
+    for i, c in enumerate(out["candidates"]):
+        mark = "*" if i == out["chosen_index"] else " "
+        final = c["predicted_final_distance_m"]
+        text = f" {mark} {c['tool']:<24} predicted success {c['predicted_success'] * 100:3.0f} %"
+        if final is not None:
+            text += f", final distance {final * 100:.1f} cm"
+        if "believed" in c:
+            text += f" (measured {c['believed']})"
+        if "reason" in c:
+            text += f" ({c['reason']})"
+        if "reality" in c and c["reality"]["run"]:
+            text += f"; reality: {'success' if c['reality']['success'] else 'failed'}"
+        lines.append(text)
+    lines.append(
+        f"chosen: {out['chosen']}; in reality "
+        f"{'succeeded' if out['success'] else 'failed'} ({out['choice_time_s']:.0f} s to choose)"
+    )
+    if "oracle_success" in out:
+        lines.append(f"oracle: {', '.join(out['oracle_tools']) or 'no tool'} succeeds")
+    return "\n".join(lines)
