@@ -13,10 +13,12 @@ success, the oracle's (some tool succeeds), their ratio (goals: ratio >= 0.90, e
 """
 
 import argparse
+import sys
 import time
 
 import numpy as np
 
+from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     DELAY_MARGIN,
@@ -103,4 +105,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_script(main))

@@ -67,6 +67,8 @@ BUDGETS = {
     "--calibration-draws": ["1"],
     "--num-cpus": ["1"],
     "--count": ["2"],
+    "--instances": ["2"],
+    "--rollouts": ["1"],
 }
 # One env process, small PPO/TRPO rollouts, an evaluation (and a checkpoint) every 128 steps.
 SMALL_TRAINING = (
@@ -156,6 +158,8 @@ RULES = [
     Rule(r"drake-tooluse study-report( .*)?", "run", needs=("rliable",)),
     Rule(r"python benchmarks/hook_vision_accuracy\.py.*", "run"),
     Rule(r"python benchmarks/pull_scripted\.py.*", "run"),
+    Rule(r"drake-tooluse choose-tool .*", "run", add=("--rollouts", "1")),
+    Rule(r"python benchmarks/tool_choice\.py.*", "run", add=("--rollouts", "1")),
     Rule(r"python benchmarks/env_sanity\.py.*", "run", add=("--steps", "100")),
     Rule(
         r"python -m sphinx .*",
