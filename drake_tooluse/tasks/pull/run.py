@@ -13,6 +13,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.tasks.pull.diagram import add_pull_task
@@ -32,6 +33,7 @@ class PullRun:
     object_travel: float  # m, horizontal
     sim_error: bool = False
     error: str | None = None
+    first_success_step: int | None = None  # the first step the cube was at the goal
 
     def as_dict(self) -> dict:
         return {
@@ -40,6 +42,7 @@ class PullRun:
             "final_object_to_goal_m": self.final_object_to_goal,
             "object_travel_m": self.object_travel,
             "sim_error": self.sim_error,
+            "first_success_step": self.first_success_step,
             **({"error": self.error} if self.error else {}),
         }
 
@@ -49,19 +52,27 @@ def run_pull(
     controller,
     belief: RobotBelief | None = None,
     max_steps: int = MAX_EPISODE_STEPS,
+    meshcat=None,
+    recording_path=None,
 ) -> PullRun:
     """Runs `controller` (called with each observation, giving a 3-d action in [-1, 1]; its
     `reset()` is called first if it has one) on the scenario's world from its default state,
     the robot's IK holding `belief` (default: the scenario's hook). A simulation failure ends
-    the run flagged `sim_error`, judged at the last finite state."""
+    the run flagged `sim_error`, judged at the last finite state. With `meshcat`, the run is
+    recorded there and, with `recording_path`, written as a standalone HTML file."""
     builder = DiagramBuilder()
     task = add_pull_task(builder, scenario, belief)
     task.export(builder)
+    visualizer = None
+    if meshcat is not None:
+        visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat, scenario)
     diagram = builder.Build()
     try:
         simulator = Simulator(diagram)
         root = simulator.get_mutable_context()
         task.control.reset(root)
+        if visualizer is not None:
+            visualizer.StartRecording(False)
         simulator.Initialize()
         if hasattr(controller, "reset"):
             controller.reset()
@@ -73,7 +84,7 @@ def run_pull(
         observation_port = diagram.GetOutputPort("observation")
         period = scenario.control.control_period
         metrics = reader.read(plant_context, goal, start)
-        step, error = 0, None
+        step, error, first = 0, None, None
         for step in range(1, max_steps + 1):
             observation = np.asarray(observation_port.Eval(root), float)
             action_port.FixValue(root, np.asarray(controller(observation), float))
@@ -85,6 +96,14 @@ def run_pull(
                 error = f"the state is no longer finite at step {step}"
                 break
             metrics = reader.read(plant_context, goal, start)
+            if first is None and metrics.is_success:
+                first = step
+        if visualizer is not None:
+            if recording_path is not None:
+                save_recording(meshcat, visualizer, recording_path)
+            else:
+                visualizer.StopRecording()
+                visualizer.PublishRecording()
         return PullRun(
             step,
             bool(metrics.is_success) and error is None,
@@ -92,6 +111,7 @@ def run_pull(
             float(metrics.object_travel),
             sim_error=error is not None,
             error=error,
+            first_success_step=first,
         )
     finally:
         release_diagram(diagram)  # its Python systems would keep it alive
