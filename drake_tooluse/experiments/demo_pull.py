@@ -45,6 +45,10 @@ def _cm(x) -> str:
     return "n/a" if x is None else f"{x * 100:.2f} cm"
 
 
+def _mm(x) -> str:
+    return "n/a" if x is None else f"{x * 1000:+.1f} mm"
+
+
 def _deg(x) -> str:
     return "n/a" if x is None else f"{x:.1f}°"
 
@@ -56,10 +60,14 @@ def _summary(out: Path, measurement, metrics: dict) -> Path:
     for ax in (ax_image, ax_text):
         ax.axis("off")
     files = [f for v, f in zip(measurement.views, measurement.image_files) if v.accepted]
+    # A view of the hook's end first: it shows the bend the robot measured.
+    files.sort(key=lambda f: not Path(f).stem.startswith("measure_hook"))
     if files:
         ax_image.imshow(cv2.cvtColor(cv2.imread(str(files[0])), cv2.COLOR_BGR2RGB))
         ax_image.set_title("head camera, the hook measured (annotated)", fontsize=9)
-    ax_text.text(0.0, 1.0, format_demo_pull(metrics, files=False), va="top", fontsize=9)
+    text = format_demo_pull(metrics, files=False).replace("; it moved", ";\n  it moved")
+    text = text.replace(" (first at", "\n  (first at")
+    ax_text.text(0.0, 0.9, text, va="top", fontsize=8.5)
     fig.tight_layout()
     return atomic_write_figure(out / "summary.png", fig, dpi=FIGURE_DPI)
 
@@ -154,7 +162,7 @@ def format_demo_pull(m: dict, files: bool = True) -> str:
         f"{true['grasp_along'] * 1000:+.1f} mm along it",
         f"  measured handle {_cm(measured['handle_length'])}, hook "
         f"{_cm(measured['hook_length'])}, {_deg(measured['angle'])}, held "
-        f"{_cm(measured['grasp_along'])} along it",
+        f"{_mm(measured['grasp_along'])} along it",
         f"pull: cube {end} after {pull['steps']} steps, "
         f"{pull['final_object_to_goal_m'] * 100:.1f} cm from it ({arrived}); "
         f"it moved {pull['object_travel_m'] * 100:.1f} cm",
