@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.visualization import start_meshcat
-from drake_tooluse.experiments.demo import FIGURE_DPI
+from drake_tooluse.experiments.demo import FIGURE_DPI, mark_goal
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
 from drake_tooluse.experiments.tool_choice import holding, task_scenarios
 from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json, check_output_dir
@@ -53,12 +53,16 @@ def _deg(x) -> str:
     return "n/a" if x is None else f"{x:.1f}°"
 
 
-def _summary(out: Path, measurement, metrics: dict) -> Path:
-    """summary.png: the first accepted head-camera view (annotated) and the figures."""
-    fig = Figure(figsize=(11, 4.5))
-    ax_image, ax_text = fig.subplots(1, 2, width_ratios=[1.3, 1.0])
-    for ax in (ax_image, ax_text):
+def _summary(out: Path, measurement, metrics: dict, pull, scenario) -> Path:
+    """summary.png: a head-camera view of the hook (annotated), the scene at the end of the
+    pull (the goal in green) and the figures in words."""
+    fig = Figure(figsize=(15, 4.5))
+    ax_image, ax_scene, ax_text = fig.subplots(1, 3, width_ratios=[1.3, 1.3, 1.0])
+    for ax in (ax_image, ax_scene, ax_text):
         ax.axis("off")
+    if pull.final_image is not None and pull.scene_view is not None:
+        ax_scene.imshow(mark_goal(pull.final_image, pull.scene_view, scenario)[:, :, :3])
+        ax_scene.set_title("the pull, at the end (green: the goal)", fontsize=9)
     files = [f for v, f in zip(measurement.views, measurement.image_files) if v.accepted]
     # A view of the hook's end first: it shows the bend the robot measured.
     files.sort(key=lambda f: not Path(f).stem.startswith("measure_hook"))
@@ -118,6 +122,7 @@ def run_demo_pull(
             max_steps,
             meshcat=meshcat,
             recording_path=work / "recording.html",
+            scene_camera=True,
         )
         times["pull_s"] = time.perf_counter() - t0
         log("[3/3] writing figures and metrics …")
@@ -146,7 +151,7 @@ def run_demo_pull(
             },
         }
         times["total_s"] = time.perf_counter() - start
-        _summary(work, measurement, metrics)
+        _summary(work, measurement, metrics, pull, scenario)
         atomic_write_json(work / "metrics.json", metrics)
     return metrics
 

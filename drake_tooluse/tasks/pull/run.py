@@ -15,6 +15,7 @@ from pydrake.systems.framework import DiagramBuilder
 from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera, scene_camera_view
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.metrics import PullMetricsReader
@@ -34,6 +35,8 @@ class PullRun:
     sim_error: bool = False
     error: str | None = None
     first_success_step: int | None = None  # the first step the cube was at the goal
+    final_image: np.ndarray | None = None  # the scene camera's RGBA at the end, if asked for
+    scene_view: object = None  # that camera (`systems.camera.SceneView`), to draw on its image
 
     def as_dict(self) -> dict:
         return {
@@ -54,18 +57,22 @@ def run_pull(
     max_steps: int = MAX_EPISODE_STEPS,
     meshcat=None,
     recording_path=None,
+    scene_camera: bool = False,
 ) -> PullRun:
     """Runs `controller` (called with each observation, giving a 3-d action in [-1, 1]; its
     `reset()` is called first if it has one) on the scenario's world from its default state,
     the robot's IK holding `belief` (default: the scenario's hook). A simulation failure ends
     the run flagged `sim_error`, judged at the last finite state. With `meshcat`, the run is
-    recorded there and, with `recording_path`, written as a standalone HTML file."""
+    recorded there and, with `recording_path`, written as a standalone HTML file. With `scene_camera`, the run keeps the scene camera's
+    image at the end (`final_image`, unless the simulation failed)."""
     builder = DiagramBuilder()
     task = add_pull_task(builder, scenario, belief)
     task.export(builder)
     visualizer = None
     if meshcat is not None:
         visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat, scenario)
+    if scene_camera:
+        add_scene_camera(builder, task.world, **CLOSE_UP_CAMERA)
     diagram = builder.Build()
     try:
         simulator = Simulator(diagram)
@@ -104,6 +111,10 @@ def run_pull(
             else:
                 visualizer.StopRecording()
                 visualizer.PublishRecording()
+        image = view = None
+        if diagram.HasOutputPort("color_image") and error is None:
+            image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
+            view = scene_camera_view(diagram, task.world.plant)
         return PullRun(
             step,
             bool(metrics.is_success) and error is None,
@@ -112,6 +123,8 @@ def run_pull(
             sim_error=error is not None,
             error=error,
             first_success_step=first,
+            final_image=image,
+            scene_view=view,
         )
     finally:
         release_diagram(diagram)  # its Python systems would keep it alive
