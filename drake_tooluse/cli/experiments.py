@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from drake_tooluse.cli.common import (
+    UsageError,
     add_meshcat_arg,
     add_renamed_option,
     add_trust_pickle_arg,
@@ -210,9 +211,17 @@ def format_transfer(out: dict) -> str:
     return format_result(out)
 
 
+PULL_ONLY = ("handle_length", "hook_length", "hook_angle")
+
+
 def cmd_demo(args) -> dict:
     from drake_tooluse.experiments.runs import new_run_dir
 
+    if args.task == "pull":
+        return cmd_demo_pull(args)
+    given = [n for n in PULL_ONLY if getattr(args, n) is not None]
+    if given:
+        raise UsageError(f"--{given[0].replace('_', '-')} is for --task pull only")
     out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
     seed_arg(args.seed)
     tool_length_arg(args.tool_length)
@@ -232,7 +241,48 @@ def cmd_demo(args) -> dict:
     return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
 
 
+def cmd_demo_pull(args) -> dict:
+    from drake_tooluse.experiments.runs import new_run_dir
+
+    for name in ("tool_length", "policy", "scenario"):
+        if getattr(args, name) != DEMO_DEFAULTS.get(name):
+            raise UsageError(f"--{name.replace('_', '-')} is for --task push only")
+    out = output_dir_arg(args.out or new_run_dir("demo-pull"), "--out")
+    seed_arg(args.seed)
+    from drake_tooluse.experiments.demo_pull import (
+        DEMO_HANDLE_LENGTH,
+        DEMO_HOOK_ANGLE,
+        DEMO_HOOK_LENGTH,
+        run_demo_pull,
+    )
+
+    def given(value, default):
+        return default if value is None else value
+
+    meshcat = open_meshcat(args)
+    try:
+        result = run_demo_pull(
+            out,
+            given(args.handle_length, DEMO_HANDLE_LENGTH),
+            given(args.hook_length, DEMO_HOOK_LENGTH),
+            given(args.hook_angle, DEMO_HOOK_ANGLE),
+            args.seed,
+            progress=not args.no_progress,
+            meshcat=meshcat,
+        )
+    except ValueError as e:  # a hook size out of range, before anything is written
+        raise UsageError(str(e).splitlines()[0]) from None
+    return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
+
+
+DEMO_DEFAULTS = {"tool_length": DEMO_TOOL_LENGTH, "policy": None, "scenario": None}
+
+
 def format_demo(out: dict) -> str:
+    if out.get("task") == "pull":
+        from drake_tooluse.experiments.demo_pull import format_demo_pull
+
+        return format_demo_pull(out)
     from drake_tooluse.experiments.demo import format_demo as format_result
 
     return format_result(out)
@@ -509,7 +559,26 @@ def add_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
-    add_meshcat_arg(p, "the push (its recording, to play again)")
+    p.add_argument(
+        "--task",
+        choices=("push", "pull"),
+        default="push",
+        help="push (the box, with the shipped policy; default) or pull (the cube, with a hook "
+        "and the scripted pull; writes runs/demo-pull-<time>)",
+    )
+    p.add_argument(
+        "--handle-length", type=float, metavar="L", help="pull: the hook's handle (m; default 0.25)"
+    )
+    p.add_argument(
+        "--hook-length", type=float, metavar="L", help="pull: the hook (m; default 0.05)"
+    )
+    p.add_argument(
+        "--hook-angle",
+        type=float,
+        metavar="DEG",
+        help="pull: the hook's angle to the handle (deg; default 75)",
+    )
+    add_meshcat_arg(p, "the push or pull (its recording, to play again)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)
 

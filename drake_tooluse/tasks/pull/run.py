@@ -13,7 +13,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera, scene_camera_view
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.metrics import PullMetricsReader
@@ -32,6 +34,9 @@ class PullRun:
     object_travel: float  # m, horizontal
     sim_error: bool = False
     error: str | None = None
+    first_success_step: int | None = None  # the first step the cube was at the goal
+    final_image: np.ndarray | None = None  # the scene camera's RGBA at the end, if asked for
+    scene_view: object = None  # that camera (`systems.camera.SceneView`), to draw on its image
 
     def as_dict(self) -> dict:
         return {
@@ -40,6 +45,7 @@ class PullRun:
             "final_object_to_goal_m": self.final_object_to_goal,
             "object_travel_m": self.object_travel,
             "sim_error": self.sim_error,
+            "first_success_step": self.first_success_step,
             **({"error": self.error} if self.error else {}),
         }
 
@@ -49,19 +55,31 @@ def run_pull(
     controller,
     belief: RobotBelief | None = None,
     max_steps: int = MAX_EPISODE_STEPS,
+    meshcat=None,
+    recording_path=None,
+    scene_camera: bool = False,
 ) -> PullRun:
     """Runs `controller` (called with each observation, giving a 3-d action in [-1, 1]; its
     `reset()` is called first if it has one) on the scenario's world from its default state,
     the robot's IK holding `belief` (default: the scenario's hook). A simulation failure ends
-    the run flagged `sim_error`, judged at the last finite state."""
+    the run flagged `sim_error`, judged at the last finite state. With `meshcat`, the run is
+    recorded there and, with `recording_path`, written as a standalone HTML file. With `scene_camera`, the run keeps the scene camera's
+    image at the end (`final_image`, unless the simulation failed)."""
     builder = DiagramBuilder()
     task = add_pull_task(builder, scenario, belief)
     task.export(builder)
+    visualizer = None
+    if meshcat is not None:
+        visualizer = add_meshcat_visualizer(builder, task.world.scene_graph, meshcat, scenario)
+    if scene_camera:
+        add_scene_camera(builder, task.world, **CLOSE_UP_CAMERA)
     diagram = builder.Build()
     try:
         simulator = Simulator(diagram)
         root = simulator.get_mutable_context()
         task.control.reset(root)
+        if visualizer is not None:
+            visualizer.StartRecording(False)
         simulator.Initialize()
         if hasattr(controller, "reset"):
             controller.reset()
@@ -73,7 +91,7 @@ def run_pull(
         observation_port = diagram.GetOutputPort("observation")
         period = scenario.control.control_period
         metrics = reader.read(plant_context, goal, start)
-        step, error = 0, None
+        step, error, first = 0, None, None
         for step in range(1, max_steps + 1):
             observation = np.asarray(observation_port.Eval(root), float)
             action_port.FixValue(root, np.asarray(controller(observation), float))
@@ -85,6 +103,18 @@ def run_pull(
                 error = f"the state is no longer finite at step {step}"
                 break
             metrics = reader.read(plant_context, goal, start)
+            if first is None and metrics.is_success:
+                first = step
+        if visualizer is not None:
+            if recording_path is not None:
+                save_recording(meshcat, visualizer, recording_path)
+            else:
+                visualizer.StopRecording()
+                visualizer.PublishRecording()
+        image = view = None
+        if diagram.HasOutputPort("color_image") and error is None:
+            image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
+            view = scene_camera_view(diagram, task.world.plant)
         return PullRun(
             step,
             bool(metrics.is_success) and error is None,
@@ -92,6 +122,9 @@ def run_pull(
             float(metrics.object_travel),
             sim_error=error is not None,
             error=error,
+            first_success_step=first,
+            final_image=image,
+            scene_view=view,
         )
     finally:
         release_diagram(diagram)  # its Python systems would keep it alive
