@@ -330,6 +330,8 @@ def sandboxes(tmp_path_factory):
             path = tmp_path_factory.mktemp(Path(doc).stem)
             shutil.copytree(ROOT / "benchmarks", path / "benchmarks")
             shutil.copytree(ROOT / "docs", path / "docs")
+            # `--update-docs` commands check that they run in a checkout's root.
+            shutil.copy(ROOT / "pyproject.toml", path / "pyproject.toml")
             made[doc] = path, set()
         return made[doc]
 
