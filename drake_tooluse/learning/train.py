@@ -113,17 +113,30 @@ def _make_env(env_id: str, env_kwargs: dict, worker: bool = False):
     return thunk
 
 
-def close_envs(venv) -> None:
-    """Closes a vectorized env, its env processes joined. Where they are gone already (killed,
-    crashed), SubprocVecEnv's close fails on their pipes: that error is not raised in place of
-    the one that ended the run, and the processes left are terminated."""
-    try:
-        venv.close()
-    except (EOFError, BrokenPipeError, ConnectionResetError):
-        for process in getattr(venv, "processes", []):
+def close_envs(venv, timeout_s: float = 10.0) -> None:
+    """Closes a vectorized env, its env processes joined, in bounded time whatever interrupted
+    it. SubprocVecEnv's own close first reads every pending step result: after a Ctrl-C that
+    landed between two of step_wait's reads, the first env process has nothing more to send
+    and that read waits forever. Here each env process is told to close (one mid-step sends
+    its result first, into the pipe, and then reads the close), and those still running after
+    `timeout_s` are terminated."""
+    vec = venv.unwrapped
+    if isinstance(vec, SubprocVecEnv) and not vec.closed:
+        for remote in vec.remotes:
+            try:
+                remote.send(("close", None))
+            except (BrokenPipeError, ConnectionResetError, EOFError, OSError):
+                pass  # (that process is gone already: killed, crashed)
+        deadline = time.monotonic() + timeout_s
+        for process in vec.processes:
+            process.join(timeout=max(0.0, deadline - time.monotonic()))
             if process.is_alive():
                 process.terminate()
-            process.join(timeout=5)
+                process.join(timeout=5)
+        for remote in vec.remotes:
+            remote.close()
+        vec.closed = True
+    venv.close()  # (the wrappers' own: VecMonitor's file; the processes' part is done)
 
 
 def make_vec_env(env_id: str, n_envs: int, seed: int, env_kwargs: dict):

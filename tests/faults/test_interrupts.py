@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 import pytest
 
 from drake_tooluse.cli.common import EXIT_INTERRUPTED, run_script
@@ -139,3 +141,21 @@ def test_a_full_disk_under_train_is_exit_2_naming_the_file(tmp_path):
     last = done.stderr.strip().splitlines()[-1]
     assert "No space left on device" in last and str(disk / "run") in last, done.stderr
     assert "internal error" not in done.stderr
+
+
+def test_envs_close_in_bounded_time_after_a_ctrl_c_between_two_step_results():
+    """The Ctrl-C that lands in step_wait after the first env process's result was read: that
+    process has nothing more to send, and SubprocVecEnv's own close would wait for it forever."""
+    from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+
+    from drake_tooluse.learning.train import close_envs
+
+    venv = VecMonitor(SubprocVecEnv([lambda: gym.make("CartPole-v1")] * 2))
+    venv.reset()
+    venv.step_async(np.zeros(2, dtype=np.int64))
+    venv.unwrapped.remotes[0].recv()  # the first result read; the interrupt comes here
+    start = time.monotonic()
+    close_envs(venv, timeout_s=5.0)
+    assert time.monotonic() - start < 10.0
+    assert venv.unwrapped.closed
+    assert not any(process.is_alive() for process in venv.unwrapped.processes)
