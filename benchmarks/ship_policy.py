@@ -18,6 +18,7 @@ from pathlib import Path
 from drake_tooluse import compat
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.learning.task_envs import episode_metrics
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -55,7 +56,13 @@ def main() -> None:
         shutil.rmtree(target)
     tmp.rename(target)
     metrics = json.loads(
-        subprocess.run(evaluate, capture_output=True, text=True, check=True, cwd=ROOT).stdout
+        subprocess.run(  # (this interpreter's drake-tooluse, activated or not)
+            [sys.executable, "-m", "drake_tooluse.cli", *evaluate[1:]],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=ROOT,
+        ).stdout
     )
     summary = json.loads((args.run / "summary.json").read_text())
     atomic_write_json(
@@ -70,10 +77,11 @@ def main() -> None:
             "evaluation": metrics,
         },
     )
+    # The task's headline figure's mean (final_box_to_goal_mean_m, final_object_to_goal_…).
+    mean_key = next(iter(episode_metrics(meta["env_id"])[0].summary([0.0])))
     print(
-        f"shipped {args.run / 'best'} -> {target}: final box-goal mean "
-        f"{metrics['final_box_to_goal_mean_m'] * 100:.2f} cm, success "
-        f"{metrics['success_rate'] * 100:.0f} %"
+        f"shipped {args.run / 'best'} -> {target}: {mean_key} "
+        f"{metrics[mean_key] * 100:.2f} cm, success {metrics['success_rate'] * 100:.0f} %"
     )
 
 

@@ -244,7 +244,7 @@ def cmd_demo(args) -> dict:
 def cmd_demo_pull(args) -> dict:
     from drake_tooluse.experiments.runs import new_run_dir
 
-    for name in ("tool_length", "policy", "scenario"):
+    for name in ("tool_length", "scenario"):
         if getattr(args, name) != DEMO_DEFAULTS.get(name):
             raise UsageError(f"--{name.replace('_', '-')} is for --task push only")
     out = output_dir_arg(args.out or new_run_dir("demo-pull"), "--out")
@@ -253,8 +253,13 @@ def cmd_demo_pull(args) -> dict:
         DEMO_HANDLE_LENGTH,
         DEMO_HOOK_ANGLE,
         DEMO_HOOK_LENGTH,
+        SCRIPTED,
         run_demo_pull,
     )
+    from drake_tooluse.paths import PULL_POLICY
+
+    if args.policy is not None and str(args.policy) != SCRIPTED:
+        policy_dir_arg(args.policy, "--policy")
 
     def given(value, default):
         return default if value is None else value
@@ -269,6 +274,7 @@ def cmd_demo_pull(args) -> dict:
             args.seed,
             progress=not args.no_progress,
             meshcat=meshcat,
+            policy=PULL_POLICY if args.policy is None else args.policy,
         )
     except ValueError as e:  # a hook size out of range, before anything is written
         raise UsageError(str(e).splitlines()[0]) from None
@@ -553,7 +559,10 @@ def add_parsers(sub) -> None:
         help="the true tool (m, in (0, 0.60]; default %(default)s)",
     )
     p.add_argument(
-        "--policy", type=Path, help="policy directory (default: the shipped tool-tip policy)"
+        "--policy",
+        type=Path,
+        help="policy directory (default: the shipped tool-tip policy; --task pull: the shipped "
+        "hook policy, or `scripted` for the scripted pull)",
     )
     p.add_argument("--scenario", type=Path, help="reality scenario (default diagrams/reality.yaml)")
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
@@ -564,7 +573,7 @@ def add_parsers(sub) -> None:
         choices=("push", "pull"),
         default="push",
         help="push (the box, with the shipped policy; default) or pull (the cube, with a hook "
-        "and the scripted pull; writes runs/demo-pull-<time>)",
+        "and the shipped hook policy; writes runs/demo-pull-<time>)",
     )
     p.add_argument(
         "--handle-length", type=float, metavar="L", help="pull: the hook's handle (m; default 0.25)"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import shlex
 import sys
 from pathlib import Path
@@ -50,12 +51,15 @@ def cmd_train(args) -> dict:
         raise UsageError("give --out DIR for a new run, or --resume DIR to continue one")
     else:
         out_dir = output_dir_arg(args.out, "--out", must_be_new=False)
-    choice_arg(args.algo, ALGOS, "--algo", "algorithm")
-    choice_arg(args.env, task_env_ids(), "--env", "env")
+    if args.algo is not None:
+        choice_arg(args.algo, ALGOS, "--algo", "algorithm")
+    if args.env is not None:
+        choice_arg(args.env, task_env_ids(), "--env", "env")
     saved = saved_timesteps(out_dir) if args.resume is not None else None
     timesteps = args.timesteps if args.timesteps is not None else saved or DEFAULT_TIMESTEPS
     count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
-    seed_arg(args.seed)
+    if args.seed is not None:
+        seed_arg(args.seed)
     if args.n_envs is not None:
         count_arg(args.n_envs, "--n-envs", 1, 64)
     if args.init_from is not None:
@@ -64,19 +68,24 @@ def cmd_train(args) -> dict:
     env_kwargs = train_env_kwargs(args)
     import torch
 
-    from drake_tooluse.learning.config import resolve_config
+    from drake_tooluse.learning.config import RUN_CONFIG, read_run_config, resolve_config
     from drake_tooluse.learning.train import train
 
-    config = resolve_config(
-        args.env,
-        args.algo,
-        timesteps,
-        args.n_envs,
-        args.seed,
-        init_from=str(args.init_from) if args.init_from else None,
-        overrides=overrides,
-        env_kwargs=env_kwargs,
-    )
+    if saved is not None and not _settings_given(args):  # the run's own settings
+        config = dataclasses.replace(
+            read_run_config(Path(out_dir) / RUN_CONFIG)[0], timesteps=timesteps
+        )
+    else:
+        config = resolve_config(
+            args.env or DEFAULT_ENV,
+            args.algo or DEFAULT_ALGO,
+            timesteps,
+            args.n_envs,
+            args.seed if args.seed is not None else 0,
+            init_from=str(args.init_from) if args.init_from else None,
+            overrides=overrides,
+            env_kwargs=env_kwargs,
+        )
     # One torch thread: the env processes are the parallelism (2 cores here).
     torch.set_num_threads(1)
     command = "drake-tooluse " + shlex.join(sys.argv[1:]) if sys.argv else ""
@@ -104,6 +113,24 @@ def cmd_train(args) -> dict:
 
 
 DEFAULT_TIMESTEPS = 1_250_000
+DEFAULT_ENV = "drake_tooluse/ToolPush-v0"
+DEFAULT_ALGO = "ppo"
+# The flags that set a run's configuration: a resume given none of them takes the run's own.
+SETTINGS_FLAGS = (
+    "env",
+    "algo",
+    "seed",
+    "n_envs",
+    "env_kwargs",
+    "tool_length",
+    "scenario",
+    "init_from",
+    "hyperparams",
+)
+
+
+def _settings_given(args) -> bool:
+    return any(getattr(args, name) is not None for name in SETTINGS_FLAGS)
 
 
 def saved_timesteps(out_dir) -> int | None:
@@ -290,8 +317,12 @@ def cmd_sweep(args) -> dict:
 
 def add_parsers(sub) -> None:
     p = sub.add_parser("train", help="train a policy with stable-baselines3 / sb3-contrib")
-    p.add_argument("--env", default="drake_tooluse/ToolPush-v0", help=f"one of {task_env_ids()}")
-    p.add_argument("--algo", default="ppo", help=f"one of {list(ALGOS)}")
+    p.add_argument(
+        "--env", help=f"one of {task_env_ids()} (default: {DEFAULT_ENV}; with --resume, the run's)"
+    )
+    p.add_argument(
+        "--algo", help=f"one of {list(ALGOS)} (default: {DEFAULT_ALGO}; with --resume, the run's)"
+    )
     p.add_argument(
         "--timesteps",
         type=int,
@@ -299,13 +330,23 @@ def add_parsers(sub) -> None:
         "run's own: another budget is applied, and the result says so)",
     )
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the envs and the policy")
+    p.add_argument(
+        "--seed",
+        type=int,
+        help="seed of the envs and the policy (default: 0; with --resume, the run's)",
+    )
     p.add_argument(
         "--out",
         type=Path,
         help="new run directory (refused if it holds a run that started: --resume continues it)",
     )
-    p.add_argument("--resume", type=Path, metavar="DIR", help="continue the run in DIR")
+    p.add_argument(
+        "--resume",
+        type=Path,
+        metavar="DIR",
+        help="continue the run in DIR with its own settings (the flags that set them, given "
+        "too, must match)",
+    )
     p.add_argument(
         "--env-kwargs",
         metavar="JSON",

@@ -4,8 +4,9 @@
    conservative joint limits, camera noise), holding a hook the robot is not told about,
    off-centre in the hand.
 2. Measure the hook with the head camera (`measure_hook_belief`).
-3. Pull the cube to the goal closed loop with the scripted pull on the measured hook
-   (`run_pull`), recorded in Meshcat.
+3. Pull the cube to the goal closed loop on the measured hook (`run_pull`) with the shipped
+   hook policy (`paths.PULL_POLICY`; another policy directory, or `scripted` for the scripted
+   reference `ScriptedPull`), recorded in Meshcat.
 4. Write `runs/demo-pull-<time>/`: `recording.html`, `metrics.json`, `summary.png` (the
    annotated head-camera view and the pull's figures in words) and `camera/` (every view).
 """
@@ -23,8 +24,10 @@ from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.demo import FIGURE_DPI, mark_goal
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
-from drake_tooluse.experiments.tool_choice import holding, task_scenarios
+from drake_tooluse.experiments.tool_choice import PULL_ENV_ID, holding, task_scenarios
 from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json, check_output_dir
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.paths import PULL_POLICY
 from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.tasks.pull.registration import MAX_EPISODE_STEPS
 from drake_tooluse.tasks.pull.run import run_pull
@@ -35,6 +38,7 @@ DEMO_HANDLE_LENGTH = 0.25  # m
 DEMO_HOOK_LENGTH = 0.05  # m
 DEMO_HOOK_ANGLE = 75.0  # deg
 DEMO_GRASP_ALONG = 0.015  # m, the hand holds the hook off-centre (unknown to the robot)
+SCRIPTED = "scripted"  # the `policy` that is the scripted reference pull
 
 
 def _finite(x) -> float | None:
@@ -76,6 +80,16 @@ def _summary(out: Path, measurement, metrics: dict, pull, scenario) -> Path:
     return atomic_write_figure(out / "summary.png", fig, dpi=FIGURE_DPI)
 
 
+def _controller(policy, scenario):
+    """(the observation → action callable, its name in the metrics) of `policy`: a policy
+    directory, or "scripted"."""
+    if str(policy) == SCRIPTED:
+        return ScriptedPull(scenario.table.top_z), "scripted pull"
+    loaded = load_policy(policy)
+    check_policy_env(loaded, PULL_ENV_ID)
+    return loaded.act, f"policy {Path(policy).name}"
+
+
 def run_demo_pull(
     out_dir,
     handle_length: float = DEMO_HANDLE_LENGTH,
@@ -85,6 +99,7 @@ def run_demo_pull(
     max_steps: int = MAX_EPISODE_STEPS,
     progress: bool = True,
     meshcat=None,
+    policy=PULL_POLICY,
 ) -> dict:
     """Runs the pull demo (see the module docstring) and returns its metrics (also in
     `out_dir/metrics.json`)."""
@@ -98,6 +113,7 @@ def run_demo_pull(
     _, reality = task_scenarios("pull")
     tool = HookTool(handle_length, hook_length, hook_angle)  # checks the sizes
     scenario = holding(reality, tool, DEMO_GRASP_ALONG)
+    controller, controller_name = _controller(policy, scenario)
     truth = {
         "handle_length": handle_length,
         "hook_length": hook_length,
@@ -112,12 +128,12 @@ def run_demo_pull(
             scenario, save_images_dir=work / "camera", seed=seed
         )
         times["measure_s"] = time.perf_counter() - t0
-        log("[2/3] pulling the cube with the scripted pull on the measured hook …")
+        log(f"[2/3] pulling the cube with the {controller_name} on the measured hook …")
         t0 = time.perf_counter()
         meshcat = start_meshcat() if meshcat is None else meshcat
         pull = run_pull(
             scenario,
-            ScriptedPull(scenario.table.top_z),
+            controller,
             belief,
             max_steps,
             meshcat=meshcat,
@@ -133,7 +149,7 @@ def run_demo_pull(
 
         metrics = {
             "task": "pull",
-            "controller": "scripted",
+            "controller": controller_name,
             "seed": seed,
             "hook": {
                 "true": truth,

@@ -12,9 +12,11 @@ the best, and does the task with it in the perturbed "reality".
   `diagrams/reality.yaml`; for the pull, `diagrams/pull.yaml` with what reality.yaml changes
   (actuation delay, conservative joint limits, camera noise) — `pull_reality`.
 - **Policies per (task, tool kind)** (`ToolPolicy`, the interface a learned policy plugs
-  into): a straight tool pushes with the shipped tool-tip policy (`paths.TRANSFER_POLICY`);
-  a hook pulls with `tasks.pull.scripted.ScriptedPull` (no learned pull policy exists yet).
-  No policy exists for a hook pushing or a straight tool pulling (the pull's control acts on
+  into; `Policies`): a straight tool pushes with the shipped tool-tip policy
+  (`paths.TRANSFER_POLICY`), and to the far goal with that policy fine-tuned on
+  ToolPushFar-v0 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
+  (`paths.PULL_POLICY`, `LearnedPullPolicy`; `ScriptedPullPolicy` is the scripted
+  reference). No policy exists for a hook pushing or a straight tool pulling (the pull's control acts on
   a hook's inner corner, which a straight tool lacks): such a candidate is predicted 0 with
   that reason, and the oracle counts it 0 too (the robot has no way to use it).
 - **Prediction**: the tool measured in reality (`measure_belief`, `measure_hook_belief`),
@@ -24,8 +26,8 @@ the best, and does the task with it in the perturbed "reality".
   `delay_margin` (default DELAY_MARGIN) its rollouts span delays from 0 to the margin
   (`rollout_delays`), so a tool whose success hangs on prompt actuation is predicted to
   fail sometimes (measured: the long J-hook's scripted pull succeeds without a delay and
-  fails with reality's 40 ms). `delay_margin=0` predicts in the plain nominal world. The choice is the highest rate, ties broken by the nearer mean
-  final distance.
+  fails with reality's 40 ms). `delay_margin=0` predicts in the plain nominal world. The
+  choice is the highest rate, ties broken by the nearer mean final distance.
 - **The oracle** runs every tool in reality on the same instance (the same draw); the chosen
   tool's reality run is the oracle's run of that tool (the worlds are deterministic).
 """
@@ -35,25 +37,33 @@ from __future__ import annotations
 import dataclasses as dc
 import math
 import time
+from pathlib import Path
 from typing import Protocol
 
 import numpy as np
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
-from drake_tooluse.experiments.transfer import MAX_STEPS, run_closed_loop
+from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_closed_loop, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.paths import DEFAULT_SCENARIO, PULL_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.paths import (
+    DEFAULT_SCENARIO,
+    FAR_PUSH_POLICY,
+    PULL_POLICY,
+    PULL_SCENARIO,
+    REALITY_SCENARIO,
+    TRANSFER_POLICY,
+)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
-from drake_tooluse.tasks.pull.env import with_hook
 from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
 TASKS = ("push", "push-far", "pull")
+PULL_ENV_ID = "drake_tooluse/ToolPull-v0"
 FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v0's goal_extra)
 MIN_TOOLS, MAX_TOOLS = 1, 5
 MAX_ROLLOUTS = 20
@@ -154,14 +164,7 @@ def task_scenarios(task: str) -> tuple[Scenario, Scenario]:
 
 def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scenario:
     """`scenario` with `tool` in the hand (and, if given, held `grasp_along` m along it)."""
-    if isinstance(tool, HookTool):
-        s = with_hook(scenario, (tool.handle_length, tool.hook_length, tool.angle))
-    else:
-        s = validate_scenario(
-            dc.replace(
-                scenario, tool=dc.replace(scenario.tool, kind="straight", length=tool.length)
-            )
-        )
+    s = with_tool(scenario, tool)
     if grasp_along is not None:
         s = validate_scenario(
             dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=grasp_along))
@@ -207,6 +210,19 @@ class PushTipPolicy:
         return Outcome(push.success, push.final_box_to_goal, push.error)
 
 
+class LearnedPullPolicy:
+    """A hook pulls with a learned ToolPull-v0 policy (default the shipped one, `PULL_POLICY`),
+    run to the step limit and judged where the cube ends."""
+
+    def __init__(self, policy_dir=PULL_POLICY):
+        self.policy = load_policy(policy_dir)
+        check_policy_env(self.policy, PULL_ENV_ID)
+
+    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
+        pull = run_pull(scenario, self.policy.act, belief, MAX_STEPS)
+        return Outcome(pull.success, pull.final_object_to_goal, pull.error)
+
+
 class ScriptedPullPolicy:
     """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`)."""
 
@@ -230,28 +246,30 @@ def no_policy_reason(task: str, tool) -> str | None:
     return NO_POLICY.get(("pull" if task == "pull" else "push", type(tool)))
 
 
-class Policies:
-    """The policy for each (task, tool kind); loaded once, on first use."""
+# Each task kind's default: a policy directory and the ToolPolicy that runs it.
+DEFAULT_POLICIES = {
+    "push": (TRANSFER_POLICY, PushTipPolicy),
+    "push-far": (FAR_PUSH_POLICY, PushTipPolicy),
+    "pull": (PULL_POLICY, LearnedPullPolicy),
+}
 
-    def __init__(self, push_policy_dir=TRANSFER_POLICY, pull: ToolPolicy | None = None):
-        self._push_dir, self._push, self._pull = push_policy_dir, None, pull
+
+class Policies:
+    """The policy for each task kind (TASKS): a ToolPolicy, a policy directory, or None for the
+    shipped one (`DEFAULT_POLICIES`); a directory is loaded once, on first use."""
+
+    def __init__(self, push=None, push_far=None, pull=None):
+        self._policies = {"push": push, "push-far": push_far, "pull": pull}
 
     def for_task(self, task: str) -> ToolPolicy:
-        if task == "pull":
-            self._pull = self._pull or ScriptedPullPolicy()
-            return self._pull
-        self._push = self._push or PushTipPolicy(self._push_dir)
-        return self._push
+        policy = self._policies[task]
+        if policy is None or isinstance(policy, (str, Path)):
+            directory, kind = DEFAULT_POLICIES[task]
+            policy = self._policies[task] = kind(policy or directory)
+        return policy
 
 
 # -- measuring, predicting, choosing -----------------------------------------------------
-
-
-def _attempt(run, *args, **kwargs):
-    try:
-        return run(*args, **kwargs), None
-    except (RuntimeError, ValueError) as e:
-        return None, f"{type(e).__name__}: {str(e).splitlines()[0][:300]}"
 
 
 def measure(reality: Scenario, tool, seed: int) -> RobotBelief:
@@ -295,7 +313,7 @@ def predict(
         rollout = validate_scenario(
             dc.replace(rollout, control=dc.replace(rollout.control, actuation_delay=delay))
         )
-        outcome, error = _attempt(policy.run, rollout, belief)
+        outcome, error = attempt(policy.run, rollout, belief)
         outcomes.append(outcome or Outcome(False, math.nan, error))
     finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
     return {
@@ -344,9 +362,9 @@ def choose_tool(
             candidate.update(predicted_success=0.0, predicted_final_distance_m=None, reason=reason)
             candidates.append(candidate)
             continue
-        nominal_world, reality_world = _worlds(nominal, reality, tool, instance.seed)
+        nominal_world, reality_world = run_worlds(nominal, reality, tool, instance.seed)[:2]
         worlds[i] = (nominal_world, reality_world)
-        belief, error = _attempt(measure, reality_world, tool, instance.seed)
+        belief, error = attempt(measure, reality_world, tool, instance.seed)
         if belief is None:
             candidate.update(
                 predicted_success=0.0,
@@ -393,21 +411,13 @@ def choose_tool(
     return result
 
 
-def _worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
-    """(nominal, reality) holding `tool`, with the instance's draw (`run_worlds`' rule: the
-    nominal world takes only the box's start)."""
-    reality = holding(reality, tool)
-    draw = draw_randomization(reality, np.random.default_rng(seed))
-    return apply_draw(holding(nominal, tool), draw, box_pose_only=True), apply_draw(reality, draw)
-
-
 def _reality_run(instance, candidate, worlds, policies: Policies) -> dict:
     """The candidate's run in reality, with the belief the camera gave; a tool the robot has
     no way to use (or could not measure) is not run and counts as a failure."""
     belief = candidate.get("_belief")
     if worlds is None or belief is None:
         return {"success": False, "final_distance_m": None, "run": False}
-    outcome, error = _attempt(policies.for_task(instance.task).run, worlds[1], belief)
+    outcome, error = attempt(policies.for_task(instance.task).run, worlds[1], belief)
     outcome = outcome or Outcome(False, math.nan, error)
     return {**outcome.as_dict(), "run": True}
 

@@ -87,7 +87,7 @@ from drake_tooluse.tasks.push.diagram import (
 from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
+from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool
 from drake_tooluse.world.scene import initial_box_pose
 
 WORLDS = ("nominal", "reality")
@@ -137,12 +137,13 @@ class TransferRun:
         }
 
 
-def run_worlds(nominal: Scenario, reality: Scenario, tool_length: float, seed: int):
-    """The run's two worlds for a tool of `tool_length` m: (nominal, reality, draw)."""
-    reality = with_tool_length(reality, tool_length)
+def run_worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
+    """The run's two worlds holding `tool` (a length in m, or a `robot.tool` Tool), with the
+    draw of `seed`: (nominal, reality, draw). The nominal world takes only the box's start."""
+    reality = with_tool(reality, tool)
     draw = draw_randomization(reality, np.random.default_rng(seed))
     return (
-        apply_draw(with_tool_length(nominal, tool_length), draw, box_pose_only=True),
+        apply_draw(with_tool(nominal, tool), draw, box_pose_only=True),
         apply_draw(reality, draw),
         draw,
     )
@@ -181,7 +182,7 @@ def _stats(runs: list[TransferRun]) -> dict:
     }
 
 
-def _attempt(run, *args, **kwargs) -> tuple[object, str | None]:
+def attempt(run, *args, **kwargs) -> tuple[object, str | None]:
     """`run(*args, **kwargs)`'s result, or (None, the error) when it fails: one run's failure
     is recorded, and the experiment goes on."""
     try:
@@ -280,7 +281,7 @@ def run_transfer(
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
-            measurement, measure_error = _attempt(
+            measurement, measure_error = attempt(
                 measure_belief, reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
             )
             believed = None
@@ -292,7 +293,7 @@ def run_transfer(
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
             box_xy = {"nominal": initial_box_pose(nominal).translation()[:2]}
             if mode == "open-loop" and box_frame and believed is not None:
-                box, box_error = _attempt(measure_box_start, reality, believed)
+                box, box_error = attempt(measure_box_start, reality, believed)
                 if box is None:
                     believed, measure_error = None, f"box: {box_error}"
                 else:
@@ -307,9 +308,9 @@ def run_transfer(
                 if belief is None:
                     push, error = None, f"measurement failed: {measure_error}"
                 elif mode == "closed-loop":
-                    push, error = _attempt(run_closed_loop, scenario, policy, belief)
+                    push, error = attempt(run_closed_loop, scenario, policy, belief)
                 else:
-                    push, error = _attempt(run_open_loop, scenario, replay, belief)
+                    push, error = attempt(run_open_loop, scenario, replay, belief)
                 # The nominal world takes only the box's start from the draw.
                 perturbation = (
                     dc.asdict(draw)

@@ -529,3 +529,19 @@ def with_tool_length(scenario: Scenario, length: float) -> Scenario:
     """A copy of `scenario` holding a tool of `length` m."""
     tool = dc.replace(scenario.tool, length=check_tool_length(length))
     return validate_scenario(dc.replace(scenario, tool=tool))
+
+
+def with_tool(scenario: Scenario, tool) -> Scenario:
+    """A copy of `scenario` holding `tool`: a StraightTool or a length (m), or a HookTool."""
+    if isinstance(tool, HookTool):
+        held = dc.replace(
+            scenario.tool,
+            kind="hook",
+            length=tool.handle_length,
+            hook_length=tool.hook_length,
+            hook_angle=tool.angle,
+        )
+    else:
+        length = tool.length if isinstance(tool, StraightTool) else tool
+        held = dc.replace(scenario.tool, kind="straight", length=check_tool_length(length))
+    return validate_scenario(dc.replace(scenario, tool=held))

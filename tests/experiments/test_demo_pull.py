@@ -20,6 +20,7 @@ def test_demo_pull_writes_its_run(tmp_path, capsys):
     assert measured["angle"] == pytest.approx(75.0, abs=3.0)
     assert measured["grasp_along"] == pytest.approx(0.015, abs=0.005)
     pull = m["pull"]
+    assert m["controller"] == "policy ppo_toolpull"  # the shipped hook policy
     assert pull["success"] is True
     assert pull["final_object_to_goal_m"] < 0.05
     assert 1 <= pull["first_success_step"] <= pull["steps"]
@@ -37,6 +38,7 @@ def test_demo_pull_writes_its_run(tmp_path, capsys):
         (["--task", "pull", "--hook-angle", "500"], "hook angle=500"),
         (["--task", "pull", "--handle-length", "-1"], "handle length"),
         (["--task", "pound"], "invalid choice"),
+        (["--task", "pull", "--policy", "no/such/policy"], "--policy"),
     ],
 )
 def test_demo_pull_rejects_bad_arguments(tmp_path, capsys, argv, message):

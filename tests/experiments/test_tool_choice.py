@@ -10,6 +10,7 @@ from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     Outcome,
     Policies,
+    ScriptedPullPolicy,
     TaskInstance,
     check_rack,
     choose_tool,
@@ -137,9 +138,11 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
     assert "reality" in c[3] and not any("reality" in x for x in c[:3])
 
 
-def test_choose_pull_with_the_scripted_pull_succeeds_in_reality():
+@pytest.mark.parametrize("pull", [ScriptedPullPolicy(), None], ids=["scripted", "shipped"])
+def test_choose_pull_succeeds_in_reality(pull):
     rack = ["straight:0.3", "hook:0.25,0.05,90"]
-    out = choose_tool("pull", rack, 1, seed=0, oracle=True, delay_margin=0.0)
+    policies = Policies(pull=pull)  # None: the shipped hook policy
+    out = choose_tool("pull", rack, 1, seed=0, oracle=True, policies=policies, delay_margin=0.0)
     assert out["candidates"][1]["rollouts"][0]["actuation_delay_s"] == 0.0
     assert out["chosen"] == "hook:0.25,0.05,90" and out["success"]
     assert out["candidates"][1]["predicted_success"] == 1.0

@@ -11,7 +11,7 @@ without and with another `--timesteps`."""
 import json
 import time
 import warnings
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 import pytest
@@ -215,3 +215,30 @@ def test_resume_keeps_the_run_s_budget_unless_told_and_says_so(tmp_path, monkeyp
     assert main(["train", "--resume", str(run), "--n-envs", "1", "--timesteps", "3000"]) == 0
     assert asked == [1000, 3000]
     assert "its budget changed from 1000 steps" in capsys.readouterr().out
+
+
+def test_resume_alone_continues_with_the_run_s_own_settings(tmp_path, monkeypatch, capsys):
+    import drake_tooluse.learning.train as train_module
+
+    asked = []
+
+    def fake_train(config, out, **kwargs):
+        asked.append(config)
+        return {"timesteps": config.timesteps, "wall_time_s": 1.0, "out": str(out)}
+
+    monkeypatch.setattr(train_module, "train", fake_train)
+    run = tmp_path / "run"
+    run.mkdir()
+    saved = resolve_config(
+        "drake_tooluse/ToolPull-v0", "a2c", 1000, 1, 7, overrides={"learning_rate": 1e-4}
+    )
+    (run / "config.json").write_text(json.dumps({**asdict(saved), "command": ""}))
+    assert main(["train", "--resume", str(run), "--timesteps", "2000", "--json"]) == 0
+    assert asked[-1] == replace(saved, timesteps=2000)  # not the defaults (ToolPush-v0, ppo, 0)
+    # Flags given with --resume are the run's settings as asked (train compares them).
+    assert main(["train", "--resume", str(run), "--seed", "7", "--json"]) == 0
+    assert (asked[-1].env_id, asked[-1].algo, asked[-1].seed) == (
+        "drake_tooluse/ToolPush-v0",
+        "ppo",
+        7,
+    )

@@ -3,7 +3,8 @@
 - ppo_toolpush: the paper's observation (30 values);
 - ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy;
 - ppo_toolpush_paper_action: the paper's observation and its 7-d action (tip position change
-  + quaternion change).
+  + quaternion change);
+- ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v0).
 """
 
 import json
@@ -15,13 +16,23 @@ import pytest
 from drake_tooluse import compat
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.learning.task_envs import episode_metrics
 
 POLICIES = Path(__file__).resolve().parents[2] / "models" / "policies"
-SHIPPED = {  # name -> (observation size, action size)
-    "ppo_toolpush": (30, 3),
-    "ppo_toolpush_tip": (12, 3),
-    "ppo_toolpush_paper_action": (30, 7),
+PUSH, PULL = "drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPull-v0"
+SHIPPED = {  # name -> (env id, observation size, action size)
+    "ppo_toolpush": (PUSH, 30, 3),
+    "ppo_toolpush_tip": (PUSH, 12, 3),
+    "ppo_toolpush_paper_action": (PUSH, 30, 7),
+    "ppo_toolpull": (PULL, 16, 3),
 }
+
+
+def _headline(name) -> tuple[str, str]:
+    """The task's headline figure: its per-episode key and its mean's key in the metrics
+    (final_box_to_goal_m and final_box_to_goal_mean_m for the push)."""
+    metric = episode_metrics(SHIPPED[name][0])[0]
+    return metric.name, next(iter(metric.summary([0.0])))
 
 
 def _metrics(name):
@@ -37,17 +48,17 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
         "policy.safetensors",
     ]  # no pickle
     policy = load_policy(POLICIES / name)
-    assert policy.meta.env_id == "drake_tooluse/ToolPush-v0"
+    env_id, observations, actions = SHIPPED[name]
+    assert policy.meta.env_id == env_id
     # Files written when the exact IK was a mode (`ik_mode: full`) load as today's kwargs.
     assert "ik_mode" not in policy.meta.env_kwargs
-    observations, actions = SHIPPED[name]
     assert policy.meta.observation_shape == [observations]
     assert policy.meta.action_shape == [actions]
     action = policy.act(np.zeros(observations, np.float32))
     assert action.shape == (actions,) and np.all(np.abs(action) <= 1.0)
     metrics = _metrics(name)
     assert metrics["episodes"] == 100
-    assert metrics["final_box_to_goal_mean_m"] <= 0.04 and metrics["success_rate"] >= 0.8
+    assert metrics[_headline(name)[1]] <= 0.04 and metrics["success_rate"] >= 0.8
 
 
 def _protocol(metrics) -> dict:
@@ -79,10 +90,11 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
     result = evaluate(
         POLICIES / name, episodes=3, seed=metrics["seed"], env_kwargs=_protocol(metrics)
     )
+    key = _headline(name)[0]
     for ours, shipped in zip(result.per_episode, metrics["per_episode"][:3]):
         assert ours["seed"] == shipped["seed"] and ours["success"] == shipped["success"]
-        assert ours["final_box_to_goal_m"] == pytest.approx(
-            shipped["final_box_to_goal_m"], abs=1e-6 if exact else OTHER_DRAKE_EPISODE_M
+        assert ours[key] == pytest.approx(
+            shipped[key], abs=1e-6 if exact else OTHER_DRAKE_EPISODE_M
         )
 
 
@@ -90,6 +102,7 @@ def test_evaluate_reproduces_the_first_shipped_episodes(name):
 @pytest.mark.parametrize("name", SHIPPED)
 def test_evaluate_reproduces_all_shipped_metrics(name):
     metrics = _metrics(name)
+    key, mean_key = _headline(name)
     result = evaluate(
         POLICIES / name,
         episodes=metrics["episodes"],
@@ -97,21 +110,15 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
         env_kwargs=_protocol(metrics),
     )
     if not compat.reproduces_exactly(_evaluated_with_drake(name)):
-        assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
-            metrics["final_box_to_goal_mean_m"], abs=OTHER_DRAKE_MEAN_M
-        )
+        assert result.metrics[mean_key] == pytest.approx(metrics[mean_key], abs=OTHER_DRAKE_MEAN_M)
         assert result.success_rate == pytest.approx(
             metrics["success_rate"], abs=OTHER_DRAKE_SUCCESS_RATE
         )
         return
-    assert result.metrics["final_box_to_goal_mean_m"] == pytest.approx(
-        metrics["final_box_to_goal_mean_m"], abs=1e-6
-    )
+    assert result.metrics[mean_key] == pytest.approx(metrics[mean_key], abs=1e-6)
     assert result.success_rate == metrics["success_rate"]
     # The policy files (converted from the pickle format) act exactly as the ones evaluated.
-    assert [e["final_box_to_goal_m"] for e in result.per_episode] == [
-        e["final_box_to_goal_m"] for e in metrics["per_episode"]
-    ]
+    assert [e[key] for e in result.per_episode] == [e[key] for e in metrics["per_episode"]]
 
 
 def test_to_the_time_limit_each_episode_runs_on_past_its_success():

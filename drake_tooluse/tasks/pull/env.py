@@ -20,6 +20,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.paths import PULL_SCENARIO
+from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
@@ -30,7 +31,7 @@ from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsRe
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
 from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
 
 ACTION_SIZE = ACTION_MODES["position"]
@@ -70,11 +71,7 @@ def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
 
 def with_hook(scenario: Scenario, hook) -> Scenario:
     """A copy of `scenario` holding the hook (handle length m, hook length m, angle °)."""
-    handle, length, angle = check_hook(hook)
-    tool = dc.replace(
-        scenario.tool, kind="hook", length=handle, hook_length=length, hook_angle=angle
-    )
-    return validate_scenario(dc.replace(scenario, tool=tool))
+    return with_tool(scenario, HookTool(*check_hook(hook)))
 
 
 class ToolPullEnv(TaskEnv, DrakeGymEnv):

@@ -21,7 +21,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from drake_tooluse.robot.tool import HOOK_CORNER
+from drake_tooluse.robot.tool import HOOK_CORNER, TOOL_TIP
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.tasks.contract import EpisodeMetric
@@ -77,7 +77,10 @@ class PullMetricsReader:
         plant = world.plant
         self._box = world.box
         self._box_index = int(world.box.index())
-        self._corner = plant.GetFrameByName(HOOK_CORNER)
+        # A straight tool (the hook policy tried on one) has no corner: its tip, where a
+        # hook's would be.
+        corner = HOOK_CORNER if plant.HasFrameNamed(HOOK_CORNER) else TOOL_TIP
+        self._corner = plant.GetFrameByName(corner)
         self._corner_index = int(self._corner.body().index())
         self._X_BC = self._corner.GetFixedPoseInBodyFrame()
         self._standoff = world.scenario.box.size[0] / 2 + world.scenario.tool.radius

@@ -1,0 +1,162 @@
+"""The hook policy in the perturbed reality, beside the scripted pull; and each task's policy
+with the other task's tool.
+
+    python benchmarks/pull_policy.py [--policy models/policies/ppo_toolpull]
+        [--instances 100] [--seed 1000] [--cross-instances 20]
+
+1. **Reality** (issue 32's "≥ 70 %"): N seeded instances (seeds SEED … SEED+N−1, apart from
+   the training's and the shipped evaluation's). Each draws a hook from HookTool's ranges,
+   and the pull world as reality meets it (`tool_choice.task_scenarios("pull")`: actuation
+   delay, conservative joint limits, camera noise) with the seed's draw of the cube's start,
+   mass, friction and the grasp. The head camera measures the hook (`measure_hook_belief`);
+   the policy pulls with what it measured, to the step limit, judged where the cube ends.
+   The scripted pull (`ScriptedPull`) runs on the same instances with the same belief.
+2. **The other task's tool** (nominal worlds, the same draws):
+   - the push policy (`paths.TRANSFER_POLICY`) pushing with a hook, taking its straight
+     handle for a straight tool (the hook hangs from its end);
+   - the hook policy holding a straight tool as long as the hook's handle, told it holds
+     that hook. The pull needs the hook: it should fail.
+
+Prints Markdown tables.
+"""
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.tool_choice import (
+    LearnedPullPolicy,
+    Outcome,
+    PushTipPolicy,
+    ScriptedPullPolicy,
+    measure,
+    task_scenarios,
+    tool_label,
+)
+from drake_tooluse.experiments.transfer import attempt, run_worlds
+from drake_tooluse.paths import PULL_POLICY, TRANSFER_POLICY
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.tasks.pull.hook import draw_hook
+
+
+def instance_hook(seed: int) -> HookTool:
+    """The instance's hook, drawn from HookTool's ranges (its own stream of the seed)."""
+    return HookTool(*draw_hook(np.random.default_rng([seed, 1])))
+
+
+def run(policy, scenario, belief) -> Outcome:
+    outcome, error = attempt(policy.run, scenario, belief)
+    return outcome or Outcome(False, float("nan"), error)
+
+
+def reality(policies: dict, instances: range) -> dict:
+    """Each policy's outcomes on the instances, in reality, with the camera's belief."""
+    nominal, real = task_scenarios("pull")
+    outcomes = {name: [] for name in policies}
+    for seed in instances:
+        hook = instance_hook(seed)
+        world = run_worlds(nominal, real, hook, seed)[1]
+        belief, error = attempt(measure, world, hook, seed)
+        for name, policy in policies.items():
+            if belief is None:
+                outcomes[name].append(Outcome(False, float("nan"), f"measurement: {error}"))
+                continue
+            outcome = run(policy, world, belief)
+            outcomes[name].append(outcome)
+            if not outcome.success:
+                print(
+                    f"  reality seed {seed} {tool_label(hook)}: {name} failed "
+                    f"({outcome.final_distance * 100:.1f} cm from the goal"
+                    f"{'; ' + outcome.error if outcome.error else ''})",
+                    flush=True,
+                )
+    return outcomes
+
+
+def push_with_hook_handle(push: PushTipPolicy, instances: range) -> list[Outcome]:
+    nominal, _ = task_scenarios("push")
+    outcomes = []
+    for seed in instances:
+        hook = instance_hook(seed)
+        world = run_worlds(nominal, nominal, hook, seed)[1]
+        outcomes.append(run(push, world, RobotBelief(StraightTool(hook.handle_length))))
+    return outcomes
+
+
+def pull_with_straight_tool(pull: LearnedPullPolicy, instances: range) -> list[Outcome]:
+    nominal, _ = task_scenarios("pull")
+    outcomes = []
+    for seed in instances:
+        hook = instance_hook(seed)
+        world = run_worlds(nominal, nominal, StraightTool(hook.handle_length), seed)[1]
+        outcomes.append(run(pull, world, RobotBelief(hook)))
+    return outcomes
+
+
+def row(name: str, outcomes: list[Outcome]) -> str:
+    success = np.mean([o.success for o in outcomes])
+    final = np.array([o.final_distance for o in outcomes], float)
+    done = final[np.isfinite(final)]
+    errors = sum(o.error is not None for o in outcomes)
+    mean = f"{done.mean() * 100:.2f}" if len(done) else "–"
+    median = f"{np.median(done) * 100:.2f}" if len(done) else "–"
+    return f"| {name} | {len(outcomes)} | {success * 100:.0f} % | {mean} | {median} | {errors} |"
+
+
+HEADER = (
+    "| policy | runs | success | final distance mean (cm) | median (cm) | failed runs |\n"
+    "| --- | --- | --- | --- | --- | --- |"
+)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--policy", default=str(PULL_POLICY), help="the hook policy's directory")
+    ap.add_argument("--instances", type=int, default=100, help="reality instances")
+    ap.add_argument("--seed", type=int, default=1000, help="the first instance's seed")
+    ap.add_argument(
+        "--cross-instances", type=int, default=20, help="instances with the other task's tool"
+    )
+    args = ap.parse_args()
+    if args.instances < 1:
+        ap.error(f"--instances={args.instances} must be at least 1")
+    if args.cross_instances < 0:
+        ap.error(f"--cross-instances={args.cross_instances} must be at least 0")
+    if args.seed < 0:
+        ap.error(f"--seed={args.seed} must be at least 0")
+    learned = LearnedPullPolicy(args.policy)
+    instances = range(args.seed, args.seed + args.instances)
+    start = time.perf_counter()
+    outcomes = reality({"hook policy": learned, "scripted pull": ScriptedPullPolicy()}, instances)
+    seconds = time.perf_counter() - start
+    print(
+        f"\nToolPull in the perturbed reality (a hook drawn per instance and measured by the head "
+        f"camera; delay, joint limits, camera noise, mass, friction, grasp), seeds "
+        f"{instances.start}…{instances.stop - 1}, policy {args.policy}\n"
+    )
+    print(HEADER)
+    for name, runs in outcomes.items():
+        print(row(name, runs))
+    rate = np.mean([o.success for o in outcomes["hook policy"]])
+    print(
+        f"\ngoal: reality success >= 70 %: {'met' if rate >= 0.70 else 'not met'} ({seconds:.0f} s)"
+    )
+    if args.cross_instances:
+        cross = range(args.seed, args.seed + args.cross_instances)
+        print(
+            f"\nEach task's policy with the other task's tool (nominal worlds), seeds {cross.start}…{cross.stop - 1}\n"
+        )
+        print(HEADER)
+        push = PushTipPolicy(TRANSFER_POLICY)
+        print(
+            row("push policy, a hook's straight handle (push)", push_with_hook_handle(push, cross))
+        )
+        print(row("hook policy, a straight tool (pull)", pull_with_straight_tool(learned, cross)))
+
+
+if __name__ == "__main__":
+    sys.exit(run_script(main))
