@@ -77,24 +77,21 @@ def reality(policies: dict, instances: range) -> dict:
     return outcomes
 
 
-def push_with_hook_handle(push: PushTipPolicy, instances: range) -> list[Outcome]:
-    nominal, _ = task_scenarios("push")
+def with_other_tool(task: str, policy, tools, instances: range) -> list[Outcome]:
+    """`policy` doing `task` in its nominal world, each instance's hook made into (the tool in
+    the hand, the tool the robot believes it holds) by `tools`."""
+    nominal, _ = task_scenarios(task)
     outcomes = []
     for seed in instances:
-        hook = instance_hook(seed)
-        world = run_worlds(nominal, nominal, hook, seed)[1]
-        outcomes.append(run(push, world, RobotBelief(StraightTool(hook.handle_length))))
+        held, believed = tools(instance_hook(seed))
+        world = run_worlds(nominal, nominal, held, seed)[1]
+        outcomes.append(run(policy, world, RobotBelief(believed)))
     return outcomes
 
 
-def pull_with_straight_tool(pull: LearnedPullPolicy, instances: range) -> list[Outcome]:
-    nominal, _ = task_scenarios("pull")
-    outcomes = []
-    for seed in instances:
-        hook = instance_hook(seed)
-        world = run_worlds(nominal, nominal, StraightTool(hook.handle_length), seed)[1]
-        outcomes.append(run(pull, world, RobotBelief(hook)))
-    return outcomes
+def handle(hook: HookTool) -> StraightTool:
+    """A straight tool as long as the hook's handle."""
+    return StraightTool(hook.handle_length)
 
 
 def row(name: str, outcomes: list[Outcome]) -> str:
@@ -152,10 +149,10 @@ def main() -> None:
         )
         print(HEADER)
         push = PushTipPolicy(TRANSFER_POLICY)
-        print(
-            row("push policy, a hook's straight handle (push)", push_with_hook_handle(push, cross))
-        )
-        print(row("hook policy, a straight tool (pull)", pull_with_straight_tool(learned, cross)))
+        hook_as_straight = with_other_tool("push", push, lambda h: (h, handle(h)), cross)
+        print(row("push policy, a hook's straight handle (push)", hook_as_straight))
+        straight_as_hook = with_other_tool("pull", learned, lambda h: (handle(h), h), cross)
+        print(row("hook policy, a straight tool (pull)", straight_as_hook))
 
 
 if __name__ == "__main__":
