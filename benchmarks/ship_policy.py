@@ -18,6 +18,7 @@ from pathlib import Path
 from drake_tooluse import compat
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.learning.jobs import this_interpreter
 from drake_tooluse.learning.task_envs import episode_metrics
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -56,8 +57,8 @@ def main() -> None:
         shutil.rmtree(target)
     tmp.rename(target)
     metrics = json.loads(
-        subprocess.run(  # (this interpreter's drake-tooluse, activated or not)
-            [sys.executable, "-m", "drake_tooluse.cli", *evaluate[1:]],
+        subprocess.run(
+            this_interpreter(evaluate),
             capture_output=True,
             text=True,
             check=True,

@@ -46,7 +46,7 @@ from pathlib import Path
 from drake_tooluse.experiments.paper_study_cells import StudyFiles, check_cell_names
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
-from drake_tooluse.learning.jobs import Commands, last_line, run_queue
+from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
 from drake_tooluse.tasks.push.env import current_kwargs
 from drake_tooluse.validation import check_int
 
@@ -430,7 +430,7 @@ def report(study: Study) -> bool:
     logged and the job goes on); whether it was made."""
     if study.report_command is None:
         return False
-    done = subprocess.run(study.report_command, capture_output=True, text=True)
+    done = subprocess.run(this_interpreter(study.report_command), capture_output=True, text=True)
     if done.returncode != 0:
         study.log(f"the report failed: {last_line(done)}")
         return False

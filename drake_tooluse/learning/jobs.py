@@ -18,11 +18,22 @@ from __future__ import annotations
 import shlex
 import signal
 import subprocess
+import sys
 import threading
 from collections.abc import Callable, Hashable
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
 STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)  # stop the job as Ctrl-C does
+
+
+def this_interpreter(cmd: list[str]) -> list[str]:
+    """`cmd` as this Python runs it: `drake-tooluse …` as `python -m drake_tooluse.cli …`, so
+    a job started from a virtual environment that is not activated (`.venv/bin/drake-tooluse
+    study`) finds its commands as one from an activated one does. What the job logs and
+    records stays `drake-tooluse …`."""
+    if cmd and cmd[0] == "drake-tooluse":
+        return [sys.executable, "-m", "drake_tooluse.cli", *cmd[1:]]
+    return list(cmd)
 
 
 class Commands:
@@ -38,7 +49,9 @@ class Commands:
         with self._lock:
             if self._stopping.is_set():
                 raise RuntimeError(f"the job is stopping: {shlex.join(cmd)} not started")
-            job = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            job = subprocess.Popen(
+                this_interpreter(cmd), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            )
             self._live.add(job)
         return job
 

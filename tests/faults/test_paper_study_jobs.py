@@ -389,3 +389,12 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
         c: v for c, v in before.items() if c != "hold_ppo_env1_paper"
     }
     assert "restored" in capsys.readouterr().err
+
+
+def test_a_job_runs_drake_tooluse_with_this_interpreter_activated_or_not(monkeypatch):
+    """`.venv/bin/drake-tooluse study` from a shell whose PATH lacks the venv: its commands
+    still run (they failed with "'drake-tooluse': No such file or directory")."""
+    monkeypatch.setenv("PATH", "/nonexistent")
+    done = jobs.Commands().run(["drake-tooluse", "--version"])
+    assert done.returncode == 0 and done.stdout.startswith("drake-tooluse "), done.stderr
+    assert done.args == ["drake-tooluse", "--version"]  # as logged

@@ -4,7 +4,9 @@
 - ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy;
 - ppo_toolpush_paper_action: the paper's observation and its 7-d action (tip position change
   + quaternion change);
-- ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v0).
+- ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v0);
+- ppo_toolpush_tip_far: ppo_toolpush_tip fine-tuned on the goal 0.10 m further (ToolPushFar-v0),
+  tool choice's push-far policy.
 """
 
 import json
@@ -25,6 +27,7 @@ SHIPPED = {  # name -> (env id, observation size, action size)
     "ppo_toolpush_tip": (PUSH, 12, 3),
     "ppo_toolpush_paper_action": (PUSH, 30, 7),
     "ppo_toolpull": (PULL, 16, 3),
+    "ppo_toolpush_tip_far": ("drake_tooluse/ToolPushFar-v0", 12, 3),
 }
 
 
