@@ -68,6 +68,7 @@ BUDGETS = {
     "--num-cpus": ["1"],
     "--count": ["2"],
     "--instances": ["2"],
+    "--cross-instances": ["1"],
     "--rollouts": ["1"],
 }
 # One env process, small PPO/TRPO rollouts, an evaluation (and a checkpoint) every 128 steps.
@@ -158,6 +159,11 @@ RULES = [
     Rule(r"drake-tooluse study-report( .*)?", "run", needs=("rliable",)),
     Rule(r"python benchmarks/hook_vision_accuracy\.py.*", "run"),
     Rule(r"python benchmarks/pull_scripted\.py.*", "run"),
+    Rule(
+        r"python benchmarks/pull_policy\.py.*",
+        "run",
+        add=("--instances", "2", "--cross-instances", "1"),
+    ),
     Rule(r"drake-tooluse choose-tool .*", "run", add=("--rollouts", "1")),
     Rule(r"python benchmarks/tool_choice\.py.*", "run", add=("--rollouts", "1")),
     Rule(r"python benchmarks/env_sanity\.py.*", "run", add=("--steps", "100")),
