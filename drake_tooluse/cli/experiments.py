@@ -299,9 +299,17 @@ def cmd_choose_tool(args) -> dict:
     seed_arg(args.seed)
     from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
 
+    if args.record is not None:
+        output_file_arg(args.record, "--record", ".html")
     rack = args.tools or DEFAULT_RACK
     return choose_tool(
-        args.task, rack, rollouts, args.seed, oracle=args.oracle, delay_margin=args.delay_margin
+        args.task,
+        rack,
+        rollouts,
+        args.seed,
+        oracle=args.oracle,
+        delay_margin=args.delay_margin,
+        recording_path=args.record,
     )
 
 
@@ -536,6 +544,12 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
     p.add_argument("--oracle", action="store_true", help="also run every tool in reality")
+    p.add_argument(
+        "--record",
+        type=Path,
+        metavar="HTML",
+        help="write the chosen tool's run in reality as a Meshcat recording (standalone HTML)",
+    )
     p.add_argument(
         "--delay-margin",
         type=float,

@@ -44,6 +44,7 @@ import numpy as np
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_closed_loop, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import (
@@ -193,9 +194,10 @@ class Outcome:
 
 class ToolPolicy(Protocol):
     """A way to do a task with a kind of tool: `run(scenario, belief)` in a world holding the
-    true tool, the robot's IK holding `belief`."""
+    true tool, the robot's IK holding `belief`; `run(..., recording_path=FILE)` also writes
+    the run's Meshcat recording as a standalone HTML file (asked of the chosen tool's run)."""
 
-    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome: ...
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome: ...
 
 
 class PushTipPolicy:
@@ -205,9 +207,18 @@ class PushTipPolicy:
         self.policy = load_policy(policy_dir)
         check_policy_env(self.policy)
 
-    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
-        push = run_closed_loop(scenario, self.policy, belief)
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
+        push = run_closed_loop(scenario, self.policy, belief, recording_path)
         return Outcome(push.success, push.final_box_to_goal, push.error)
+
+
+def run_recorded_pull(scenario: Scenario, controller, belief: RobotBelief, recording_path):
+    """`run_pull` for MAX_STEPS; with `recording_path`, recorded in a new Meshcat and written
+    there."""
+    meshcat = None if recording_path is None else start_meshcat()
+    return run_pull(
+        scenario, controller, belief, MAX_STEPS, meshcat=meshcat, recording_path=recording_path
+    )
 
 
 class LearnedPullPolicy:
@@ -218,16 +229,17 @@ class LearnedPullPolicy:
         self.policy = load_policy(policy_dir)
         check_policy_env(self.policy, PULL_ENV_ID)
 
-    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
-        pull = run_pull(scenario, self.policy.act, belief, MAX_STEPS)
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
+        pull = run_recorded_pull(scenario, self.policy.act, belief, recording_path)
         return Outcome(pull.success, pull.final_object_to_goal, pull.error)
 
 
 class ScriptedPullPolicy:
     """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`)."""
 
-    def run(self, scenario: Scenario, belief: RobotBelief) -> Outcome:
-        pull = run_pull(scenario, ScriptedPull(scenario.table.top_z), belief, MAX_STEPS)
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
+        controller = ScriptedPull(scenario.table.top_z)
+        pull = run_recorded_pull(scenario, controller, belief, recording_path)
         return Outcome(pull.success, pull.final_object_to_goal, pull.error)
 
 
@@ -336,12 +348,14 @@ def choose_tool(
     oracle: bool = False,
     policies: Policies | None = None,
     delay_margin: float = DELAY_MARGIN,
+    recording_path=None,
 ) -> dict:
     """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
     actuation delays up to `delay_margin` s), chooses the best and does the instance with it in reality. `instance` is a TaskInstance
     or a task kind (TASKS, then drawn with `seed`). With `oracle`, every tool is also run in
-    reality (`oracle_success`: whether any tool succeeds). Returns a dict (see
-    `format_choice`)."""
+    reality (`oracle_success`: whether any tool succeeds). With `recording_path`, the chosen
+    tool's run in reality is recorded in Meshcat and written there as a standalone HTML file.
+    Returns a dict (see `format_choice`)."""
     if not isinstance(instance, TaskInstance):
         instance = TaskInstance(instance, seed)
     rack = check_rack(rack)
@@ -391,7 +405,13 @@ def choose_tool(
     chosen = min(range(len(candidates)), key=lambda i: _rank_key(candidates[i]))
     for i, candidate in enumerate(candidates):
         if oracle or i == chosen:
-            candidate["reality"] = _reality_run(instance, candidate, worlds.get(i), policies)
+            candidate["reality"] = _reality_run(
+                instance,
+                candidate,
+                worlds.get(i),
+                policies,
+                recording_path if i == chosen else None,
+            )
     result = {
         "task": instance.task,
         "seed": instance.seed,
@@ -405,21 +425,27 @@ def choose_tool(
         "wall_time_s": time.perf_counter() - start,
         "candidates": [{k: v for k, v in c.items() if not k.startswith("_")} for c in candidates],
     }
+    if candidates[chosen]["reality"].get("recording"):
+        result["recording"] = candidates[chosen]["reality"]["recording"]
     if oracle:
         result["oracle_success"] = any(c["reality"]["success"] for c in candidates)
         result["oracle_tools"] = [c["tool"] for c in candidates if c["reality"]["success"]]
     return result
 
 
-def _reality_run(instance, candidate, worlds, policies: Policies) -> dict:
-    """The candidate's run in reality, with the belief the camera gave; a tool the robot has
-    no way to use (or could not measure) is not run and counts as a failure."""
+def _reality_run(instance, candidate, worlds, policies: Policies, recording_path=None) -> dict:
+    """The candidate's run in reality, with the belief the camera gave (recorded to
+    `recording_path` if given); a tool the robot has no way to use (or could not measure) is
+    not run and counts as a failure."""
     belief = candidate.get("_belief")
     if worlds is None or belief is None:
         return {"success": False, "final_distance_m": None, "run": False}
-    outcome, error = attempt(policies.for_task(instance.task).run, worlds[1], belief)
-    outcome = outcome or Outcome(False, math.nan, error)
-    return {**outcome.as_dict(), "run": True}
+    recording = {} if recording_path is None else {"recording_path": recording_path}
+    outcome, error = attempt(policies.for_task(instance.task).run, worlds[1], belief, **recording)
+    if outcome is None:  # the run raised: nothing was written
+        return {**Outcome(False, math.nan, error).as_dict(), "run": True}
+    recorded = {} if recording_path is None else {"recording": str(recording_path)}
+    return {**outcome.as_dict(), "run": True, **recorded}
 
 
 def format_choice(out: dict) -> str:
@@ -446,4 +472,6 @@ def format_choice(out: dict) -> str:
     )
     if "oracle_success" in out:
         lines.append(f"oracle: {', '.join(out['oracle_tools']) or 'no tool'} succeeds")
+    if "recording" in out:
+        lines.append(f"the chosen tool's run: open {out['recording']} in a browser")
     return "\n".join(lines)

@@ -49,6 +49,7 @@ from matplotlib.patches import Patch
 
 from drake_tooluse.builders.box_measurement import measure_box_start
 from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.builders.visualization import save_recording, start_meshcat
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
@@ -149,11 +150,18 @@ def run_worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
     )
 
 
-def run_closed_loop(scenario: Scenario, policy, belief: RobotBelief) -> PushRun:
-    """The loaded policy inside the diagram, until the box is at the goal or MAX_STEPS."""
-    built = build_policy_diagram(scenario, policy, belief)
+def run_closed_loop(
+    scenario: Scenario, policy, belief: RobotBelief, recording_path=None
+) -> PushRun:
+    """The loaded policy inside the diagram, for MAX_STEPS (`run_policy`'s protocol); with
+    `recording_path`, recorded in a new Meshcat and written there as a standalone HTML file."""
+    meshcat = None if recording_path is None else start_meshcat()
+    built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat)
     try:
-        return run_policy(built, max_steps=MAX_STEPS)
+        push = run_policy(built, max_steps=MAX_STEPS, record=meshcat is not None)
+        if meshcat is not None:
+            save_recording(meshcat, built.visualizer, recording_path)
+        return push
     finally:
         release_diagram(built.diagram)  # its Python systems would keep it alive
 
