@@ -145,14 +145,11 @@ def main() -> None:
     )
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
-    OUTPUT.write(
-        out,
+    command = (
         f"python benchmarks/hook_vision_accuracy.py --count {args.count} "
-        f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}",
-        goals=goals,
-        summary=summary,
-        results=rows,
+        f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}"
     )
+    OUTPUT.write(out, command, goals=goals, summary=summary, results=rows)
     print(f"wrote {out}")
 
 

@@ -153,15 +153,12 @@ def main() -> None:
     )
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
-    OUTPUT.write(
-        out,
+    command = (
         "python benchmarks/vision_accuracy.py --lengths "
         + " ".join(f"{x:g}" for x in args.lengths)
-        + f" --noise {args.noise:g} --noise-seeds {args.noise_seeds}",
-        goals=goals,
-        summary=summary,
-        results=rows,
+        + f" --noise {args.noise:g} --noise-seeds {args.noise_seeds}"
     )
+    OUTPUT.write(out, command, goals=goals, summary=summary, results=rows)
     print(f"wrote {out}")
 
 

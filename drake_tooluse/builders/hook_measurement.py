@@ -136,8 +136,8 @@ def build_hook_measurement_diagram(
     `scene_objects`, `seed`, `move_time`, `settle_time`, as `build_camera_measurement`'s."""
     check_hook_scenario(scenario)
 
-    def estimator(plan, first_capture, capture_period):
-        specs = [hook_view_spec(scenario, pv.view) for pv in plan.views]
+    def estimator(planned, first_capture, capture_period):
+        specs = [hook_view_spec(scenario, pv.view) for pv in planned]
         info = camera_info(scenario.camera)
         return HookEstimator(info, specs, first_capture, capture_period)
 

@@ -322,10 +322,10 @@ def build_camera_measurement(
     noise] + an estimator, the diagram `name`: what the straight tool's and the hook's
     measurements share (`build_measurement_diagram`, `build_hook_measurement_diagram`).
 
-    `make_estimator(plan, first_capture, capture_period)` gives the estimator (named
-    `estimator_name`), which takes the views at the capture times (`capture_times`); it has the
-    inputs `color_image` and `depth_image`. Exported outputs: the estimator's, then
-    `color_image` and `depth_image`.
+    `make_estimator(planned, first_capture, capture_period)` gives the estimator (named
+    `estimator_name`) of the plan's views (`PlannedView`s, in capture order), which takes them
+    at the capture times (`capture_times`); it has the inputs `color_image` and `depth_image`.
+    Exported outputs: the estimator's, then `color_image` and `depth_image`.
 
     Args:
         plan: a plan from `plan_measurement` to reuse (it depends on the robot and the camera,
@@ -364,7 +364,7 @@ def build_camera_measurement(
         color_port = noise.get_output_port()
     times = capture_times(len(plan.views), move_time, settle_time)
     estimator = builder.AddNamedSystem(
-        estimator_name, make_estimator(plan, times[0], move_time + settle_time)
+        estimator_name, make_estimator(plan.views, times[0], move_time + settle_time)
     )
     builder.Connect(color_port, estimator.GetInputPort("color_image"))
     builder.Connect(sensor.depth_image_32F_output_port(), estimator.GetInputPort("depth_image"))
@@ -391,8 +391,8 @@ def build_measurement_diagram(
     `settle_time`, as `build_camera_measurement`'s."""
     check_one_of(method, METHODS, "method")
 
-    def estimator(plan, first_capture, capture_period):
-        specs = [pv.spec for pv in plan.views]
+    def estimator(planned, first_capture, capture_period):
+        specs = [pv.spec for pv in planned]
         info = camera_info(scenario.camera)
         return ToolLengthEstimator(info, specs, first_capture, capture_period, method)
 

@@ -271,7 +271,7 @@ def edge_beyond_extreme_pixel(
     image direction (within a pixel across): half that gap is the unbiased estimate. For a
     tool square to the pixel grid the gap is one pixel; tilted, the rows' phases differ and it
     is smaller. The gap in pixels becomes metres with the image's rate of motion along u_C at
-    p_CE: f |u_xy - u_z p_xy / z| / z pixels per metre."""
+    p_CE: `f |u_xy - u_z p_xy / z| / z` pixels per metre."""
     x, y, z = p_CE
     d = np.array([u_C[0] - u_C[2] * x / z, u_C[1] - u_C[2] * y / z]) * sign
     image_rate = f * np.linalg.norm(d) / z
