@@ -18,7 +18,6 @@ Errors are measured minus true, mm and deg.
 
 import argparse
 import itertools
-import platform
 import sys
 import time
 from pathlib import Path
@@ -28,7 +27,6 @@ import numpy as np
 from drake_tooluse.builders.hook_measurement import measure_hook, plan_hook_measurement
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.runs import BenchmarkOutput
-from drake_tooluse.files import atomic_write_json
 from drake_tooluse.perception.markers import LIGHTINGS
 from drake_tooluse.robot.tool import HOOK_ANGLE_RANGE, HOOK_HANDLE_RANGE, HOOK_LENGTH_RANGE
 from drake_tooluse.world.scenario import (
@@ -147,17 +145,11 @@ def main() -> None:
     )
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
-    atomic_write_json(
-        out,
-        {
-            "command": f"python benchmarks/hook_vision_accuracy.py --count {args.count} "
-            f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}",
-            "machine": platform.platform(),
-            "goals": goals,
-            "summary": summary,
-            "results": rows,
-        },
+    command = (
+        f"python benchmarks/hook_vision_accuracy.py --count {args.count} "
+        f"--seed {args.seed} --noise {args.noise:g} --lighting {args.lighting}"
     )
+    OUTPUT.write(out, command, goals=goals, summary=summary, results=rows)
     print(f"wrote {out}")
 
 

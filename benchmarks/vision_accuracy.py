@@ -17,7 +17,6 @@ figures as JSON to a new runs/vision_accuracy-<time>/vision_accuracy.json (or --
 
 import argparse
 import dataclasses as dc
-import platform
 import sys
 import time
 from pathlib import Path
@@ -27,7 +26,6 @@ import numpy as np
 from drake_tooluse.builders.measurement import measure_tool
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.runs import BenchmarkOutput
-from drake_tooluse.files import atomic_write_json
 from drake_tooluse.world.scenario import Scenario, validate_scenario, with_tool_length
 
 OUTPUT = BenchmarkOutput(Path(__file__))
@@ -155,18 +153,12 @@ def main() -> None:
     )
     for name, met in goals.items():
         print(f"goal {name}: {'met' if met else 'NOT met'}")
-    atomic_write_json(
-        out,
-        {
-            "command": "python benchmarks/vision_accuracy.py --lengths "
-            + " ".join(f"{x:g}" for x in args.lengths)
-            + f" --noise {args.noise:g} --noise-seeds {args.noise_seeds}",
-            "machine": platform.platform(),
-            "goals": goals,
-            "summary": summary,
-            "results": rows,
-        },
+    command = (
+        "python benchmarks/vision_accuracy.py --lengths "
+        + " ".join(f"{x:g}" for x in args.lengths)
+        + f" --noise {args.noise:g} --noise-seeds {args.noise_seeds}"
     )
+    OUTPUT.write(out, command, goals=goals, summary=summary, results=rows)
     print(f"wrote {out}")
 
 

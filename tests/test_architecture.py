@@ -195,3 +195,33 @@ def test_the_checker_sees_a_planted_upward_import(tmp_path):
     found = [_known(n) for n, _, _ in _imports(tree, "drake_tooluse.world.scene")]
     assert "drake_tooluse.learning.train" in found
     assert _layer("drake_tooluse.learning.train") > _layer("drake_tooluse.world.scene")
+
+
+def _private_imports(tree: ast.AST, module: str) -> list[str]:
+    """`from drake_tooluse.x import _name` in `tree`: another module's private name (a dunder
+    such as `__version__` is public)."""
+    return [
+        f"{module} line {node.lineno}: {node.module}.{alias.name}"
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom) and _known(node.module or "")
+        for alias in node.names
+        if alias.name.startswith("_") and not alias.name.endswith("__")
+    ]
+
+
+def test_no_module_imports_another_modules_private_names():
+    """What two modules share is public in one of them (named for what it does), so a
+    module's private names stay free to change."""
+    found = [
+        line
+        for module, path in MODULES.items()
+        for line in _private_imports(ast.parse(path.read_text()), module)
+    ]
+    assert not found, f"private names imported from another module: {found}"
+
+
+def test_the_checker_sees_a_planted_private_import():
+    tree = ast.parse("from drake_tooluse.perception.markers import _blob, __doc__, find_blobs\n")
+    assert _private_imports(tree, "drake_tooluse.perception.hook") == [
+        "drake_tooluse.perception.hook line 1: drake_tooluse.perception.markers._blob"
+    ]

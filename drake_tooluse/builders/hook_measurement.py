@@ -42,29 +42,19 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-import time
-from pathlib import Path
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import TrajectorySource
 
 from drake_tooluse.builders.measurement import (
     MEASUREMENT_VIEWS,
-    MOVE_TIME,
-    SETTLE_TIME,
+    MeasurementDiagram,
     MeasurementPlan,
     MeasurementView,
-    add_scene_objects,
-    capture_times,
-    check_images_dir,
-    joint_schedule,
+    build_camera_measurement,
+    capture_views,
     plan_measurement,
 )
-from drake_tooluse.files import atomic_dir, atomic_write_image
 from drake_tooluse.perception.hook import HookMeasurement, HookViewSpec, annotate_hook_view
-from drake_tooluse.perception.markers import LIGHTINGS, check_noise_sigma
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import (
     HOOK_ANGLE_RANGE,
@@ -72,17 +62,10 @@ from drake_tooluse.robot.tool import (
     HOOK_LENGTH_RANGE,
     HookTool,
 )
-from drake_tooluse.systems.camera import (
-    ColorImageNoise,
-    add_head_camera,
-    camera_info,
-    head_camera_pose,
-)
+from drake_tooluse.systems.camera import camera_info
 from drake_tooluse.systems.hook_estimator import HookEstimator
-from drake_tooluse.systems.lifetime import release_diagram
-from drake_tooluse.validation import check_in_range, check_one_of
+from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scenario import Scenario
-from drake_tooluse.world.scene import World, add_world
 
 QUANTITIES = ("handle_length", "hook_length", "angle", "grasp_along")
 
@@ -144,75 +127,29 @@ def plan_hook_measurement(scenario: Scenario, views=HOOK_VIEWS) -> MeasurementPl
     return plan_measurement(scenario, views)
 
 
-@dc.dataclass
-class HookMeasurementDiagram:
-    diagram: object
-    world: World
-    plan: MeasurementPlan
-    sensor: object
-    estimator: HookEstimator
-    capture_times: list
-
-
 def build_hook_measurement_diagram(
-    scenario: Scenario,
-    plan: MeasurementPlan | None = None,
-    *,
-    noise_sigma: float | None = None,
-    lighting: str = "default",
-    scene_objects=(),
-    seed: int = 0,
-    move_time: float = MOVE_TIME,
-    settle_time: float = SETTLE_TIME,
-) -> HookMeasurementDiagram:
+    scenario: Scenario, plan: MeasurementPlan | None = None, **options
+) -> MeasurementDiagram:
     """World (true hook) + joint schedule through the views + head camera [+ colour noise] +
-    HookEstimator. Exported outputs: `hook`, `measurement`, `color_image`, `depth_image`."""
+    HookEstimator. Exported outputs: `hook`, `measurement`, `color_image`, `depth_image`.
+    `plan`: from `plan_hook_measurement`, to reuse; `options`: `noise_sigma`, `lighting`,
+    `scene_objects`, `seed`, `move_time`, `settle_time`, as `build_camera_measurement`'s."""
     check_hook_scenario(scenario)
-    check_one_of(lighting, LIGHTINGS, "lighting")
-    sigma = scenario.camera.noise_sigma if noise_sigma is None else check_noise_sigma(noise_sigma)
-    move_time = check_in_range(move_time, 0.1, 10.0, "move_time", unit="s")
-    settle_time = check_in_range(settle_time, 0.0, 10.0, "settle_time", unit="s")
-    plan = plan_hook_measurement(scenario) if plan is None else plan
-    builder = DiagramBuilder()
-    world = add_world(builder, scenario)
-    for joint, q in zip(world.arm_joints(), plan.views[0].q):
-        joint.set_default_angle(q)
-    add_scene_objects(world, plan.X_WC, scene_objects)
-    schedule = builder.AddNamedSystem(
-        "joint_schedule",
-        TrajectorySource(joint_schedule(plan, move_time, settle_time), output_derivative_order=1),
+
+    def estimator(planned, first_capture, capture_period):
+        specs = [hook_view_spec(scenario, pv.view) for pv in planned]
+        info = camera_info(scenario.camera)
+        return HookEstimator(info, specs, first_capture, capture_period)
+
+    return build_camera_measurement(
+        scenario,
+        plan,
+        estimator,
+        name="hook_measurement",
+        estimator_name="hook_estimator",
+        views=HOOK_VIEWS,
+        **options,
     )
-    builder.Connect(
-        schedule.get_output_port(), world.plant.get_desired_state_input_port(world.baxter)
-    )
-    sensor = add_head_camera(builder, world, scenario.camera, lighting)
-    color_port = sensor.color_image_output_port()
-    if sigma > 0:
-        noise = builder.AddNamedSystem(
-            "color_noise",
-            ColorImageNoise(scenario.camera.width, scenario.camera.height, sigma, seed),
-        )
-        builder.Connect(color_port, noise.get_input_port())
-        color_port = noise.get_output_port()
-    times = capture_times(len(plan.views), move_time, settle_time)
-    estimator = builder.AddNamedSystem(
-        "hook_estimator",
-        HookEstimator(
-            camera_info(scenario.camera),
-            [hook_view_spec(scenario, pv.view) for pv in plan.views],
-            times[0],
-            move_time + settle_time,
-        ),
-    )
-    builder.Connect(color_port, estimator.GetInputPort("color_image"))
-    builder.Connect(sensor.depth_image_32F_output_port(), estimator.GetInputPort("depth_image"))
-    builder.ExportOutput(estimator.GetOutputPort("hook"), "hook")
-    builder.ExportOutput(estimator.GetOutputPort("measurement"), "measurement")
-    builder.ExportOutput(color_port, "color_image")
-    builder.ExportOutput(sensor.depth_image_32F_output_port(), "depth_image")
-    diagram = builder.Build()
-    diagram.set_name("hook_measurement")
-    return HookMeasurementDiagram(diagram, world, plan, sensor, estimator, times)
 
 
 def check_hook_scenario(scenario: Scenario) -> None:
@@ -311,109 +248,57 @@ class HookMeasurementResult:
 
 
 def measure_hook(
-    scenario: Scenario,
-    *,
-    plan: MeasurementPlan | None = None,
-    noise_sigma: float | None = None,
-    lighting: str = "default",
-    scene_objects=(),
-    seed: int = 0,
-    keep_images: bool = False,
-    save_images_dir=None,
-    move_time: float = MOVE_TIME,
-    settle_time: float = SETTLE_TIME,
+    scenario: Scenario, *, keep_images: bool = False, save_images_dir=None, **options
 ) -> HookMeasurementResult:
     """Moves the held hook through the views in the dynamic simulation and measures it.
 
     Args:
         scenario: the world; its tool (`kind: hook`) is the truth the camera sees (the robot
             never reads it). `scenario.camera` sets the intrinsics.
-        plan: a plan from `plan_hook_measurement` to reuse (it depends on the robot and the
-            camera, not on the hook).
-        noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
-        lighting: "default" or "dim_side" (see systems.camera.lighting_params).
-        scene_objects: extra SceneObjects (distractors, occluders).
         keep_images: keep each view's (colour, depth) images in the result.
         save_images_dir: if given, each view is written there annotated
             (`annotate_hook_view`) as `measure_<view>.png`, all of them as one set
             (`check_images_dir`).
+        options: `plan` (from `plan_hook_measurement`, to reuse: it depends on the robot and
+            the camera, not on the hook), `noise_sigma`, `lighting`, `scene_objects`, `seed`,
+            `move_time`, `settle_time`, as `build_camera_measurement`'s.
 
     Raises ValueError if the scenario holds no hook, or (naming the quantities, each view and
     what it missed) if no view gives one of the four. Dropped views are in `result.dropped`
     with the reason; a hook view that could not see the grasp says why in its `grip_reason`.
     """
-    start = time.perf_counter()
-    if save_images_dir is not None:
-        check_images_dir(save_images_dir)
-    built = build_hook_measurement_diagram(
-        scenario,
-        plan,
-        noise_sigma=noise_sigma,
-        lighting=lighting,
-        scene_objects=scene_objects,
-        seed=seed,
-        move_time=move_time,
-        settle_time=settle_time,
+    run = capture_views(
+        lambda: build_hook_measurement_diagram(scenario, **options),
+        lambda color, view: annotate_hook_view(color, view, camera_info(scenario.camera)),
+        keep_images=keep_images,
+        save_images_dir=save_images_dir,
     )
-    try:
-        simulator = Simulator(built.diagram)
-        simulator.Initialize()
-        context = simulator.get_context()
-        diagram = built.diagram
-        plant = built.world.plant
-        plant_context = plant.GetMyContextFromRoot(context)
-        want_images = keep_images or save_images_dir is not None
-        images, X_GC = [], []
-        for t in built.capture_times:
-            simulator.AdvanceTo(t)
-            # The camera in the gripper frame at the capture (joint encoders + calibration).
-            X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
-            X_GC.append(X_WG.inverse() @ head_camera_pose(plant, plant_context))
-            if want_images:
-                color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
-                depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
-                images.append((color, depth))
-        t_end = built.capture_times[-1] + plant.time_step()  # the last capture runs then
-        simulator.AdvanceTo(t_end)
-        measurement: HookMeasurement = diagram.GetOutputPort("measurement").Eval(context)
-        files = []
-        if save_images_dir is not None:
-            out_dir = Path(save_images_dir)
-            info = camera_info(scenario.camera)
-            with atomic_dir(out_dir, replace=True) as tmp:
-                for view, (color, _) in zip(measurement.views, images):
-                    name = f"measure_{view.view}.png"
-                    atomic_write_image(tmp / name, annotate_hook_view(color, view, info), bgr=True)
-                    files.append(out_dir / name)
-        combined = combine_views(measurement.views, X_GC)
-        tool = scenario.tool
-        result = HookMeasurementResult(
-            **combined,
-            views=list(measurement.views),
-            truth={
-                "handle_length": float(tool.length),
-                "hook_length": float(tool.hook_length),
-                "angle": float(tool.hook_angle),
-                "grasp_along": float(tool.grasp_offset_along),
-            },
-            wall_time=time.perf_counter() - start,
-            sim_time=t_end,
-            images=images if keep_images else None,
-            image_files=files,
+    measurement: HookMeasurement = run.measurement
+    tool = scenario.tool
+    result = HookMeasurementResult(
+        **combine_views(measurement.views, run.X_GC),
+        views=list(measurement.views),
+        truth={
+            "handle_length": float(tool.length),
+            "hook_length": float(tool.hook_length),
+            "angle": float(tool.hook_angle),
+            "grasp_along": float(tool.grasp_offset_along),
+        },
+        wall_time=run.wall_time,
+        sim_time=run.sim_time,
+        images=run.images if keep_images else None,
+        image_files=run.image_files,
+    )
+    missing = [q for q in QUANTITIES if not math.isfinite(result.value(q))]
+    if missing:
+        detail = "; ".join(
+            f"view {v.view!r}: {v.reason or v.grip_reason or 'measured'}" for v in measurement.views
         )
-        missing = [q for q in QUANTITIES if not math.isfinite(result.value(q))]
-        if missing:
-            detail = "; ".join(
-                f"view {v.view!r}: {v.reason or v.grip_reason or 'measured'}"
-                for v in measurement.views
-            )
-            raise ValueError(
-                f"the hook's {', '.join(missing)} could not be measured in any of the "
-                f"{len(measurement.views)} views: {detail or 'no view was captured'}"
-            )
-        return result
-    finally:
-        release_diagram(built.diagram)
+        raise ValueError(
+            f"the hook's {', '.join(missing)} could not be measured in any of the "
+            f"{len(measurement.views)} views: {detail or 'no view was captured'}"
+        )
+    return result
 
 
 # The measurement's goal: within these of the truth (m, m, deg). A measured value this close

@@ -292,20 +292,25 @@ def add_scene_objects(world: World, X_WC: RigidTransform, objects) -> None:
 
 @dc.dataclass
 class MeasurementDiagram:
+    """A camera measurement's diagram and its parts (`build_camera_measurement`)."""
+
     diagram: object
     world: World
     plan: MeasurementPlan
     sensor: object
     color_port: object  # the colour image the estimator sees (after the noise)
-    estimator: ToolLengthEstimator
+    estimator: object  # ToolLengthEstimator, HookEstimator: a systems.view_estimator system
     capture_times: list
 
 
-def build_measurement_diagram(
+def build_camera_measurement(
     scenario: Scenario,
-    plan: MeasurementPlan | None = None,
+    plan: MeasurementPlan | None,
+    make_estimator,
     *,
-    method: str = "depth",
+    name: str,
+    estimator_name: str,
+    views=MEASUREMENT_VIEWS,
     noise_sigma: float | None = None,
     lighting: str = "default",
     scene_objects=(),
@@ -313,15 +318,29 @@ def build_measurement_diagram(
     move_time: float = MOVE_TIME,
     settle_time: float = SETTLE_TIME,
 ) -> MeasurementDiagram:
-    """World (true tool) + joint schedule through the views + head camera [+ colour noise] +
-    ToolLengthEstimator. Exported outputs: `tool_length`, `measurement`, `color_image`,
-    `depth_image`."""
-    check_one_of(method, METHODS, "method")
+    """World (the true tool) + joint schedule through the plan's views + head camera [+ colour
+    noise] + an estimator, the diagram `name`: what the straight tool's and the hook's
+    measurements share (`build_measurement_diagram`, `build_hook_measurement_diagram`).
+
+    `make_estimator(planned, first_capture, capture_period)` gives the estimator (named
+    `estimator_name`) of the plan's views (`PlannedView`s, in capture order), which takes them
+    at the capture times (`capture_times`); it has the inputs `color_image` and `depth_image`.
+    Exported outputs: the estimator's, then `color_image` and `depth_image`.
+
+    Args:
+        plan: a plan from `plan_measurement` to reuse (it depends on the robot and the camera,
+            not on the tool); None plans `views`.
+        noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
+        lighting: "default" or "dim_side" (see systems.camera.lighting_params).
+        scene_objects: extra SceneObjects (distractors, occluders).
+        seed: the colour noise's.
+        move_time, settle_time: each move between views, and each hold before a capture (s).
+    """
     check_one_of(lighting, LIGHTINGS, "lighting")
     sigma = scenario.camera.noise_sigma if noise_sigma is None else check_noise_sigma(noise_sigma)
     move_time = check_in_range(move_time, 0.1, 10.0, "move_time", unit="s")
     settle_time = check_in_range(settle_time, 0.0, 10.0, "settle_time", unit="s")
-    plan = plan_measurement(scenario) if plan is None else plan
+    plan = plan_measurement(scenario, views) if plan is None else plan
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
     for joint, q in zip(world.arm_joints(), plan.views[0].q):
@@ -345,24 +364,46 @@ def build_measurement_diagram(
         color_port = noise.get_output_port()
     times = capture_times(len(plan.views), move_time, settle_time)
     estimator = builder.AddNamedSystem(
-        "tool_length_estimator",
-        ToolLengthEstimator(
-            camera_info(scenario.camera),
-            [pv.spec for pv in plan.views],
-            times[0],
-            move_time + settle_time,
-            method,
-        ),
+        estimator_name, make_estimator(plan.views, times[0], move_time + settle_time)
     )
     builder.Connect(color_port, estimator.GetInputPort("color_image"))
     builder.Connect(sensor.depth_image_32F_output_port(), estimator.GetInputPort("depth_image"))
-    builder.ExportOutput(estimator.GetOutputPort("tool_length"), "tool_length")
-    builder.ExportOutput(estimator.GetOutputPort("measurement"), "measurement")
+    for i in range(estimator.num_output_ports()):
+        port = estimator.get_output_port(i)
+        builder.ExportOutput(port, port.get_name())
     builder.ExportOutput(color_port, "color_image")
     builder.ExportOutput(sensor.depth_image_32F_output_port(), "depth_image")
     diagram = builder.Build()
-    diagram.set_name("tool_measurement")
+    diagram.set_name(name)
     return MeasurementDiagram(diagram, world, plan, sensor, color_port, estimator, times)
+
+
+def build_measurement_diagram(
+    scenario: Scenario,
+    plan: MeasurementPlan | None = None,
+    *,
+    method: str = "depth",
+    **options,
+) -> MeasurementDiagram:
+    """World (true tool) + joint schedule through the views + head camera [+ colour noise] +
+    ToolLengthEstimator. Exported outputs: `tool_length`, `measurement`, `color_image`,
+    `depth_image`. `options`: `noise_sigma`, `lighting`, `scene_objects`, `seed`, `move_time`,
+    `settle_time`, as `build_camera_measurement`'s."""
+    check_one_of(method, METHODS, "method")
+
+    def estimator(planned, first_capture, capture_period):
+        specs = [pv.spec for pv in planned]
+        info = camera_info(scenario.camera)
+        return ToolLengthEstimator(info, specs, first_capture, capture_period, method)
+
+    return build_camera_measurement(
+        scenario,
+        plan,
+        estimator,
+        name="tool_measurement",
+        estimator_name="tool_length_estimator",
+        **options,
+    )
 
 
 @dc.dataclass
@@ -456,19 +497,75 @@ def check_images_dir(path, option: str = "save_images_dir") -> Path:
     return path
 
 
+@dc.dataclass
+class CapturedViews:
+    """What a camera measurement's run gives (`capture_views`)."""
+
+    measurement: object  # the estimator's `measurement` output after the last capture
+    X_GC: list  # RigidTransform per capture: the camera in the gripper frame
+    images: list  # [(color RGBA, depth)] per capture, when kept or saved
+    image_files: list  # the annotated views written
+    sim_time: float  # s, simulated
+    wall_time: float  # s: plan (if not given), build, simulate, estimate, save
+
+
+def capture_views(
+    build, annotate, *, keep_images: bool = False, save_images_dir=None
+) -> CapturedViews:
+    """Runs a camera measurement: checks `save_images_dir` (`check_images_dir`), builds the
+    diagram (`build()`, a MeasurementDiagram), simulates it through its captures and releases
+    it. At each capture it records the camera's pose in the gripper frame (the robot's joint
+    encoders and its head camera's calibration: the world plant's kinematics are the robot's
+    own) and, with `keep_images` or `save_images_dir`, the images the estimator takes. With
+    `save_images_dir`, each view is written there annotated (`annotate(color, view)`, BGR) as
+    `measure_<view>.png`, all of them as one set that replaces the views there."""
+    start = time.perf_counter()
+    if save_images_dir is not None:
+        check_images_dir(save_images_dir)
+    built = build()
+    try:
+        simulator = Simulator(built.diagram)
+        simulator.Initialize()
+        context = simulator.get_context()
+        diagram = built.diagram
+        plant = built.world.plant
+        plant_context = plant.GetMyContextFromRoot(context)
+        want_images = keep_images or save_images_dir is not None
+        images, X_GC = [], []
+        for t in built.capture_times:
+            simulator.AdvanceTo(t)
+            # The camera in the gripper frame at the capture (joint encoders + calibration).
+            X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
+            X_GC.append(X_WG.inverse() @ head_camera_pose(plant, plant_context))
+            if want_images:  # the images the estimator takes at t (cached, rendered once)
+                color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
+                depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
+                images.append((color, depth))
+        # The capture at the last time runs at the start of the next step.
+        t_end = built.capture_times[-1] + plant.time_step()
+        simulator.AdvanceTo(t_end)
+        measurement = diagram.GetOutputPort("measurement").Eval(context)
+        files = []
+        if save_images_dir is not None:  # one set: all the new views, or the old ones
+            out_dir = Path(save_images_dir)
+            with atomic_dir(out_dir, replace=True) as tmp:
+                for view, (color, _) in zip(measurement.views, images):
+                    name = IMAGE_NAME.format(view=view.view)
+                    atomic_write_image(tmp / name, annotate(color, view), bgr=True)
+                    files.append(out_dir / name)
+        return CapturedViews(measurement, X_GC, images, files, t_end, time.perf_counter() - start)
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
+
+
 def measure_tool(
     scenario: Scenario,
     save_images_dir=None,
     noise_sigma: float | None = None,
     method: str = "depth",
     *,
-    lighting: str = "default",
-    scene_objects=(),
-    seed: int = 0,
     keep_images: bool = False,
-    plan: MeasurementPlan | None = None,
-    move_time: float = MOVE_TIME,
-    settle_time: float = SETTLE_TIME,
+    **options,
 ) -> MeasurementResult:
     """Moves through the three views in the dynamic simulation and measures the tool.
 
@@ -480,79 +577,38 @@ def measure_tool(
             the views there (`check_images_dir`: the directory holds nothing else).
         noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
         method: "depth" (default) or "pixel" (the paper's fixed metres per pixel).
-        lighting: "default" or "dim_side" (see systems.camera.lighting_params).
-        scene_objects: extra SceneObjects (distractors, occluders).
         keep_images: keep each view's (colour, depth) images in the result.
-        plan: a plan from `plan_measurement` to reuse (it depends on the robot and the
-            camera intrinsics, not on the tool).
+        options: `plan` (from `plan_measurement`, to reuse: it depends on the robot and the
+            camera intrinsics, not on the tool), `lighting`, `scene_objects`, `seed`,
+            `move_time`, `settle_time`, as `build_camera_measurement`'s.
 
     Raises ValueError (naming each view and the missing marker) if no view gives a length.
     Dropped views are in `result.dropped` with the reason.
     """
-    start = time.perf_counter()
-    if save_images_dir is not None:
-        check_images_dir(save_images_dir)
-    built = build_measurement_diagram(
-        scenario,
-        plan,
-        method=method,
-        noise_sigma=noise_sigma,
-        lighting=lighting,
-        scene_objects=scene_objects,
-        seed=seed,
-        move_time=move_time,
-        settle_time=settle_time,
+    run = capture_views(
+        lambda: build_measurement_diagram(
+            scenario, method=method, noise_sigma=noise_sigma, **options
+        ),
+        lambda color, view: annotate_view(color, view, camera_info(scenario.camera)),
+        keep_images=keep_images,
+        save_images_dir=save_images_dir,
     )
-    try:
-        simulator = Simulator(built.diagram)
-        simulator.Initialize()
-        context = simulator.get_context()
-        diagram = built.diagram
-        want_images = keep_images or save_images_dir is not None
-        images, X_GC = [], []
-        plant_context = built.world.plant.GetMyContextFromRoot(context)
-        for t in built.capture_times:
-            simulator.AdvanceTo(t)
-            # The camera in the gripper frame at the capture: the robot's joint encoders and its
-            # head camera's calibration (the world plant's kinematics are the robot's own).
-            X_WG = built.world.gripper_frame.CalcPoseInWorld(plant_context)
-            X_GC.append(X_WG.inverse() @ head_camera_pose(built.world.plant, plant_context))
-            if want_images:  # the images the estimator takes at t (cached, rendered once)
-                color = diagram.GetOutputPort("color_image").Eval(context).data.copy()
-                depth = diagram.GetOutputPort("depth_image").Eval(context).data.copy()
-                images.append((color, depth))
-        # The capture at the last time runs at the start of the next step.
-        t_end = built.capture_times[-1] + built.world.plant.time_step()
-        simulator.AdvanceTo(t_end)
-        measurement: ToolLengthMeasurement = diagram.GetOutputPort("measurement").Eval(context)
-        files = []
-        if save_images_dir is not None:  # one set: all the new views, or the old ones
-            out_dir = Path(save_images_dir)
-            info = camera_info(scenario.camera)
-            with atomic_dir(out_dir, replace=True) as tmp:
-                for view, (color, _) in zip(measurement.views, images):
-                    name = IMAGE_NAME.format(view=view.view)
-                    atomic_write_image(tmp / name, annotate_view(color, view, info), bgr=True)
-                    files.append(out_dir / name)
-        result = MeasurementResult(
-            length=measurement.length(),
-            spread=measurement.spread(),
-            method=method,
-            views=list(measurement.views),
-            wall_time=time.perf_counter() - start,
-            sim_time=t_end,
-            scenario_tool_length=float(scenario.tool.length)
-            if scenario.tool.attached
-            else math.nan,
-            images=images if keep_images else None,
-            image_files=files,
-            grasp_along=estimate_grasp_along(measurement.views, X_GC),
-            scenario_grasp_along=scenario.tool.grasp_offset_along,
-        )
-        measurement.length_or_raise()
-        return result
-    finally:
-        release_diagram(built.diagram)  # its Python systems would keep it alive
+    measurement: ToolLengthMeasurement = run.measurement
+    result = MeasurementResult(
+        length=measurement.length(),
+        spread=measurement.spread(),
+        method=method,
+        views=list(measurement.views),
+        wall_time=run.wall_time,
+        sim_time=run.sim_time,
+        scenario_tool_length=float(scenario.tool.length) if scenario.tool.attached else math.nan,
+        images=run.images if keep_images else None,
+        image_files=run.image_files,
+        grasp_along=estimate_grasp_along(measurement.views, run.X_GC),
+        scenario_grasp_along=scenario.tool.grasp_offset_along,
+    )
+    measurement.length_or_raise()
+    return result
 
 
 def measure_belief(

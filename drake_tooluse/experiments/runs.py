@@ -1,12 +1,16 @@
-"""What every experiment run shares: where a new run directory goes, and its progress log."""
+"""What every experiment run shares: where a new run directory goes, its progress log, and a
+benchmark's results file."""
 
 from __future__ import annotations
 
 import argparse
+import platform
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from drake_tooluse.files import atomic_write_json
 
 RUNS_DIR = Path("runs")  # relative to the working directory, as the README's commands use it
 
@@ -57,6 +61,11 @@ class BenchmarkOutput:
         if args.update_docs:
             return self.docs_file
         return args.out or new_run_dir(self.name) / f"{self.name}.json"
+
+    def write(self, path: Path, command: str, **sections) -> None:
+        """Writes the results to `path` (atomically): the command that printed them, the
+        machine it ran on, then `sections` in the order given."""
+        atomic_write_json(path, {"command": command, "machine": platform.platform(), **sections})
 
 
 def stderr_log(text: str) -> None:

@@ -47,12 +47,12 @@ from drake_tooluse.perception.markers import (
     MIN_BLOB_AREA_PX,
     CameraIntrinsics,
     ViewSpec,
-    _end_correction,
-    _marker_points,
-    _text_block,
-    _touches_border,
+    draw_text_panel,
+    edge_beyond_extreme_pixel,
     find_blobs,
+    marker_points,
     orange_mask,
+    touched_borders,
 )
 from drake_tooluse.validation import check_one_of
 
@@ -186,9 +186,9 @@ def _axis_point(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float
 
 def _band_points(blob, depth: np.ndarray, info: CameraIntrinsics):
     """A band's back-projected pixels p_CP (N, 3) and those pixels (u, v) (N, 2), as
-    `markers._marker_points`, without those off the band's median depth by more than
+    `markers.marker_points`, without those off the band's median depth by more than
     BAND_DEPTH_TOLERANCE."""
-    points, pixels = _marker_points(blob, depth, info)
+    points, pixels = marker_points(blob, depth, info)
     if len(points) == 0:
         return points, pixels
     keep = np.abs(points[:, 2] - np.median(points[:, 2])) <= BAND_DEPTH_TOLERANCE
@@ -223,7 +223,7 @@ def _no_grip_reason(view: HookViewSpec) -> str:
 
 
 def _border_reason(name: str, blob, info: CameraIntrinsics) -> str:
-    side = _touches_border(blob, info.width(), info.height())
+    side = touched_borders(blob, info.width(), info.height())
     return f"the {name} band touches the image's {side} border: it may be cut off" if side else ""
 
 
@@ -255,7 +255,7 @@ def measure_grip_view(
     axis = _unit(np.asarray(view.axis_C, float))
     along = points @ axis
     i = int(np.argmin(along))
-    p_CA = points[i] - _end_correction(mask, pixels[i], points[i], axis, -1.0, f) * axis
+    p_CA = points[i] - edge_beyond_extreme_pixel(mask, pixels[i], points[i], axis, -1.0, f) * axis
     out.p_CA = p_CA.tolist()
     out.accepted = True
     return out
@@ -349,7 +349,7 @@ def measure_hook_view(
     corner_along = points["corner"] @ u
     j = int(np.argmax(corner_along))
     pixel, point = clouds["corner"][1][j], points["corner"][j]
-    s_K = corner_along[j] + _end_correction(mask, pixel, point, u, +1.0, f)
+    s_K = corner_along[j] + edge_beyond_extreme_pixel(mask, pixel, point, u, +1.0, f)
     p_CK = a_K + (s_K - a_K @ u) * u
     # The hook: from the corner to the tip band's axis point, then its outer end along that.
     d = _unit(means["tip"] - p_CK)
@@ -359,7 +359,7 @@ def measure_hook_view(
     tip_along = points["tip"] @ d
     k = int(np.argmax(tip_along))
     pixel, point = clouds["tip"][1][k], points["tip"][k]
-    s_T = tip_along[k] + _end_correction(mask, pixel, point, d, +1.0, f)
+    s_T = tip_along[k] + edge_beyond_extreme_pixel(mask, pixel, point, d, +1.0, f)
     out.hook_length = float(s_T - p_CK @ d)
     out.angle = math.degrees(math.acos(float(np.clip(-u @ d, -1.0, 1.0))))
     out.band_radius = float(radius)
@@ -370,7 +370,7 @@ def measure_hook_view(
         grip_along = points["grip"] @ u
         i = int(np.argmin(grip_along))
         pixel, point = clouds["grip"][1][i], points["grip"][i]
-        s_A = grip_along[i] - _end_correction(mask, pixel, point, u, -1.0, f)
+        s_A = grip_along[i] - edge_beyond_extreme_pixel(mask, pixel, point, u, -1.0, f)
         out.p_CA = (a_A + (s_A - a_A @ u) * u).tolist()
         out.handle_length = float(s_K - s_A)
     return out
@@ -420,5 +420,5 @@ def annotate_hook_view(
     if m.p_CA:
         cv2.circle(bgr, pixel(m.p_CA), dot, (0, 0, 255), -1)
     margin = round(10 * s)
-    _text_block(bgr, hook_view_text(m), (margin, margin), 0.7 * s, max(1, round(2 * s)))
+    draw_text_panel(bgr, hook_view_text(m), (margin, margin), 0.7 * s, max(1, round(2 * s)))
     return bgr

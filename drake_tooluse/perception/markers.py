@@ -245,7 +245,7 @@ def back_project_pixels(u, v, z, info: CameraIntrinsics) -> np.ndarray:
     )
 
 
-def _marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
+def marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
     """p_CP of each of the marker's pixels with a valid depth, back-projected (m), (N, 3), and
     those pixels (u, v), (N, 2).
 
@@ -261,7 +261,7 @@ def _marker_points(blob: Blob, depth: np.ndarray, info: CameraIntrinsics):
     return back_project_pixels(u, v, z, info), np.column_stack([u, v])
 
 
-def _end_correction(
+def edge_beyond_extreme_pixel(
     mask: np.ndarray, pixel, p_CE: np.ndarray, u_C: np.ndarray, sign: float, f: float
 ) -> float:
     """How far (m, along the tool axis) the band's edge lies beyond its extreme pixel centre.
@@ -271,7 +271,7 @@ def _end_correction(
     image direction (within a pixel across): half that gap is the unbiased estimate. For a
     tool square to the pixel grid the gap is one pixel; tilted, the rows' phases differ and it
     is smaller. The gap in pixels becomes metres with the image's rate of motion along u_C at
-    p_CE: f |u_xy - u_z p_xy / z| / z pixels per metre."""
+    p_CE: `f |u_xy - u_z p_xy / z| / z` pixels per metre."""
     x, y, z = p_CE
     d = np.array([u_C[0] - u_C[2] * x / z, u_C[1] - u_C[2] * y / z]) * sign
     image_rate = f * np.linalg.norm(d) / z
@@ -290,7 +290,9 @@ def _end_correction(
     return 0.5 * gap / image_rate
 
 
-def _touches_border(blob: Blob, width: int, height: int) -> str:
+def touched_borders(blob: Blob, width: int, height: int) -> str:
+    """The image borders a blob's box touches in a `width` x `height` px image, in words
+    ("left", "top and right", ...); "" when none (a blob on a border may be cut off)."""
     u, v, w, h = blob.bbox
     sides = [
         name
@@ -349,7 +351,7 @@ def measure_view(
     tip = blobs[1] if grip is blobs[0] else blobs[0]
     out.marker_areas_px = [grip.area_px, tip.area_px]
     for name, blob in (("grip marker", grip), ("tip marker", tip)):
-        side = _touches_border(blob, info.width(), info.height())
+        side = touched_borders(blob, info.width(), info.height())
         if side:
             out.reason = (
                 f"the {name} touches the image's {side} border: it may be cut off (out of frame)"
@@ -366,7 +368,7 @@ def measure_view(
     # The depth variant: each marker's pixels back-projected to 3-D; the outer ends are the
     # markers' extreme points along the tool's 3-D axis. Unlike one outer-end pixel at one
     # depth, this holds when the tool is tilted in depth and the grip end's face is in view.
-    clouds = [_marker_points(b, depth, info) for b in (grip, tip)]
+    clouds = [marker_points(b, depth, info) for b in (grip, tip)]
     points = [c[0] for c in clouds]
     for name, pts in zip(("grip marker", "tip marker"), points):
         if len(pts) < MIN_BLOB_AREA_PX:
@@ -387,8 +389,8 @@ def measure_view(
     grip_along, tip_along = points[0] @ u_C, points[1] @ u_C
     i, j = np.argmin(grip_along), np.argmax(tip_along)
     p_CA, p_CB = points[0][i], points[1][j]
-    grip_out = _end_correction(mask, clouds[0][1][i], p_CA, u_C, -1.0, f)
-    tip_out = _end_correction(mask, clouds[1][1][j], p_CB, u_C, +1.0, f)
+    grip_out = edge_beyond_extreme_pixel(mask, clouds[0][1][i], p_CA, u_C, -1.0, f)
+    tip_out = edge_beyond_extreme_pixel(mask, clouds[1][1][j], p_CB, u_C, +1.0, f)
     p_CA, p_CB = p_CA - grip_out * u_C, p_CB + tip_out * u_C
     out.ends_C = [p_CA.tolist(), p_CB.tolist()]
     out.length_depth = float(tip_along[j] - grip_along[i] + grip_out + tip_out)
@@ -418,7 +420,7 @@ def measurement_text(measurement: ViewMeasurement) -> list[str]:
     ]
 
 
-def _text_block(bgr, lines, origin, scale, thickness, swatches=None) -> int:
+def draw_text_panel(bgr, lines, origin, scale, thickness, swatches=None) -> int:
     """`lines` of text on a whitened panel at `origin` (top left, px), each after a colour
     swatch when `swatches` gives one (BGR or None). Returns the panel's bottom row."""
     font = cv2.FONT_HERSHEY_SIMPLEX
@@ -497,7 +499,7 @@ def annotate_view(
         if x0 >= 0 and top + side <= bgr.shape[0]:
             bgr[top : top + side, x0 : x0 + side] = inset
             cv2.rectangle(bgr, (x0, top), (x0 + side - 1, top + side - 1), (0, 0, 0), 1)
-            _text_block(
+            draw_text_panel(
                 bgr,
                 [("grip", "tip")[i] + f" marker x{zoom}"],
                 (x0 + 1, top + side - round(24 * s)),
@@ -505,10 +507,10 @@ def annotate_view(
                 max(1, round(s)),
             )
     margin = round(10 * s)
-    bottom = _text_block(
+    bottom = draw_text_panel(
         bgr, measurement_text(measurement), (margin, margin), 0.7 * s, max(1, round(2 * s))
     )
-    _text_block(
+    draw_text_panel(
         bgr,
         [label for _, label in ANNOTATION_COLORS.values()],
         (margin, bottom + margin),

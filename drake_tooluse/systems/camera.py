@@ -15,7 +15,6 @@ of the lens, +x right in the image, +y down). SI units.
 
 from __future__ import annotations
 
-import copy
 import dataclasses as dc
 import math
 
@@ -35,7 +34,7 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
-from pydrake.systems.sensors import CameraInfo, ImageDepth32F, ImageRgba8U, RgbdSensor
+from pydrake.systems.sensors import CameraInfo, ImageRgba8U, RgbdSensor
 
 from drake_tooluse.perception.markers import (
     LIGHTINGS,
@@ -45,7 +44,8 @@ from drake_tooluse.perception.markers import (
     measure_view,
 )
 from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.validation import check_in_range, check_one_of
+from drake_tooluse.systems.view_estimator import ViewByViewEstimator
+from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scenario import CameraConfig
 
 HEAD_CAMERA_FRAME = "head_camera"
@@ -391,13 +391,9 @@ class ColorImageNoise(LeafSystem):
             data[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
-class ToolLengthEstimator(LeafSystem):
-    """Measures the tool length from the head camera's images, one view per capture.
-
-    At the capture times t_k = first_capture + k * capture_period (k = 0 .. len(views) - 1,
-    when the arm holds view k still) it measures view k from the current images
-    (`measure_view`) and keeps the result in its abstract state; later times do nothing. The
-    outputs are computed from that state, so they hold between captures.
+class ToolLengthEstimator(ViewByViewEstimator, LeafSystem):
+    """Measures the tool length from the head camera's images, one view per capture
+    (`measure_view`), on the schedule of `ViewByViewEstimator`.
 
     .. pydrake_system::
 
@@ -434,56 +430,12 @@ class ToolLengthEstimator(LeafSystem):
         method: str = "depth",
     ):
         super().__init__()
-        self._info = info
-        self._views = list(views)
-        if not self._views:
-            raise ValueError("views is empty; give at least one ViewSpec")
-        self._method = check_one_of(method, METHODS, "method")
-        check_in_range(first_capture, 0.0, math.inf, "first_capture", unit="s")
-        check_in_range(capture_period, 1e-3, math.inf, "capture_period", unit="s")
-        w, h = info.width(), info.height()
-        self._color = self.DeclareAbstractInputPort(
-            "color_image", AbstractValue.Make(ImageRgba8U(w, h))
+        self._set_views(info, views, "ViewSpec")
+        self._method = method = check_one_of(method, METHODS, "method")
+        self._declare_captures(
+            first_capture,
+            capture_period,
+            empty=lambda: ToolLengthMeasurement(method=method),
+            measure_view=measure_view,
+            summary=("tool_length", 1, lambda measurement: [measurement.length()]),
         )
-        self._depth = self.DeclareAbstractInputPort(
-            "depth_image", AbstractValue.Make(ImageDepth32F(w, h))
-        )
-        self._state = self.DeclareAbstractState(
-            AbstractValue.Make(ToolLengthMeasurement(method=self._method))
-        )
-        self.DeclarePeriodicUnrestrictedUpdateEvent(
-            capture_period, first_capture, weak_method(self._capture)
-        )
-        state = {self.abstract_state_ticket(self._state)}
-        self.DeclareVectorOutputPort(
-            "tool_length", 1, weak_method(self._calc_length), prerequisites_of_calc=state
-        )
-        method = self._method  # the allocator must not hold self
-        self.DeclareAbstractOutputPort(
-            "measurement",
-            lambda: AbstractValue.Make(ToolLengthMeasurement(method=method)),
-            weak_method(self._calc_measurement),
-            prerequisites_of_calc=state,
-        )
-
-    @property
-    def views(self) -> list:
-        return list(self._views)
-
-    def _capture(self, context, state):
-        measurement = context.get_abstract_state(self._state).get_value()
-        k = len(measurement.views)
-        if k >= len(self._views):
-            return
-        color = self._color.Eval(context).data
-        depth = self._depth.Eval(context).data
-        result = measure_view(color, depth, self._info, self._views[k])
-        updated = copy.copy(measurement)
-        updated.views = measurement.views + [result]
-        state.get_mutable_abstract_state(self._state).set_value(updated)
-
-    def _calc_length(self, context, output):
-        output.SetAtIndex(0, context.get_abstract_state(self._state).get_value().length())
-
-    def _calc_measurement(self, context, output):
-        output.set_value(context.get_abstract_state(self._state).get_value())
