@@ -24,10 +24,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import gymnasium as gym
 import numpy as np
 
 # Every env id of the project lives in this Gymnasium namespace.
 ENV_NAMESPACE = "drake_tooluse"
+
+
+def register_task_envs(env_ids: dict, entry_point: str, max_episode_steps: int) -> None:
+    """Registers each id of `env_ids` ({id: its keyword arguments}) with Gymnasium, made by
+    `entry_point` ("module:Class") and truncated at `max_episode_steps` (idempotent: an id
+    already registered is left as it is); `gym.make` builds them lazily."""
+    for env_id, kwargs in env_ids.items():
+        if env_id not in gym.registry:
+            gym.register(
+                env_id,
+                entry_point=entry_point,
+                max_episode_steps=max_episode_steps,
+                kwargs=dict(kwargs),
+            )
 
 
 @dataclass(frozen=True)
@@ -126,3 +141,45 @@ class TaskParts:
         builder.ExportOutput(self.observation_port, "observation")
         builder.ExportOutput(self.reward_port, "reward")
         builder.ExportOutput(self.success_port, "success")
+
+
+@dataclass
+class GoalTaskParts(TaskParts):
+    """The contract's parts of a task whose episode has a goal and an object's start: with the
+    two systems that hold them, `observation` (the world plant's state in; `set_goal`) and
+    `outcome` (`systems.task_outcome.TaskOutcome`: the plant's body poses and contact results
+    in, `reward` and `success` out; `set_episode`)."""
+
+    observation: object = None
+    outcome: object = None
+
+    @classmethod
+    def wire(cls, builder, world, ik, control, observation, outcome, **parts):
+        """Adds `observation` and `outcome` to `builder` under those names, connected to the
+        world plant's ports; returns the task's parts (`parts`: a subclass's other fields)."""
+        plant = world.plant
+        observation = builder.AddNamedSystem("observation", observation)
+        builder.Connect(plant.get_state_output_port(), observation.get_input_port())
+        outcome = builder.AddNamedSystem("outcome", outcome)
+        builder.Connect(plant.get_body_poses_output_port(), outcome.GetInputPort("body_poses"))
+        builder.Connect(
+            plant.get_contact_results_output_port(), outcome.GetInputPort("contact_results")
+        )
+        return cls(
+            world,
+            ik,
+            control,
+            observation.get_output_port(),
+            outcome.GetOutputPort("reward"),
+            outcome.GetOutputPort("success"),
+            observation=observation,
+            outcome=outcome,
+            **parts,
+        )
+
+    def set_episode(self, root_context, goal, start) -> None:
+        """This episode's goal and the object's start (m, W), in both systems."""
+        self.observation.set_goal(self.observation.GetMyMutableContextFromRoot(root_context), goal)
+        self.outcome.set_episode(
+            self.outcome.GetMyMutableContextFromRoot(root_context), goal, start
+        )

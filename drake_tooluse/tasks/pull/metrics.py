@@ -18,12 +18,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.robot.tool import HOOK_CORNER, TOOL_TIP
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+from drake_tooluse.systems.task_outcome import TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.scene import World
@@ -120,7 +117,7 @@ class PullMetricsReader:
         )
 
 
-class PullOutcome(LeafSystem):
+class PullOutcome(TaskOutcome):
     """The pull task's truth as ports: the step's metrics, its reward and success.
 
     .. pydrake_system::
@@ -141,53 +138,16 @@ class PullOutcome(LeafSystem):
         metrics: `PullMetrics` (distances in m, which bodies touch the cube).
         reward: [r] = [−(d(x, x*) + d(c, p_b))] (m).
         success: [1.0] when d(x, x*) ≤ SUCCESS_RADIUS and the cube moved ≥ MIN_TRAVEL.
-    Parameters: the goal x* (3, m) and the cube's start x₀ (3, m), set per episode.
+    Parameters: the goal x* (3, m) and the cube's start x₀ (3, m), set per episode
+    (`set_episode`).
     """
 
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
-
     def __init__(self, world: World, goal, start):
-        super().__init__()
-        self._reader = PullMetricsReader(world)
-        self._poses = self.DeclareAbstractInputPort(
-            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        super().__init__(
+            world,
+            PullMetricsReader(world),
+            reward,
+            lambda: PullMetrics(0.0, 0.0, 0.0, False, False),
+            goal,
+            start,
         )
-        self._contacts = self.DeclareAbstractInputPort(
-            "contact_results", world.plant.get_contact_results_output_port().Allocate()
-        )
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        self._start = self.DeclareNumericParameter(BasicVector(np.asarray(start, float)))
-        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
-        self._metrics = self.DeclareAbstractOutputPort(
-            "metrics",
-            lambda: AbstractValue.Make(PullMetrics(0.0, 0.0, 0.0, False, False)),
-            weak_method(self._calc_metrics),
-            prerequisites_of_calc=depends,
-        )
-        self.DeclareVectorOutputPort(
-            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
-        )
-        self.DeclareVectorOutputPort(
-            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
-        )
-
-    def set_episode(self, context, goal, start) -> None:
-        """This episode's goal x* and the cube's start x₀ (m, W)."""
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-        context.get_mutable_numeric_parameter(self._start).SetFromVector(start)
-
-    def _calc_metrics(self, context, output) -> None:
-        output.set_value(
-            self._reader.measure(
-                self._poses.Eval(context),
-                self._contacts.Eval(context),
-                context.get_numeric_parameter(self._goal).get_value(),
-                context.get_numeric_parameter(self._start).get_value(),
-            )
-        )
-
-    def _calc_reward(self, context, output) -> None:
-        output.SetAtIndex(0, reward(self._metrics.Eval(context)))
-
-    def _calc_success(self, context, output) -> None:
-        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))

@@ -7,15 +7,13 @@ x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
 
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+from drake_tooluse.systems.task_outcome import TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.contacts import BoxContacts
@@ -103,7 +101,7 @@ def _floats(values) -> list:
     return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
 
-class PushOutcome(LeafSystem):
+class PushOutcome(TaskOutcome):
     """The push task's truth as ports: the step's metrics, the paper's reward and success.
 
     .. pydrake_system::
@@ -124,61 +122,20 @@ class PushOutcome(LeafSystem):
         metrics: `PushMetrics` (distances in m, which bodies touch the box).
         reward: [r], the paper's reward of `reward_type` (see REWARD_TYPES).
         success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0].
-    Parameters: the goal x* (3, m) and the box's start (3, m), set per episode.
+    Parameters: the goal x* (3, m) and the box's start (3, m), set per episode
+    (`set_episode`).
     """
 
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
-
     def __init__(self, world: World, goal, box_start, reward_type: str):
-        super().__init__()
         check_one_of(reward_type, REWARD_TYPES, "reward_type")
-        self._reader = PushMetricsReader(world)
-        self._reward_type = reward_type
-        self._poses = self.DeclareAbstractInputPort(
-            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        super().__init__(
+            world,
+            PushMetricsReader(world),
+            functools.partial(reward, reward_type=reward_type),
+            lambda: PushMetrics(0.0, 0.0, 0.0, False, False),
+            goal,
+            box_start,
         )
-        self._contacts = self.DeclareAbstractInputPort(
-            "contact_results", world.plant.get_contact_results_output_port().Allocate()
-        )
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        self._box_start = self.DeclareNumericParameter(BasicVector(np.asarray(box_start, float)))
-        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
-        self._metrics = self.DeclareAbstractOutputPort(
-            "metrics",
-            lambda: AbstractValue.Make(PushMetrics(0.0, 0.0, 0.0, False, False)),
-            weak_method(self._calc_metrics),
-            prerequisites_of_calc=depends,
-        )
-        self.DeclareVectorOutputPort(
-            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
-        )
-        self.DeclareVectorOutputPort(
-            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
-        )
-
-    def set_episode(self, context, goal, box_start) -> None:
-        """This episode's goal x* and box start (m, W)."""
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-        context.get_mutable_numeric_parameter(self._box_start).SetFromVector(box_start)
-
-    def goal(self, context) -> np.ndarray:
-        return context.get_numeric_parameter(self._goal).get_value()
-
-    def _calc_metrics(self, context, output) -> None:
-        output.set_value(
-            self._reader.measure(
-                self._poses.Eval(context),
-                self._contacts.Eval(context),
-                context.get_numeric_parameter(self._goal).get_value(),
-                context.get_numeric_parameter(self._box_start).get_value(),
-            )
-        )
-
-    def _calc_reward(self, context, output) -> None:
-        output.SetAtIndex(0, reward(self._metrics.Eval(context), self._reward_type))
-
-    def _calc_success(self, context, output) -> None:
-        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))
 
 
 def reward(metrics: PushMetrics, reward_type: str) -> float:

@@ -1,0 +1,97 @@
+"""A task's truth as ports: `TaskOutcome`, the one outcome system every task's is.
+
+A task gives the three things that differ: a metrics reader (its `measure(body_poses,
+contacts, goal, start)` reads the task's metrics from the world plant's body poses and contact
+results), a reward function of those metrics, and a maker of the metrics' empty value (the
+port's model).
+Success is the metrics' own `is_success`. The goal and the object's start are the system's
+parameters, set per episode.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from drake_tooluse.systems.lifetime import weak_method
+from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+
+
+class TaskOutcome(LeafSystem):
+    """A task's truth as ports: the step's metrics, its reward and success.
+
+    .. pydrake_system::
+
+        name: TaskOutcome
+        input_ports:
+        - body_poses
+        - contact_results
+        output_ports:
+        - metrics
+        - reward
+        - success
+
+    Input ports:
+        body_poses: the world plant's X_WB of every body (its `body_poses` port).
+        contact_results: the world plant's contact results.
+    Output ports:
+        metrics: the task's metrics (`reader.measure`'s value).
+        reward: [reward(metrics)].
+        success: [1.0] when the metrics' `is_success`, else [0.0].
+    Parameters: the goal (3, m) and the object's start (3, m), set per episode.
+    """
+
+    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
+
+    def __init__(self, world, reader, reward, empty_metrics, goal, start):
+        """`reader.measure(body_poses, contacts, goal, start)` gives the metrics,
+        `reward(metrics)` the step's reward; `empty_metrics()` makes the metrics port's model."""
+        super().__init__()
+        self._reader = reader
+        self._reward = reward
+        self._poses = self.DeclareAbstractInputPort(
+            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        )
+        self._contacts = self.DeclareAbstractInputPort(
+            "contact_results", world.plant.get_contact_results_output_port().Allocate()
+        )
+        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
+        self._start = self.DeclareNumericParameter(BasicVector(np.asarray(start, float)))
+        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
+        self._metrics = self.DeclareAbstractOutputPort(
+            "metrics",
+            lambda: AbstractValue.Make(empty_metrics()),
+            weak_method(self._calc_metrics),
+            prerequisites_of_calc=depends,
+        )
+        self.DeclareVectorOutputPort(
+            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
+        )
+        self.DeclareVectorOutputPort(
+            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
+        )
+
+    def set_episode(self, context, goal, start) -> None:
+        """This episode's goal and the object's start (m, W)."""
+        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
+        context.get_mutable_numeric_parameter(self._start).SetFromVector(start)
+
+    def goal(self, context) -> np.ndarray:
+        return context.get_numeric_parameter(self._goal).get_value()
+
+    def _calc_metrics(self, context, output) -> None:
+        output.set_value(
+            self._reader.measure(
+                self._poses.Eval(context),
+                self._contacts.Eval(context),
+                context.get_numeric_parameter(self._goal).get_value(),
+                context.get_numeric_parameter(self._start).get_value(),
+            )
+        )
+
+    def _calc_reward(self, context, output) -> None:
+        output.SetAtIndex(0, self._reward(self._metrics.Eval(context)))
+
+    def _calc_success(self, context, output) -> None:
+        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))
