@@ -2,12 +2,13 @@
 
 A task's env class is `class MyEnv(TaskEnv, TaskGymEnv)` (`tasks.contract.TaskEnv`: the
 class-level contract). TaskGymEnv gives it the Gym setup (`_start_gym`), the reset and its
-episode start (`_start_episode`: the randomized state, the goal and the object's start set in
-the task's systems), the checked action fixed on the diagram's input and one control period
+episode start (`_start_episode`: the randomized state, the goal and the box's start set in
+the task's systems and kept in `_episode`), the checked action fixed on the diagram's input and one control period
 advanced (`_advance`), a world built again per episode (`_release_world`), and `close`.
 
-The env builds its diagram itself and keeps, as attributes: `scenario`, `world`, `control`,
-`ik_system` and `task` (the task's `tasks.contract.GoalTaskParts`).
+The env builds its diagram itself and keeps, as attributes: `config` (with `randomize`),
+`scenario`, `world`, `control`, `ik_system` and `task` (the task's
+`tasks.contract.GoalTaskParts`).
 """
 
 from __future__ import annotations
@@ -85,25 +86,35 @@ class TaskGymEnv(DrakeGymEnv):
         if self.diagram is not None:
             release_diagram(self.diagram)
 
-    def _start_episode(self, context, randomize: bool):
-        """The start of an episode (DrakeGymEnv's reset handler calls it): the contexts each
-        step reads, looked up once (the simulator may be new), the scenario's state (drawn
-        from its `randomization` with the env's seeded generator if `randomize`), the control
-        at home, and the goal and the object's start set in the task's systems. Returns (the
-        episode's scenario, its goal, the object's start)."""
+    def _reset_handler(self, simulator, context, seed) -> None:
+        self._start_episode(context)
+
+    def _start_episode(self, context):
+        """The start of an episode (DrakeGymEnv's reset calls `_reset_handler`, which calls
+        it): the contexts each step reads, looked up once (the simulator may be new), the
+        scenario's state (drawn from its `randomization` with the env's seeded generator if
+        `config.randomize`), the control at home, the goal and the box's start set in the
+        task's systems and kept in `_episode` with its touches so far. Returns the episode's
+        scenario."""
         self._context = context
         self._plant_context = self.world.plant.GetMyContextFromRoot(context)
         self._ik_context = self.ik_system.GetMyContextFromRoot(context)
         self._action_value = None  # the action input's fixed value, made by the first step
         s = self.scenario
-        if randomize:
+        if self.config.randomize:
             s = apply_draw(s, draw_randomization(s, self.np_random))
         set_randomized_state(self.world, context, s)
         self.control.reset(context)
         start = initial_box_pose(s).translation()
         goal = start + np.asarray(s.goal_offset, float)
         self.task.set_episode(context, goal, start)
-        return s, goal, start
+        self._episode = {
+            "goal": goal,
+            "start": start,
+            "tool_touched": False,
+            "gripper_touched": False,
+        }
+        return s
 
     def _check_open(self) -> None:
         if self._closed:

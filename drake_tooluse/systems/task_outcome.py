@@ -1,9 +1,9 @@
 """A task's truth as ports: `TaskOutcome`, the one outcome system every task's is.
 
-A task gives the three things that differ: a metrics reader (its `measure(body_poses,
-contacts, goal, start)` reads the task's metrics from the world plant's body poses and contact
-results), a reward function of those metrics, and a maker of the metrics' empty value (the
-port's model).
+A task gives the three things that differ: a metrics reader (a `BoxAndToolPointReader`: its
+`measure(body_poses, contacts, goal, start)` reads the task's metrics from the world plant's
+body poses and contact results), a reward function of those metrics, and a maker of the
+metrics' empty value (the port's model).
 Success is the metrics' own `is_success`. The goal and the object's start are the system's
 parameters, set per episode.
 """
@@ -16,6 +16,52 @@ from pydrake.systems.framework import BasicVector, LeafSystem
 
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+from drake_tooluse.world.contacts import BoxContacts
+
+
+class BoxAndToolPointReader:
+    """Reads from the world plant what a task's metrics are made of: the box's centre, a point
+    of the true tool (the origin of `frame`, a frame of `world.plant`) and which bodies touch
+    the box; a task's reader gives `_metrics(p_box, p_point, contacts, goal, start)`."""
+
+    def __init__(self, world, frame):
+        self._box = world.box
+        self._box_index = int(world.box.index())
+        self._frame = frame
+        # `measure`'s point, a pose on its body: X_WF = X_WB X_BF, as Drake's
+        # `CalcPoseInWorld` (which `read` calls) forms it: the same arithmetic, so the same bits.
+        self._frame_index = int(frame.body().index())
+        self._X_BF = frame.GetFixedPoseInBodyFrame()
+        self._contacts = world.plant.get_contact_results_output_port()
+        self._touches = BoxContacts(world).touches
+
+    def read(self, plant_context, goal, start):
+        """The metrics of the plant's state in `plant_context`. The two poses it needs are read
+        alone (the plant's body-poses port copies the same cached values for every body, and
+        pydrake makes a Python object of each of its ~30)."""
+        return self._metrics(
+            self._box.EvalPoseInWorld(plant_context).translation(),
+            self._frame.CalcPoseInWorld(plant_context).translation(),
+            # The cached value itself (Eval would copy every contact into Python first).
+            self._contacts.EvalAbstract(plant_context).get_value(),
+            goal,
+            start,
+        )
+
+    def measure(self, body_poses, contacts, goal, start):
+        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
+        return self._metrics(
+            body_poses[self._box_index].translation(),
+            body_poses[self._frame_index].multiply(self._X_BF).translation(),
+            contacts,
+            goal,
+            start,
+        )
+
+    def _metrics(self, p_box, p_point, contacts, goal, start):
+        """The task's metrics of the box's centre and the tool point (m, W), the contact
+        results, the goal and the box's start."""
+        raise NotImplementedError
 
 
 class TaskOutcome(LeafSystem):

@@ -22,6 +22,7 @@ class through Gymnasium's registry and imports no task (tests/test_architecture.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import gymnasium as gym
@@ -90,6 +91,18 @@ class PhysicalLimit:
     limit: float
     unit: str
     why: str
+
+
+def env_config(config_class, kwargs: dict, name: str, env: str):
+    """`config_class(**kwargs)`: the dataclass of an env's keyword arguments (`env` names the
+    env in an error), the names checked: one it has no field for is a ValueError naming it,
+    `name` (where they came from) and the allowed names. Their values are the caller's to
+    check."""
+    allowed = [f.name for f in dataclasses.fields(config_class)]
+    unknown = sorted(set(kwargs) - set(allowed))
+    if unknown:
+        raise ValueError(f"unknown argument(s) {unknown} for {env} ({name}); allowed: {allowed}")
+    return config_class(**kwargs)
 
 
 class TaskEnv:

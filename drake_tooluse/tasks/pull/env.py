@@ -21,7 +21,7 @@ from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.tip_target import ACTION_MODES
-from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
@@ -45,14 +45,7 @@ class PullEnvConfig:
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
     kwargs = dict(check_mapping(kwargs, name))
-    allowed = [f.name for f in dc.fields(PullEnvConfig)]
-    unknown = sorted(set(kwargs) - set(allowed))
-    if unknown:
-        raise ValueError(
-            f"unknown argument(s) {unknown} for drake_tooluse/ToolPull-v0 ({name}); "
-            f"allowed: {allowed}"
-        )
-    config = PullEnvConfig(**kwargs)
+    config = env_config(PullEnvConfig, kwargs, name, "drake_tooluse/ToolPull-v0")
     if config.hook is not None:
         config.hook = check_hook(config.hook, "hook")
     check_bool(config.randomize, "randomize")
@@ -217,15 +210,6 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------
-    def _reset_handler(self, simulator, context, seed) -> None:
-        _, goal, start = self._start_episode(context, self.config.randomize)
-        self._episode = {
-            "goal": goal,
-            "start": start,
-            "tool_touched": False,
-            "gripper_touched": False,
-        }
-
     def step(self, action):
         """Advances one control period. As the push env's step: the action is checked, the
         plant's state read once, and a simulation failure (Drake raises, or the state is no

@@ -20,9 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_tooluse.robot.tool import HOOK_CORNER, TOOL_TIP
-from drake_tooluse.systems.task_outcome import TaskOutcome
+from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
-from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.scene import World
 
 SUCCESS_RADIUS = 0.05  # m: the cube's centre this near the goal ...
@@ -67,42 +66,16 @@ def behind_direction(goal, start) -> np.ndarray:
     return e / np.linalg.norm(e)
 
 
-class PullMetricsReader:
+class PullMetricsReader(BoxAndToolPointReader):
     """Reads the truth from the world plant: the cube, the true hook's corner, the contacts."""
 
     def __init__(self, world: World):
         plant = world.plant
-        self._box = world.box
-        self._box_index = int(world.box.index())
         # A straight tool (the hook policy tried on one) has no corner: its tip, where a
         # hook's would be.
         corner = HOOK_CORNER if plant.HasFrameNamed(HOOK_CORNER) else TOOL_TIP
-        self._corner = plant.GetFrameByName(corner)
-        self._corner_index = int(self._corner.body().index())
-        self._X_BC = self._corner.GetFixedPoseInBodyFrame()
+        super().__init__(world, plant.GetFrameByName(corner))
         self._standoff = world.scenario.box.size[0] / 2 + world.scenario.tool.radius
-        self._contacts = plant.get_contact_results_output_port()
-        self._touches = BoxContacts(world).touches
-
-    def read(self, plant_context, goal, start) -> PullMetrics:
-        """The metrics of the plant's state in `plant_context`."""
-        return self._metrics(
-            self._box.EvalPoseInWorld(plant_context).translation(),
-            self._corner.CalcPoseInWorld(plant_context).translation(),
-            self._contacts.EvalAbstract(plant_context).get_value(),
-            goal,
-            start,
-        )
-
-    def measure(self, body_poses, contacts, goal, start) -> PullMetrics:
-        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
-        return self._metrics(
-            body_poses[self._box_index].translation(),
-            body_poses[self._corner_index].multiply(self._X_BC).translation(),
-            contacts,
-            goal,
-            start,
-        )
 
     def _metrics(self, p_box, p_corner, contacts, goal, start) -> PullMetrics:
         goal, start = np.asarray(goal, float), np.asarray(start, float)

@@ -39,7 +39,7 @@ from drake_tooluse.systems.camera import (
     draw_goal,
 )
 from drake_tooluse.systems.tip_target import ACTION_MODES
-from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
@@ -121,13 +121,7 @@ def current_kwargs(kwargs: dict) -> dict:
 
 def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     kwargs = current_kwargs(check_mapping(kwargs, name))
-    allowed = [f.name for f in dc.fields(EnvConfig)]
-    unknown = sorted(set(kwargs) - set(allowed))
-    if unknown:
-        raise ValueError(
-            f"unknown argument(s) {unknown} for a drake_tooluse env ({name}); allowed: {allowed}"
-        )
-    config = EnvConfig(**kwargs)
+    config = env_config(EnvConfig, kwargs, name, "a drake_tooluse env")
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
@@ -461,13 +455,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     # -- Gymnasium API --------------------------------------------------------------------
     def _reset_handler(self, simulator, context, seed) -> None:
-        s, goal, box_start = self._start_episode(context, self.config.randomize)
-        self._episode = {
-            "goal": goal,
-            "box_start": box_start,
-            "tool_touched": False,
-            "gripper_touched": False,
-        }
+        s = self._start_episode(context)
         if self.visualizer is not None:  # the goal marker where this episode's goal is
             show_task(self.config.meshcat, s)
 
@@ -558,7 +546,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         reward and success are formed from them as its `reward` and `success` ports form them
         (`metrics.reward`, `PushMetrics.is_success`)."""
         episode = self._episode
-        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["box_start"])
+        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["start"])
         if _finite(m):
             self._episode["tool_touched"] |= m.tool_touches_box
             self._episode["gripper_touched"] |= m.gripper_touches_box

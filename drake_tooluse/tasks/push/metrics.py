@@ -13,10 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_tooluse.systems.task_outcome import TaskOutcome
+from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
-from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
 
@@ -45,43 +44,11 @@ class PushMetrics:
         return self.box_to_goal + self.tip_to_box <= SUCCESS_DISTANCE
 
 
-class PushMetricsReader:
+class PushMetricsReader(BoxAndToolPointReader):
     """Reads the truth from the world plant: distances and which bodies touch the box."""
 
     def __init__(self, world: World):
-        plant = world.plant
-        self._box = world.box
-        self._box_index = int(world.box.index())
-        self._tip_frame = world.tip_frame
-        # `measure`'s tip, a pose on its body: X_WT = X_WB X_BT, as Drake's `CalcPoseInWorld`
-        # (which `read` calls) forms it: the same arithmetic, so the same bits.
-        self._tip_index = int(world.tip_frame.body().index())
-        self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
-        self._contacts = plant.get_contact_results_output_port()
-        self._touches = BoxContacts(world).touches
-
-    def read(self, plant_context, goal, box_start) -> PushMetrics:
-        """The metrics of the plant's state in `plant_context`. The two poses it needs are read
-        alone (the plant's body-poses port copies the same cached values for every body, and
-        pydrake makes a Python object of each of its ~30)."""
-        return self._metrics(
-            self._box.EvalPoseInWorld(plant_context).translation(),
-            self._tip_frame.CalcPoseInWorld(plant_context).translation(),
-            # The cached value itself (Eval would copy every contact into Python first).
-            self._contacts.EvalAbstract(plant_context).get_value(),
-            goal,
-            box_start,
-        )
-
-    def measure(self, body_poses, contacts, goal, box_start) -> PushMetrics:
-        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
-        return self._metrics(
-            body_poses[self._box_index].translation(),
-            body_poses[self._tip_index].multiply(self._X_BT).translation(),
-            contacts,
-            goal,
-            box_start,
-        )
+        super().__init__(world, world.tip_frame)
 
     def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
         # Lists: math.dist reads them faster than arrays (the same floats, so the same result).
