@@ -1,21 +1,23 @@
 """What a task's observation system shares: `GoalObservation`, plant state in, the observation
 of that state and the episode's goal out, all NaN where the state is not finite.
 
-A task's observation subclasses it and gives `finite_observation(x, goal)`.
+A task's observation system is a LeafSystem with it as a mixin, and gives
+`finite_observation(x, goal)`.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector
 
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
 from drake_tooluse.validation import all_finite
 
 
-class GoalObservation(LeafSystem):
-    """Plant state in, a task's observation of it and of the goal out.
+class GoalObservation:
+    """Plant state in, a task's observation of it and of the goal out. A mixin of the task's
+    observation system, a LeafSystem: `class MyObservation(GoalObservation, LeafSystem)`.
 
     .. pydrake_system::
 
@@ -36,7 +38,7 @@ class GoalObservation(LeafSystem):
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
     def __init__(self, world, goal, size: int):
-        super().__init__()
+        super().__init__()  # the LeafSystem's
         plant = world.plant
         self._size = size
         self._state = self.DeclareVectorInputPort(

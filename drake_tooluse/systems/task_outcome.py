@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector
 
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
@@ -64,8 +64,9 @@ class BoxAndToolPointReader:
         raise NotImplementedError
 
 
-class TaskOutcome(LeafSystem):
-    """A task's truth as ports: the step's metrics, its reward and success.
+class TaskOutcome:
+    """A task's truth as ports: the step's metrics, its reward and success. A mixin of the
+    task's outcome system, a LeafSystem: `class MyOutcome(TaskOutcome, LeafSystem)`.
 
     .. pydrake_system::
 
@@ -93,7 +94,7 @@ class TaskOutcome(LeafSystem):
     def __init__(self, world, reader, reward, empty_metrics, goal, start):
         """`reader.measure(body_poses, contacts, goal, start)` gives the metrics,
         `reward(metrics)` the step's reward; `empty_metrics()` makes the metrics port's model."""
-        super().__init__()
+        super().__init__()  # the LeafSystem's
         self._reader = reader
         self._reward = reward
         self._poses = self.DeclareAbstractInputPort(

@@ -16,6 +16,13 @@ gives:
   in `info` (a penetration, a speed), each with the limit past which the step is flagged there;
   an evaluation counts the episodes with a flagged step, per flag.
 
+A task whose episode has a goal and a box's start (push, pull) builds its pieces from shared
+ones, so that what the tasks do the same is written once: its outcome system on
+`systems.task_outcome.TaskOutcome` (with its metrics reader on `BoxAndToolPointReader`), its
+observation on `systems.goal_observation.GoalObservation`, its wiring through
+`GoalTaskParts.wire`, its env class on `builders.task_gym_env.TaskGymEnv`, its keyword
+arguments' names checked by `env_config` and its ids registered by `register_task_envs`.
+
 `learning/` trains and evaluates any registered env whose class is a `TaskEnv`: it finds the
 class through Gymnasium's registry and imports no task (tests/test_architecture.py checks it).
 """

@@ -18,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.tool import HOOK_CORNER, TOOL_TIP
 from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
@@ -90,7 +91,7 @@ class PullMetricsReader(BoxAndToolPointReader):
         )
 
 
-class PullOutcome(TaskOutcome):
+class PullOutcome(TaskOutcome, LeafSystem):
     """The pull task's truth as ports: the step's metrics, its reward and success.
 
     .. pydrake_system::

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.kinematics import ArmChain, fk_jacobian
 from drake_tooluse.systems.goal_observation import GoalObservation
@@ -43,7 +44,7 @@ def folded_yaw(wxyz) -> float:
     return (yaw + math.pi / 4) % (math.pi / 2) - math.pi / 4
 
 
-class ToolPullObservation(GoalObservation):
+class ToolPullObservation(GoalObservation, LeafSystem):
     """Plant state in, the pull task's observation out (see the module docstring).
 
     .. pydrake_system::

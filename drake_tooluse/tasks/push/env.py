@@ -199,7 +199,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     ### Action Space
 
     `Box(-1.0, 1.0, (n,), float32)`, n by `action_mode`; values outside [-1, 1] are clipped,
-    NaN or infinite values are a ValueError. Each moves the tool-tip target by, at |a| = 1:
+    NaN or infinite values are a ValueError. Each moves the tool-tip target by, at `|a| = 1`:
 
     #### action_mode = position_quaternion
 

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
@@ -68,7 +69,7 @@ def _floats(values) -> list:
     return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
 
-class PushOutcome(TaskOutcome):
+class PushOutcome(TaskOutcome, LeafSystem):
     """The push task's truth as ports: the step's metrics, the paper's reward and success.
 
     .. pydrake_system::

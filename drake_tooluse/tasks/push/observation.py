@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
 from drake_tooluse.systems.goal_observation import GoalObservation
@@ -44,7 +45,7 @@ from drake_tooluse.world.scene import World
 OBSERVATION_SIZES = {"gripper_joints": 30, "tip": 12}
 
 
-class ToolPushObservation(GoalObservation):
+class ToolPushObservation(GoalObservation, LeafSystem):
     """Plant state in, the push task's observation out (see the module docstring).
 
     .. pydrake_system::
