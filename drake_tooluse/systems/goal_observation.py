@@ -16,24 +16,12 @@ from drake_tooluse.validation import all_finite
 
 
 class GoalObservation:
-    """Plant state in, a task's observation of it and of the goal out. A mixin of the task's
-    observation system, a LeafSystem: `class MyObservation(GoalObservation, LeafSystem)`.
-
-    .. pydrake_system::
-
-        name: GoalObservation
-        input_ports:
-        - plant_state
-        output_ports:
-        - observation
-
-    Input ports:
-        plant_state: the world plant's full state [q, v].
-    Output ports:
-        observation: `size` values, `finite_observation(x, goal)`; all NaN when the state
-            is not finite.
-    Parameters: the goal (3, m), set per episode (`set_goal`).
-    """
+    """Plant state in, a task's observation of it and of the goal out: the mixin of the
+    task's observation system (a LeafSystem: `class MyObservation(GoalObservation,
+    LeafSystem)`, whose docstring holds its port block). It declares the input `plant_state`
+    (the world plant's full state [q, v]) and the output `observation` (`size` values,
+    `finite_observation(x, goal)`; all NaN when the state is not finite); its parameter is the
+    goal (3, m), set per episode (`set_goal`)."""
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 

@@ -65,29 +65,13 @@ class BoxAndToolPointReader:
 
 
 class TaskOutcome:
-    """A task's truth as ports: the step's metrics, its reward and success. A mixin of the
-    task's outcome system, a LeafSystem: `class MyOutcome(TaskOutcome, LeafSystem)`.
-
-    .. pydrake_system::
-
-        name: TaskOutcome
-        input_ports:
-        - body_poses
-        - contact_results
-        output_ports:
-        - metrics
-        - reward
-        - success
-
-    Input ports:
-        body_poses: the world plant's X_WB of every body (its `body_poses` port).
-        contact_results: the world plant's contact results.
-    Output ports:
-        metrics: the task's metrics (`reader.measure`'s value).
-        reward: [reward(metrics)].
-        success: [1.0] when the metrics' `is_success`, else [0.0].
-    Parameters: the goal (3, m) and the object's start (3, m), set per episode.
-    """
+    """A task's truth as ports, the mixin of the task's outcome system (a LeafSystem:
+    `class MyOutcome(TaskOutcome, LeafSystem)`, whose docstring holds its port block). It
+    declares the inputs `body_poses` (the world plant's X_WB of every body) and
+    `contact_results` (the plant's), and the outputs `metrics` (`reader.measure`'s value),
+    `reward` ([reward(metrics)]) and `success` ([1.0] when the metrics' `is_success`, else
+    [0.0]); its parameters are the goal (3, m) and the box's start (3, m), set per episode
+    (`set_episode`)."""
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
