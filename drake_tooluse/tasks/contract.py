@@ -16,18 +16,41 @@ gives:
   in `info` (a penetration, a speed), each with the limit past which the step is flagged there;
   an evaluation counts the episodes with a flagged step, per flag.
 
+A task whose episode has a goal and a box's start (push, pull) builds its pieces from shared
+ones, so that what the tasks do the same is written once: its outcome system on
+`systems.task_outcome.TaskOutcome` (with its metrics reader on `BoxAndToolPointReader`), its
+observation on `systems.goal_observation.GoalObservation`, its wiring through
+`GoalTaskParts.wire`, its env class on `builders.task_gym_env.TaskGymEnv`, its keyword
+arguments' names checked by `env_config` and its ids registered by `register_task_envs`.
+
 `learning/` trains and evaluates any registered env whose class is a `TaskEnv`: it finds the
 class through Gymnasium's registry and imports no task (tests/test_architecture.py checks it).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
+import gymnasium as gym
 import numpy as np
 
 # Every env id of the project lives in this Gymnasium namespace.
 ENV_NAMESPACE = "drake_tooluse"
+
+
+def register_task_envs(env_ids: dict, entry_point: str, max_episode_steps: int) -> None:
+    """Registers each id of `env_ids` ({id: its keyword arguments}) with Gymnasium, made by
+    `entry_point` ("module:Class") and truncated at `max_episode_steps` (idempotent: an id
+    already registered is left as it is); `gym.make` builds them lazily."""
+    for env_id, kwargs in env_ids.items():
+        if env_id not in gym.registry:
+            gym.register(
+                env_id,
+                entry_point=entry_point,
+                max_episode_steps=max_episode_steps,
+                kwargs=dict(kwargs),
+            )
 
 
 @dataclass(frozen=True)
@@ -75,6 +98,18 @@ class PhysicalLimit:
     limit: float
     unit: str
     why: str
+
+
+def env_config(config_class, kwargs: dict, name: str, env: str):
+    """`config_class(**kwargs)`: the dataclass of an env's keyword arguments (`env` names the
+    env in an error), the names checked: one it has no field for is a ValueError naming it,
+    `name` (where they came from) and the allowed names. Their values are the caller's to
+    check."""
+    allowed = [f.name for f in dataclasses.fields(config_class)]
+    unknown = sorted(set(kwargs) - set(allowed))
+    if unknown:
+        raise ValueError(f"unknown argument(s) {unknown} for {env} ({name}); allowed: {allowed}")
+    return config_class(**kwargs)
 
 
 class TaskEnv:
@@ -126,3 +161,45 @@ class TaskParts:
         builder.ExportOutput(self.observation_port, "observation")
         builder.ExportOutput(self.reward_port, "reward")
         builder.ExportOutput(self.success_port, "success")
+
+
+@dataclass
+class GoalTaskParts(TaskParts):
+    """The contract's parts of a task whose episode has a goal and an object's start: with the
+    two systems that hold them, `observation` (the world plant's state in; `set_goal`) and
+    `outcome` (`systems.task_outcome.TaskOutcome`: the plant's body poses and contact results
+    in, `reward` and `success` out; `set_episode`)."""
+
+    observation: object = None
+    outcome: object = None
+
+    @classmethod
+    def wire(cls, builder, world, ik, control, observation, outcome, **parts):
+        """Adds `observation` and `outcome` to `builder` under those names, connected to the
+        world plant's ports; returns the task's parts (`parts`: a subclass's other fields)."""
+        plant = world.plant
+        observation = builder.AddNamedSystem("observation", observation)
+        builder.Connect(plant.get_state_output_port(), observation.get_input_port())
+        outcome = builder.AddNamedSystem("outcome", outcome)
+        builder.Connect(plant.get_body_poses_output_port(), outcome.GetInputPort("body_poses"))
+        builder.Connect(
+            plant.get_contact_results_output_port(), outcome.GetInputPort("contact_results")
+        )
+        return cls(
+            world,
+            ik,
+            control,
+            observation.get_output_port(),
+            outcome.GetOutputPort("reward"),
+            outcome.GetOutputPort("success"),
+            observation=observation,
+            outcome=outcome,
+            **parts,
+        )
+
+    def set_episode(self, root_context, goal, start) -> None:
+        """This episode's goal and the object's start (m, W), in both systems."""
+        self.observation.set_goal(self.observation.GetMyMutableContextFromRoot(root_context), goal)
+        self.outcome.set_episode(
+            self.outcome.GetMyMutableContextFromRoot(root_context), goal, start
+        )

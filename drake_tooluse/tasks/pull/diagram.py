@@ -20,7 +20,7 @@ from drake_tooluse.builders.control import add_tip_control, add_world_at_home, n
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HOOK_CORNER, HookTool
 from drake_tooluse.systems.tip_target import Workspace
-from drake_tooluse.tasks.contract import TaskParts
+from drake_tooluse.tasks.contract import GoalTaskParts
 from drake_tooluse.tasks.pull.hook import hook_geometry, pull_pose, slant_and_drop
 from drake_tooluse.tasks.pull.metrics import PullOutcome
 from drake_tooluse.tasks.pull.observation import ToolPullObservation
@@ -56,20 +56,14 @@ def corner_workspace(scenario: Scenario, hook: HookTool) -> Workspace:
 
 
 @dataclass
-class PullTask(TaskParts):
-    """The parts `add_pull_task` added: the contract's, and the two systems that hold the
-    episode's goal (`observation`, `outcome`: set both per episode, `set_episode`)."""
+class PullTask(GoalTaskParts):
+    """The parts `add_pull_task` added: the contract's, the two systems that hold the
+    episode's goal and the cube's start (`observation`, `outcome`: `set_episode` sets both)
+    and the robot's belief."""
 
     observation: ToolPullObservation = None
     outcome: PullOutcome = None
     belief: RobotBelief = None
-
-    def set_episode(self, root_context, goal, start) -> None:
-        """This episode's goal x* and the cube's start x₀ (m, W)."""
-        self.observation.set_goal(self.observation.GetMyMutableContextFromRoot(root_context), goal)
-        self.outcome.set_episode(
-            self.outcome.GetMyMutableContextFromRoot(root_context), goal, start
-        )
 
 
 def add_pull_task(builder, scenario: Scenario, belief: RobotBelief | None = None) -> PullTask:
@@ -88,25 +82,12 @@ def add_pull_task(builder, scenario: Scenario, belief: RobotBelief | None = None
         builder, world, ik, q0, "position", home, corner_workspace(scenario, belief.tool)
     )
     goal = goal_position(scenario)
-    observation = builder.AddNamedSystem(
-        "observation", ToolPullObservation(world, ik.chain, goal, hook_geometry(belief.tool))
-    )
-    builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
-    outcome = builder.AddNamedSystem(
-        "outcome", PullOutcome(world, goal, initial_box_pose(scenario).translation())
-    )
-    builder.Connect(world.plant.get_body_poses_output_port(), outcome.GetInputPort("body_poses"))
-    builder.Connect(
-        world.plant.get_contact_results_output_port(), outcome.GetInputPort("contact_results")
-    )
-    return PullTask(
+    return PullTask.wire(
+        builder,
         world,
         ik,
         control,
-        observation.get_output_port(),
-        outcome.GetOutputPort("reward"),
-        outcome.GetOutputPort("success"),
-        observation=observation,
-        outcome=outcome,
+        ToolPullObservation(world, ik.chain, goal, hook_geometry(belief.tool)),
+        PullOutcome(world, goal, initial_box_pose(scenario).translation()),
         belief=belief,
     )

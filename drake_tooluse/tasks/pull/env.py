@@ -12,27 +12,22 @@ import dataclasses as dc
 import math
 from pathlib import Path
 
-import gymnasium as gym
 import numpy as np
-from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.builders.task_gym_env import TaskGymEnv
 from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.systems.camera import add_scene_camera
-from drake_tooluse.systems.lifetime import release_diagram
-from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
-from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.systems.tip_target import ACTION_MODES
+from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
-from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of, check_seed
-from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
-from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
 
 ACTION_SIZE = ACTION_MODES["position"]
 
@@ -50,14 +45,7 @@ class PullEnvConfig:
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
     kwargs = dict(check_mapping(kwargs, name))
-    allowed = [f.name for f in dc.fields(PullEnvConfig)]
-    unknown = sorted(set(kwargs) - set(allowed))
-    if unknown:
-        raise ValueError(
-            f"unknown argument(s) {unknown} for drake_tooluse/ToolPull-v0 ({name}); "
-            f"allowed: {allowed}"
-        )
-    config = PullEnvConfig(**kwargs)
+    config = env_config(PullEnvConfig, kwargs, name, "drake_tooluse/ToolPull-v0")
     if config.hook is not None:
         config.hook = check_hook(config.hook, "hook")
     check_bool(config.randomize, "randomize")
@@ -74,7 +62,7 @@ def with_hook(scenario: Scenario, hook) -> Scenario:
     return with_tool(scenario, HookTool(*check_hook(hook)))
 
 
-class ToolPullEnv(TaskEnv, DrakeGymEnv):
+class ToolPullEnv(TaskEnv, TaskGymEnv):
     """Pull a cube from beyond the bare gripper's reach to a goal near the robot with a hook.
 
     ## Description
@@ -188,26 +176,13 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
         else:  # DrakeGymEnv makes each episode's simulator (`_next_hook`) at its reset
             self.scenario = scenario
             simulator = self._next_hook
-        self.metadata = dict(type(self).metadata)
-        super().__init__(
-            simulator=simulator,
-            time_step=scenario.control.control_period,
-            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_SIZE,), np.float32),
-            observation_space=gym.spaces.Box(-np.inf, np.inf, (OBSERVATION_SIZE,), np.float32),
-            reward="reward",
-            action_port_id="action",
-            observation_port_id="observation",
-            render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
-            render_mode=config.render_mode or "human",
-            reset_handler=self._reset_handler,
+        self._start_gym(
+            simulator,
+            scenario.control.control_period,
+            ACTION_SIZE,
+            OBSERVATION_SIZE,
+            config.render_mode,
         )
-        self.render_mode = config.render_mode
-        self.metadata = dict(type(self).metadata)
-        # DrakeGymEnv 1.51 drops an `info_handler` argument (see tasks.push.env): set it here.
-        self.info_handler = self._info_handler
-        self._episode = {}
-        self._last = None  # (observation, metrics, reward) of the last finite state
-        self._closed = False
 
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, scenario: Scenario) -> None:
@@ -230,66 +205,16 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
         """The next episode's world: a hook drawn with the env's seeded generator (`np_random`,
         which `reset(seed=...)` seeds before this is called; Drake's `generator` is not used)."""
         hook = draw_hook(self.np_random)
-        if self.diagram is not None:
-            release_diagram(self.diagram)
+        self._release_world()
         self._build(with_hook(self._base_scenario, hook))
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------
-    def _reset_handler(self, simulator, context, seed) -> None:
-        self._context = context
-        self._plant_context = self.world.plant.GetMyContextFromRoot(context)
-        self._ik_context = self.ik_system.GetMyContextFromRoot(context)
-        self._action_value = None
-        s = self.scenario
-        if self.config.randomize:
-            s = apply_draw(s, draw_randomization(s, self.np_random))
-        set_randomized_state(self.world, context, s)
-        self.control.reset(context)
-        start = initial_box_pose(s).translation()
-        goal = start + np.asarray(s.goal_offset, float)
-        self.task.set_episode(context, goal, start)
-        self._episode = {
-            "goal": goal,
-            "start": start,
-            "tool_touched": False,
-            "gripper_touched": False,
-        }
-
-    def _check_open(self) -> None:
-        if self._closed:
-            raise gym.error.Error("this env is closed; make a new one")
-
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
-        self._check_open()
-        if options:
-            raise ValueError(f"reset options {options!r} are not supported; pass none")
-        if seed is not None:
-            seed = check_seed(seed, "seed")
-        observation, info = super().reset(seed=seed)
-        return np.asarray(observation, np.float32), info
-
     def step(self, action):
         """Advances one control period. As the push env's step: the action is checked, the
         plant's state read once, and a simulation failure (Drake raises, or the state is no
         longer finite) truncates the episode with the last finite observation and reward."""
-        self._check_open()
-        if self._last is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        values = np.asarray(action)
-        if values.dtype.kind not in "biuf":
-            raise ValueError(f"action {action!r} is not real numbers; actions are in [-1, 1]")
-        action = check_action(values, "position")
-        context = self._context
-        if self._action_value is None:
-            fixed = self.action_port.FixValue(context, action)
-            self._action_value = (fixed, fixed.GetMutableData().get_mutable_value())
-        else:  # the same fixed value rewritten (FixValue would make a new one each step)
-            fixed, vector = self._action_value
-            fixed.GetMutableData()  # tells its dependents that it changes
-            vector.SetFromVector(action)
-        sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
-        x = None if sim_error else finite_state_vector(self.world.plant, self._plant_context)
+        x = self._advance(action, "position")
         sim_error = x is None
         if not sim_error:
             observation = np.asarray(
@@ -303,34 +228,6 @@ class ToolPullEnv(TaskEnv, DrakeGymEnv):
             r = reward(m)
             self._last = (observation, m, r)
         return observation, r, False, sim_error, self._info(m, sim_error)
-
-    def close(self) -> None:
-        """Frees the diagram (`systems.lifetime`). The env cannot be used after."""
-        if self._closed:
-            return
-        self._closed = True
-        super().close()
-        if self.diagram is not None:
-            release_diagram(self.diagram)
-        for name in (
-            "diagram",
-            "simulator",
-            "_simulator",
-            "action_port",
-            "observation_port",
-            "render_rgb_port",
-            "world",
-            "control",
-            "ik_system",
-            "task",
-            "_metrics_reader",
-            "_context",
-            "_plant_context",
-            "_ik_context",
-            "_action_value",
-        ):
-            if hasattr(self, name):
-                setattr(self, name, None)
 
     def render(self):
         """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""

@@ -18,14 +18,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.tool import HOOK_CORNER, TOOL_TIP
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
-from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.scene import World
 
 SUCCESS_RADIUS = 0.05  # m: the cube's centre this near the goal ...
@@ -70,42 +67,16 @@ def behind_direction(goal, start) -> np.ndarray:
     return e / np.linalg.norm(e)
 
 
-class PullMetricsReader:
+class PullMetricsReader(BoxAndToolPointReader):
     """Reads the truth from the world plant: the cube, the true hook's corner, the contacts."""
 
     def __init__(self, world: World):
         plant = world.plant
-        self._box = world.box
-        self._box_index = int(world.box.index())
         # A straight tool (the hook policy tried on one) has no corner: its tip, where a
         # hook's would be.
         corner = HOOK_CORNER if plant.HasFrameNamed(HOOK_CORNER) else TOOL_TIP
-        self._corner = plant.GetFrameByName(corner)
-        self._corner_index = int(self._corner.body().index())
-        self._X_BC = self._corner.GetFixedPoseInBodyFrame()
+        super().__init__(world, plant.GetFrameByName(corner))
         self._standoff = world.scenario.box.size[0] / 2 + world.scenario.tool.radius
-        self._contacts = plant.get_contact_results_output_port()
-        self._touches = BoxContacts(world).touches
-
-    def read(self, plant_context, goal, start) -> PullMetrics:
-        """The metrics of the plant's state in `plant_context`."""
-        return self._metrics(
-            self._box.EvalPoseInWorld(plant_context).translation(),
-            self._corner.CalcPoseInWorld(plant_context).translation(),
-            self._contacts.EvalAbstract(plant_context).get_value(),
-            goal,
-            start,
-        )
-
-    def measure(self, body_poses, contacts, goal, start) -> PullMetrics:
-        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
-        return self._metrics(
-            body_poses[self._box_index].translation(),
-            body_poses[self._corner_index].multiply(self._X_BC).translation(),
-            contacts,
-            goal,
-            start,
-        )
 
     def _metrics(self, p_box, p_corner, contacts, goal, start) -> PullMetrics:
         goal, start = np.asarray(goal, float), np.asarray(start, float)
@@ -120,7 +91,7 @@ class PullMetricsReader:
         )
 
 
-class PullOutcome(LeafSystem):
+class PullOutcome(TaskOutcome, LeafSystem):
     """The pull task's truth as ports: the step's metrics, its reward and success.
 
     .. pydrake_system::
@@ -141,53 +112,16 @@ class PullOutcome(LeafSystem):
         metrics: `PullMetrics` (distances in m, which bodies touch the cube).
         reward: [r] = [−(d(x, x*) + d(c, p_b))] (m).
         success: [1.0] when d(x, x*) ≤ SUCCESS_RADIUS and the cube moved ≥ MIN_TRAVEL.
-    Parameters: the goal x* (3, m) and the cube's start x₀ (3, m), set per episode.
+    Parameters: the goal x* (3, m) and the cube's start x₀ (3, m), set per episode
+    (`set_episode`).
     """
 
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
-
     def __init__(self, world: World, goal, start):
-        super().__init__()
-        self._reader = PullMetricsReader(world)
-        self._poses = self.DeclareAbstractInputPort(
-            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        super().__init__(
+            world,
+            PullMetricsReader(world),
+            reward,
+            lambda: PullMetrics(0.0, 0.0, 0.0, False, False),
+            goal,
+            start,
         )
-        self._contacts = self.DeclareAbstractInputPort(
-            "contact_results", world.plant.get_contact_results_output_port().Allocate()
-        )
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        self._start = self.DeclareNumericParameter(BasicVector(np.asarray(start, float)))
-        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
-        self._metrics = self.DeclareAbstractOutputPort(
-            "metrics",
-            lambda: AbstractValue.Make(PullMetrics(0.0, 0.0, 0.0, False, False)),
-            weak_method(self._calc_metrics),
-            prerequisites_of_calc=depends,
-        )
-        self.DeclareVectorOutputPort(
-            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
-        )
-        self.DeclareVectorOutputPort(
-            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
-        )
-
-    def set_episode(self, context, goal, start) -> None:
-        """This episode's goal x* and the cube's start x₀ (m, W)."""
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-        context.get_mutable_numeric_parameter(self._start).SetFromVector(start)
-
-    def _calc_metrics(self, context, output) -> None:
-        output.set_value(
-            self._reader.measure(
-                self._poses.Eval(context),
-                self._contacts.Eval(context),
-                context.get_numeric_parameter(self._goal).get_value(),
-                context.get_numeric_parameter(self._start).get_value(),
-            )
-        )
-
-    def _calc_reward(self, context, output) -> None:
-        output.SetAtIndex(0, reward(self._metrics.Eval(context)))
-
-    def _calc_success(self, context, output) -> None:
-        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))

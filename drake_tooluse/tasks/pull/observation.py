@@ -19,12 +19,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.kinematics import ArmChain, fk_jacobian
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
-from drake_tooluse.validation import all_finite
+from drake_tooluse.systems.goal_observation import GoalObservation
 from drake_tooluse.world.scene import World
 
 OBSERVATION_SIZE = 16
@@ -46,7 +44,7 @@ def folded_yaw(wxyz) -> float:
     return (yaw + math.pi / 4) % (math.pi / 2) - math.pi / 4
 
 
-class ToolPullObservation(LeafSystem):
+class ToolPullObservation(GoalObservation, LeafSystem):
     """Plant state in, the pull task's observation out (see the module docstring).
 
     .. pydrake_system::
@@ -61,15 +59,12 @@ class ToolPullObservation(LeafSystem):
         plant_state: the world plant's full state [q, v].
     Output ports:
         observation: 16 values; all NaN when the state is not finite.
-    Parameters: the goal x* (3, m), set per episode.
+    Parameters: the goal x* (3, m), set per episode (`set_goal`).
     """
 
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
-
     def __init__(self, world: World, corner_chain: ArmChain, goal, hook_geometry):
-        super().__init__()
-        plant = world.plant
-        nq = plant.num_positions()
+        super().__init__(world, goal, OBSERVATION_SIZE)
+        nq = world.plant.num_positions()
         self._arm_q = np.array([j.position_start() for j in world.arm_joints()])
         self._arm_v = np.array([nq + j.velocity_start() for j in world.arm_joints()])
         q0 = world.box.floating_positions_start()
@@ -78,29 +73,6 @@ class ToolPullObservation(LeafSystem):
         self._chain = corner_chain
         self._fk = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
         self._hook = np.asarray(hook_geometry, float)
-        self._state = self.DeclareVectorInputPort("plant_state", nq + plant.num_velocities())
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        self.DeclareVectorOutputPort(
-            "observation",
-            OBSERVATION_SIZE,
-            weak_method(self._calc),
-            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
-        )
-
-    def set_goal(self, context, goal) -> None:
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-
-    def goal(self, context) -> np.ndarray:
-        return context.get_numeric_parameter(self._goal).get_value()
-
-    def _calc(self, context, output):
-        output.SetFromVector(self.observation(self._state.Eval(context), self.goal(context)))
-
-    def observation(self, x, goal) -> np.ndarray:
-        """The observation of the plant state x and the goal; NaN where x is not finite."""
-        if not all_finite(x):
-            return np.full(OBSERVATION_SIZE, np.nan)
-        return self.finite_observation(x, goal)
 
     def finite_observation(self, x, goal) -> np.ndarray:
         """`observation` of a plant state x known to be finite."""

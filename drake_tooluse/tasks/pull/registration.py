@@ -1,6 +1,6 @@
 """Gymnasium registration of the pull env; imports nothing heavy (no pydrake)."""
 
-import gymnasium as gym
+from drake_tooluse.tasks.contract import register_task_envs
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
@@ -8,11 +8,4 @@ ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
 
 def register_envs() -> None:
     """Registers the id (idempotent); `gym.make` builds it lazily."""
-    for env_id, kwargs in ENV_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(
-                env_id,
-                entry_point="drake_tooluse.tasks.pull.env:ToolPullEnv",
-                max_episode_steps=MAX_EPISODE_STEPS,
-                kwargs=dict(kwargs),
-            )
+    register_task_envs(ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnv", MAX_EPISODE_STEPS)

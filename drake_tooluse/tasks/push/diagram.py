@@ -32,7 +32,7 @@ from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.policy import PolicySystem
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.tasks.contract import TaskParts
+from drake_tooluse.tasks.contract import GoalTaskParts
 from drake_tooluse.tasks.push.metrics import PushMetricsReader, PushOutcome
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
 from drake_tooluse.world.scenario import Scenario
@@ -40,19 +40,12 @@ from drake_tooluse.world.scene import World, goal_position, initial_box_pose
 
 
 @dataclass
-class PushTask(TaskParts):
+class PushTask(GoalTaskParts):
     """The parts `add_push_task` added: the contract's, and the two systems that hold the
-    episode's goal (`observation`, `outcome`: set both per episode, `set_episode`)."""
+    episode's goal and the box's start (`observation`, `outcome`: `set_episode` sets both)."""
 
     observation: ToolPushObservation = None
     outcome: PushOutcome = None
-
-    def set_episode(self, root_context, goal, box_start) -> None:
-        """This episode's goal x* and the box's start (m, W)."""
-        self.observation.set_goal(self.observation.GetMyMutableContextFromRoot(root_context), goal)
-        self.outcome.set_episode(
-            self.outcome.GetMyMutableContextFromRoot(root_context), goal, box_start
-        )
 
 
 def add_push_task(
@@ -73,37 +66,16 @@ def add_push_task(
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     control = add_tip_control(builder, world, ik, q0, action_mode, max_joint_speed=max_joint_speed)
-    observation = builder.AddNamedSystem(
-        "observation",
-        ToolPushObservation(
-            world,
-            ik.plant,
-            goal_position(scenario),
-            include_tool_length,
-            belief.tool_length,
-            observation_mode,
-        ),
-    )
-    builder.Connect(world.plant.get_state_output_port(), observation.get_input_port())
-    outcome = builder.AddNamedSystem(
-        "outcome",
-        PushOutcome(
-            world, goal_position(scenario), initial_box_pose(scenario).translation(), reward_type
-        ),
-    )
-    builder.Connect(world.plant.get_body_poses_output_port(), outcome.GetInputPort("body_poses"))
-    builder.Connect(
-        world.plant.get_contact_results_output_port(), outcome.GetInputPort("contact_results")
-    )
-    return PushTask(
+    goal = goal_position(scenario)
+    return PushTask.wire(
+        builder,
         world,
         ik,
         control,
-        observation.get_output_port(),
-        outcome.GetOutputPort("reward"),
-        outcome.GetOutputPort("success"),
-        observation=observation,
-        outcome=outcome,
+        ToolPushObservation(
+            world, ik.plant, goal, include_tool_length, belief.tool_length, observation_mode
+        ),
+        PushOutcome(world, goal, initial_box_pose(scenario).translation(), reward_type),
     )
 
 

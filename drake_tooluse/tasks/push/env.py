@@ -15,14 +15,12 @@ import dataclasses as dc
 import math
 from pathlib import Path
 
-import gymnasium as gym
 import numpy as np
 from pydrake.geometry import Meshcat
-from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.builders.task_gym_env import TaskGymEnv
 from drake_tooluse.builders.visualization import (
     GOAL_RADIUS,
     add_meshcat_visualizer,
@@ -40,9 +38,8 @@ from drake_tooluse.systems.camera import (
     check_scene_camera,
     draw_goal,
 )
-from drake_tooluse.systems.lifetime import release_diagram
-from drake_tooluse.systems.tip_target import ACTION_MODES, check_action
-from drake_tooluse.tasks.contract import TaskEnv
+from drake_tooluse.systems.tip_target import ACTION_MODES
+from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
@@ -62,11 +59,8 @@ from drake_tooluse.validation import (
     check_in_range,
     check_mapping,
     check_one_of,
-    check_seed,
 )
-from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
-from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
 
 
 @dc.dataclass
@@ -127,13 +121,7 @@ def current_kwargs(kwargs: dict) -> dict:
 
 def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     kwargs = current_kwargs(check_mapping(kwargs, name))
-    allowed = [f.name for f in dc.fields(EnvConfig)]
-    unknown = sorted(set(kwargs) - set(allowed))
-    if unknown:
-        raise ValueError(
-            f"unknown argument(s) {unknown} for a drake_tooluse env ({name}); allowed: {allowed}"
-        )
-    config = EnvConfig(**kwargs)
+    config = env_config(EnvConfig, kwargs, name, "a drake_tooluse env")
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
@@ -189,7 +177,7 @@ def _scenario(config: EnvConfig) -> Scenario:
     return dc.replace(scenario, goal_offset=goal)
 
 
-class ToolPushEnv(TaskEnv, DrakeGymEnv):
+class ToolPushEnv(TaskEnv, TaskGymEnv):
     """The push task as a Gymnasium env: Baxter's right arm, holding a tool, pushes a box
     across the table to a goal with the tool's tip.
 
@@ -403,29 +391,14 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         else:  # DrakeGymEnv makes each episode's simulator (`_next_tool`) at its reset
             simulator = self._next_tool
         n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
-        # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
-        self.metadata = dict(type(self).metadata)
-        super().__init__(
-            simulator=simulator,
-            time_step=self.scenario.control.control_period,
-            action_space=gym.spaces.Box(-1.0, 1.0, (ACTION_MODES[config.action_mode],), np.float32),
-            observation_space=gym.spaces.Box(-np.inf, np.inf, (n_obs,), np.float32),
-            reward="reward",
-            action_port_id="action",
-            observation_port_id="observation",
-            render_rgb_port_id="color_image" if config.render_mode == "rgb_array" else None,
-            render_mode=config.render_mode or "human",
-            reset_handler=self._reset_handler,
+        self._start_gym(
+            simulator,
+            self.scenario.control.control_period,
+            ACTION_MODES[config.action_mode],
+            n_obs,
+            config.render_mode,
         )
-        self.render_mode = config.render_mode
-        self.metadata = dict(type(self).metadata)
-        # DrakeGymEnv 1.51 drops an `info_handler` argument (its check compares the handler
-        # with `callable(handler)`), so it is set here, where its `step` and `reset` find it.
-        self.info_handler = self._info_handler
         self._last_reward = 0.0
-        self._episode = {}
-        self._last = None  # (observation, metrics) of the last finite state
-        self._closed = False
 
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, config: EnvConfig) -> None:
@@ -475,48 +448,19 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         the env's `reset(seed=...)` seeds, before this is called)."""
         lo, hi = self.config.tool_length_range
         length = float(self.np_random.uniform(lo, hi))
-        if self.diagram is not None:
-            release_diagram(self.diagram)
+        self._release_world()
         self.scenario = with_tool_length(self._base_scenario, length)
         self._build(self.config)
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------
     def _reset_handler(self, simulator, context, seed) -> None:
-        # What each step reads, looked up once per episode (the simulator may be new).
-        self._context = context
-        self._plant_context = self.world.plant.GetMyContextFromRoot(context)
-        self._ik_context = self.ik_system.GetMyContextFromRoot(context)
-        self._action_value = None  # the action input's fixed value, made by the first step
-        s = self.scenario
-        if self.config.randomize:
-            s = apply_draw(s, draw_randomization(s, self.np_random))
-        set_randomized_state(self.world, context, s)
-        self.control.reset(context)
-        box_start = initial_box_pose(s).translation()
-        goal = box_start + np.asarray(s.goal_offset, float)
-        self.task.set_episode(context, goal, box_start)
-        self._episode = {
-            "goal": goal,
-            "box_start": box_start,
-            "tool_touched": False,
-            "gripper_touched": False,
-        }
+        s = self._start_episode(context)
         if self.visualizer is not None:  # the goal marker where this episode's goal is
             show_task(self.config.meshcat, s)
 
-    def _check_open(self) -> None:
-        if self._closed:
-            raise gym.error.Error("this env is closed; make a new one")
-
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        self._check_open()
-        if options:
-            raise ValueError(f"reset options {options!r} are not supported; pass none")
-        if seed is not None:
-            seed = check_seed(seed, "seed")
-        observation, info = super().reset(seed=seed)
-        observation = np.asarray(observation, np.float32)
+        observation, info = super().reset(seed=seed, options=options)
         self._last_reward = reward(self._last[1], self.config.reward_type)
         return observation, info
 
@@ -529,26 +473,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
 
         The plant's state is read once: its finiteness check and the observation (the
         `observation` port's, `ToolPushObservation` of the same state and goal) share it."""
-        self._check_open()
-        if self._last is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
-        values = np.asarray(action)
-        kind = values.dtype.kind
-        if kind not in "biuf":
-            what = "complex" if kind == "c" else f"{values.dtype} (not numbers)"
-            raise ValueError(f"action {action!r} is {what}; actions are real numbers in [-1, 1]")
-        action = check_action(values, self.config.action_mode)
-        context = self._context
-        if self._action_value is None:
-            fixed = self.action_port.FixValue(context, action)
-            self._action_value = (fixed, fixed.GetMutableData().get_mutable_value())
-        else:  # the same fixed value rewritten, not a new one each step (FixValue makes one)
-            fixed, vector = self._action_value
-            fixed.GetMutableData()  # tells its dependents that it changes
-            vector.SetFromVector(action)
-        # A simulation failure truncates the episode, with a flag (`builders.failures`).
-        sim_error = advance(self.simulator, context.get_time() + self.time_step) is not None
-        x = None if sim_error else finite_state_vector(self.world.plant, self._plant_context)
+        x = self._advance(action, self.config.action_mode)
         sim_error = x is None
         observation, m = self._last
         if not sim_error:
@@ -568,41 +493,6 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
             self._last_reward = reward(m, self.config.reward_type)
             terminated = self.config.end_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
-
-    def close(self) -> None:
-        """Frees the diagram (pydrake would keep its Python systems, and with them the whole
-        diagram, alive: `systems.lifetime`). The env cannot be used after."""
-        if self._closed:
-            return
-        self._closed = True
-        super().close()
-        diagram = getattr(self, "diagram", None)
-        if diagram is not None:
-            release_diagram(diagram)
-        for name in (
-            "diagram",
-            "simulator",
-            "_simulator",
-            "action_port",
-            "observation_port",
-            "render_rgb_port",
-            "_scene_depth",
-            "world",
-            "control",
-            "ik_system",
-            "target_system",
-            "observation_system",
-            "visualizer",
-            "_metrics_reader",
-            "_sanity_reader",
-            "_context",
-            "_plant_context",
-            "_ik_context",
-            "_action_value",
-            "task",
-        ):
-            if hasattr(self, name):
-                setattr(self, name, None)
 
     def render(self):
         """`rgb_array`: the scene camera's colour image, (H, W, 3) uint8, of `render_size`
@@ -656,7 +546,7 @@ class ToolPushEnv(TaskEnv, DrakeGymEnv):
         reward and success are formed from them as its `reward` and `success` ports form them
         (`metrics.reward`, `PushMetrics.is_success`)."""
         episode = self._episode
-        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["box_start"])
+        m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["start"])
         if _finite(m):
             self._episode["tool_touched"] |= m.tool_touches_box
             self._episode["gripper_touched"] |= m.gripper_touches_box

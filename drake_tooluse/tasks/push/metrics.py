@@ -7,18 +7,16 @@ x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
+from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
-from drake_tooluse.world.contacts import BoxContacts
 from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.scene import World
 
@@ -47,43 +45,11 @@ class PushMetrics:
         return self.box_to_goal + self.tip_to_box <= SUCCESS_DISTANCE
 
 
-class PushMetricsReader:
+class PushMetricsReader(BoxAndToolPointReader):
     """Reads the truth from the world plant: distances and which bodies touch the box."""
 
     def __init__(self, world: World):
-        plant = world.plant
-        self._box = world.box
-        self._box_index = int(world.box.index())
-        self._tip_frame = world.tip_frame
-        # `measure`'s tip, a pose on its body: X_WT = X_WB X_BT, as Drake's `CalcPoseInWorld`
-        # (which `read` calls) forms it: the same arithmetic, so the same bits.
-        self._tip_index = int(world.tip_frame.body().index())
-        self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
-        self._contacts = plant.get_contact_results_output_port()
-        self._touches = BoxContacts(world).touches
-
-    def read(self, plant_context, goal, box_start) -> PushMetrics:
-        """The metrics of the plant's state in `plant_context`. The two poses it needs are read
-        alone (the plant's body-poses port copies the same cached values for every body, and
-        pydrake makes a Python object of each of its ~30)."""
-        return self._metrics(
-            self._box.EvalPoseInWorld(plant_context).translation(),
-            self._tip_frame.CalcPoseInWorld(plant_context).translation(),
-            # The cached value itself (Eval would copy every contact into Python first).
-            self._contacts.EvalAbstract(plant_context).get_value(),
-            goal,
-            box_start,
-        )
-
-    def measure(self, body_poses, contacts, goal, box_start) -> PushMetrics:
-        """The metrics of the plant's body poses (X_WB by body index) and contact results."""
-        return self._metrics(
-            body_poses[self._box_index].translation(),
-            body_poses[self._tip_index].multiply(self._X_BT).translation(),
-            contacts,
-            goal,
-            box_start,
-        )
+        super().__init__(world, world.tip_frame)
 
     def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
         # Lists: math.dist reads them faster than arrays (the same floats, so the same result).
@@ -103,7 +69,7 @@ def _floats(values) -> list:
     return values.tolist() if isinstance(values, np.ndarray) else list(values)
 
 
-class PushOutcome(LeafSystem):
+class PushOutcome(TaskOutcome, LeafSystem):
     """The push task's truth as ports: the step's metrics, the paper's reward and success.
 
     .. pydrake_system::
@@ -124,61 +90,20 @@ class PushOutcome(LeafSystem):
         metrics: `PushMetrics` (distances in m, which bodies touch the box).
         reward: [r], the paper's reward of `reward_type` (see REWARD_TYPES).
         success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0].
-    Parameters: the goal x* (3, m) and the box's start (3, m), set per episode.
+    Parameters: the goal x* (3, m) and the box's start (3, m), set per episode
+    (`set_episode`).
     """
 
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
-
     def __init__(self, world: World, goal, box_start, reward_type: str):
-        super().__init__()
         check_one_of(reward_type, REWARD_TYPES, "reward_type")
-        self._reader = PushMetricsReader(world)
-        self._reward_type = reward_type
-        self._poses = self.DeclareAbstractInputPort(
-            "body_poses", world.plant.get_body_poses_output_port().Allocate()
+        super().__init__(
+            world,
+            PushMetricsReader(world),
+            functools.partial(reward, reward_type=reward_type),
+            lambda: PushMetrics(0.0, 0.0, 0.0, False, False),
+            goal,
+            box_start,
         )
-        self._contacts = self.DeclareAbstractInputPort(
-            "contact_results", world.plant.get_contact_results_output_port().Allocate()
-        )
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        self._box_start = self.DeclareNumericParameter(BasicVector(np.asarray(box_start, float)))
-        depends = {self.all_input_ports_ticket(), self.all_parameters_ticket()}
-        self._metrics = self.DeclareAbstractOutputPort(
-            "metrics",
-            lambda: AbstractValue.Make(PushMetrics(0.0, 0.0, 0.0, False, False)),
-            weak_method(self._calc_metrics),
-            prerequisites_of_calc=depends,
-        )
-        self.DeclareVectorOutputPort(
-            "reward", 1, weak_method(self._calc_reward), prerequisites_of_calc=depends
-        )
-        self.DeclareVectorOutputPort(
-            "success", 1, weak_method(self._calc_success), prerequisites_of_calc=depends
-        )
-
-    def set_episode(self, context, goal, box_start) -> None:
-        """This episode's goal x* and box start (m, W)."""
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-        context.get_mutable_numeric_parameter(self._box_start).SetFromVector(box_start)
-
-    def goal(self, context) -> np.ndarray:
-        return context.get_numeric_parameter(self._goal).get_value()
-
-    def _calc_metrics(self, context, output) -> None:
-        output.set_value(
-            self._reader.measure(
-                self._poses.Eval(context),
-                self._contacts.Eval(context),
-                context.get_numeric_parameter(self._goal).get_value(),
-                context.get_numeric_parameter(self._box_start).get_value(),
-            )
-        )
-
-    def _calc_reward(self, context, output) -> None:
-        output.SetAtIndex(0, reward(self._metrics.Eval(context), self._reward_type))
-
-    def _calc_success(self, context, output) -> None:
-        output.SetAtIndex(0, float(self._metrics.Eval(context).is_success))
 
 
 def reward(metrics: PushMetrics, reward_type: str) -> float:

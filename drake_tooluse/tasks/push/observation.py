@@ -35,18 +35,17 @@ from __future__ import annotations
 
 import numpy as np
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
-from drake_tooluse.systems.lifetime import weak_method
-from drake_tooluse.systems.tool_tip_ik import NO_WITNESS_FUNCTIONS
-from drake_tooluse.validation import all_finite, check_one_of
+from drake_tooluse.systems.goal_observation import GoalObservation
+from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scene import World
 
 OBSERVATION_SIZES = {"gripper_joints": 30, "tip": 12}
 
 
-class ToolPushObservation(LeafSystem):
+class ToolPushObservation(GoalObservation, LeafSystem):
     """Plant state in, the push task's observation out (see the module docstring).
 
     .. pydrake_system::
@@ -62,10 +61,8 @@ class ToolPushObservation(LeafSystem):
     Output ports:
         observation: by mode, 30 or 12 values (one more with the tool length); all NaN when
             the state is not finite.
-    Parameters: the goal x* (3, m), set per episode.
+    Parameters: the goal x* (3, m), set per episode (`set_goal`).
     """
-
-    DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
     def __init__(
         self,
@@ -76,8 +73,12 @@ class ToolPushObservation(LeafSystem):
         believed_tool_length: float | None,
         mode: str = "gripper_joints",
     ):
-        super().__init__()
         check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
+        # The observation's tail: nothing, or the tool length (no empty piece to join: numpy
+        # would make an array of it every step).
+        tail = (np.array([believed_tool_length or 0.0]),) if include_tool_length else ()
+        super().__init__(world, goal, OBSERVATION_SIZES[mode] + len(tail))
+        self._tail = tail
         self._mode = mode
         plant = world.plant
         nq = plant.num_positions()
@@ -90,37 +91,6 @@ class ToolPushObservation(LeafSystem):
         self._model_context = robot_model.CreateDefaultContext()
         self._tip = robot_model.GetFrameByName(TIP_FRAME)
         self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
-        # The observation's tail: nothing, or the tool length (no empty piece to join: numpy
-        # would make an array of it every step).
-        self._tail = (np.array([believed_tool_length or 0.0]),) if include_tool_length else ()
-        self._state = self.DeclareVectorInputPort(
-            "plant_state", plant.num_positions() + plant.num_velocities()
-        )
-        self._goal = self.DeclareNumericParameter(BasicVector(np.asarray(goal, float)))
-        size = OBSERVATION_SIZES[mode] + len(self._tail)
-        self._size = size
-        self.DeclareVectorOutputPort(
-            "observation",
-            size,
-            weak_method(self._calc),
-            prerequisites_of_calc={self.all_input_ports_ticket(), self.all_parameters_ticket()},
-        )
-
-    def set_goal(self, context, goal) -> None:
-        context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
-
-    def goal(self, context) -> np.ndarray:
-        return context.get_numeric_parameter(self._goal).get_value()
-
-    def _calc(self, context, output):
-        output.SetFromVector(self.observation(self._state.Eval(context), self.goal(context)))
-
-    def observation(self, x, goal) -> np.ndarray:
-        """The observation from the plant state x and the goal; NaN where the state is not
-        finite (a failed simulation: the robot model refuses such joint angles)."""
-        if not all_finite(x):
-            return np.full(self._size, np.nan)
-        return self.finite_observation(x, goal)
 
     def finite_observation(self, x, goal) -> np.ndarray:
         """`observation` of a plant state x known to be finite (not checked again)."""

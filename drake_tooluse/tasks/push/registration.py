@@ -1,6 +1,6 @@
 """Gymnasium registration of the push envs; imports nothing heavy (no pydrake)."""
 
-import gymnasium as gym
+from drake_tooluse.tasks.contract import register_task_envs
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {
@@ -12,11 +12,4 @@ ENV_IDS = {
 
 def register_envs() -> None:
     """Registers the three ids (idempotent); `gym.make` builds them lazily."""
-    for env_id, kwargs in ENV_IDS.items():
-        if env_id not in gym.registry:
-            gym.register(
-                env_id,
-                entry_point="drake_tooluse.tasks.push.env:ToolPushEnv",
-                max_episode_steps=MAX_EPISODE_STEPS,
-                kwargs=dict(kwargs),
-            )
+    register_task_envs(ENV_IDS, "drake_tooluse.tasks.push.env:ToolPushEnv", MAX_EPISODE_STEPS)

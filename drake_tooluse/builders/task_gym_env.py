@@ -1,0 +1,169 @@
+"""What every task's Gymnasium env does the same on `pydrake.gym.DrakeGymEnv`: `TaskGymEnv`.
+
+A task's env class is `class MyEnv(TaskEnv, TaskGymEnv)` (`tasks.contract.TaskEnv`: the
+class-level contract). TaskGymEnv gives it the Gym setup (`_start_gym`), the reset and its
+episode start (`_start_episode`: the randomized state, the goal and the box's start set in
+the task's systems and kept in `_episode`), the checked action fixed on the diagram's input and one control period
+advanced (`_advance`), a world built again per episode (`_release_world`), and `close`.
+
+The env builds its diagram itself and keeps, as attributes: `config` (with `randomize`),
+`scenario`, `world`, `control`, `ik_system` and `task` (the task's
+`tasks.contract.GoalTaskParts`).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from pydrake.gym import DrakeGymEnv
+
+from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.systems.lifetime import release_diagram
+from drake_tooluse.systems.tip_target import check_action
+from drake_tooluse.validation import check_seed
+from drake_tooluse.world.randomization import apply_draw, draw_randomization
+from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
+
+# What `close` lets go of (each where the env has it): the diagram and what holds into it.
+RELEASED_ATTRIBUTES = (
+    "diagram",
+    "simulator",
+    "_simulator",
+    "action_port",
+    "observation_port",
+    "render_rgb_port",
+    "_scene_depth",
+    "world",
+    "control",
+    "ik_system",
+    "target_system",
+    "observation_system",
+    "visualizer",
+    "_metrics_reader",
+    "_sanity_reader",
+    "_context",
+    "_plant_context",
+    "_ik_context",
+    "_action_value",
+    "task",
+)
+
+
+class TaskGymEnv(DrakeGymEnv):
+    """DrakeGymEnv with what every task's env does the same (see the module docstring)."""
+
+    def _start_gym(self, simulator, time_step, action_size, observation_size, render_mode) -> None:
+        """DrakeGymEnv's setup: `simulator` (a Simulator, or a function making each episode's),
+        actions in [-1, 1]^action_size, observations of `observation_size`, the `action`
+        input and `observation` and `reward` outputs, `render_mode` None or "rgb_array" (the
+        `color_image` output) or "human"."""
+        # DrakeGymEnv writes into `self.metadata`: give it an instance copy, not the class's.
+        self.metadata = dict(type(self).metadata)
+        DrakeGymEnv.__init__(
+            self,
+            simulator=simulator,
+            time_step=time_step,
+            action_space=gym.spaces.Box(-1.0, 1.0, (action_size,), np.float32),
+            observation_space=gym.spaces.Box(-np.inf, np.inf, (observation_size,), np.float32),
+            reward="reward",
+            action_port_id="action",
+            observation_port_id="observation",
+            render_rgb_port_id="color_image" if render_mode == "rgb_array" else None,
+            render_mode=render_mode or "human",
+            reset_handler=self._reset_handler,
+        )
+        self.render_mode = render_mode
+        self.metadata = dict(type(self).metadata)
+        # DrakeGymEnv 1.51 drops an `info_handler` argument (its check compares the handler
+        # with `callable(handler)`), so it is set here, where its `step` and `reset` find it.
+        self.info_handler = self._info_handler
+        self._episode = {}
+        self._last = None  # the last finite state's figures (the task's `step` keeps them)
+        self._closed = False
+
+    def _release_world(self) -> None:
+        """Lets the last episode's diagram go, before a new one is built for the next."""
+        if self.diagram is not None:
+            release_diagram(self.diagram)
+
+    def _reset_handler(self, simulator, context, seed) -> None:
+        self._start_episode(context)
+
+    def _start_episode(self, context):
+        """The start of an episode (DrakeGymEnv's reset calls `_reset_handler`, which calls
+        it): the contexts each step reads, looked up once (the simulator may be new), the
+        scenario's state (drawn from its `randomization` with the env's seeded generator if
+        `config.randomize`), the control at home, the goal and the box's start set in the
+        task's systems and kept in `_episode` with its touches so far. Returns the episode's
+        scenario."""
+        self._context = context
+        self._plant_context = self.world.plant.GetMyContextFromRoot(context)
+        self._ik_context = self.ik_system.GetMyContextFromRoot(context)
+        self._action_value = None  # the action input's fixed value, made by the first step
+        s = self.scenario
+        if self.config.randomize:
+            s = apply_draw(s, draw_randomization(s, self.np_random))
+        set_randomized_state(self.world, context, s)
+        self.control.reset(context)
+        start = initial_box_pose(s).translation()
+        goal = start + np.asarray(s.goal_offset, float)
+        self.task.set_episode(context, goal, start)
+        self._episode = {
+            "goal": goal,
+            "start": start,
+            "tool_touched": False,
+            "gripper_touched": False,
+        }
+        return s
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise gym.error.Error("this env is closed; make a new one")
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._check_open()
+        if options:
+            raise ValueError(f"reset options {options!r} are not supported; pass none")
+        if seed is not None:
+            seed = check_seed(seed, "seed")
+        observation, info = super().reset(seed=seed)
+        return np.asarray(observation, np.float32), info
+
+    def _advance(self, action, action_mode: str):
+        """Checks `action` (of `action_mode`), fixes it on the `action` input and advances one
+        control period. Returns the plant's state vector, or None where the simulation failed
+        (Drake raised, or the state is no longer finite: `builders.failures`)."""
+        self._check_open()
+        if self._last is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        values = np.asarray(action)
+        kind = values.dtype.kind
+        if kind not in "biuf":
+            what = "complex" if kind == "c" else f"{values.dtype} (not numbers)"
+            raise ValueError(f"action {action!r} is {what}; actions are real numbers in [-1, 1]")
+        action = check_action(values, action_mode)
+        context = self._context
+        if self._action_value is None:
+            fixed = self.action_port.FixValue(context, action)
+            self._action_value = (fixed, fixed.GetMutableData().get_mutable_value())
+        else:  # the same fixed value rewritten, not a new one each step (FixValue makes one)
+            fixed, vector = self._action_value
+            fixed.GetMutableData()  # tells its dependents that it changes
+            vector.SetFromVector(action)
+        if advance(self.simulator, context.get_time() + self.time_step) is not None:
+            return None
+        return finite_state_vector(self.world.plant, self._plant_context)
+
+    def close(self) -> None:
+        """Frees the diagram (pydrake would keep its Python systems, and with them the whole
+        diagram, alive: `systems.lifetime`). The env cannot be used after."""
+        if self._closed:
+            return
+        self._closed = True
+        super().close()
+        diagram = getattr(self, "diagram", None)
+        if diagram is not None:
+            release_diagram(diagram)
+        for name in RELEASED_ATTRIBUTES:
+            if hasattr(self, name):
+                setattr(self, name, None)
