@@ -66,4 +66,4 @@ def test_record_is_a_recording_file_wherever_it_is_offered():
         for a in p._actions
         if "--record" in a.option_strings and a.help != argparse.SUPPRESS
     }
-    assert offered == {"drake-tooluse simulate": "HTML"}
+    assert offered == {"drake-tooluse simulate": "HTML", "drake-tooluse choose-tool": "HTML"}
