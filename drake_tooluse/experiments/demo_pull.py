@@ -184,7 +184,7 @@ def format_demo_pull(m: dict, files: bool = True) -> str:
         f"  measured handle {_cm(measured['handle_length'])}, hook "
         f"{_cm(measured['hook_length'])}, {_deg(measured['angle'])}, held "
         f"{_mm(measured['grasp_along'])} along it",
-        f"pull: cube {end} after {pull['steps']} steps, "
+        f"pull ({m['controller']}): cube {end} after {pull['steps']} steps, "
         f"{pull['final_object_to_goal_m'] * 100:.1f} cm from it ({arrived}); "
         f"it moved {pull['object_travel_m'] * 100:.1f} cm",
     ]

@@ -11,7 +11,7 @@ def test_demo_pull_writes_its_run(tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["demo", "--task", "pull", "--out", str(out), "--no-progress"]) == 0
     printed = capsys.readouterr().out
-    assert "pull: cube" in printed and str(out / "recording.html") in printed
+    assert "pull (policy ppo_toolpull): cube" in printed and str(out / "recording.html") in printed
     m = json.loads((out / "metrics.json").read_text())
     true, measured = m["hook"]["true"], m["hook"]["measured"]
     assert true == {"handle_length": 0.25, "hook_length": 0.05, "angle": 75.0, "grasp_along": 0.015}
