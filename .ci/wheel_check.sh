@@ -41,8 +41,10 @@ import sys, zipfile
 names = set(zipfile.ZipFile(sys.argv[1]).namelist())
 need = ["drake_tooluse/models/package.xml", "drake_tooluse/models/baxter/baxter.urdf",
         "drake_tooluse/scenarios/push.yaml", "drake_tooluse/scenarios/reality.yaml",
+        "drake_tooluse/scenarios/pull.yaml",
         "drake_tooluse/paths.py"]
-need += [f"drake_tooluse/models/policies/{p}/{f}" for p in ("ppo_toolpush", "ppo_toolpush_tip", "ppo_toolpush_paper_action")
+need += [f"drake_tooluse/models/policies/{p}/{f}" for p in ("ppo_toolpush", "ppo_toolpush_tip", "ppo_toolpush_paper_action",
+                                                           "ppo_toolpush_tip_far", "ppo_toolpull")
          for f in ("policy.json", "policy.safetensors", "normalization.json", "metrics.json")]
 missing = [n for n in need if n not in names]
 if not any(n.startswith("drake_tooluse/") and "/hyperparams/" in n and n.endswith(".yaml") for n in names):
@@ -97,6 +99,9 @@ check drake-tooluse measure-box --json
 check drake-tooluse transfer --tools 0.15 --runs 1 --out transfer
 check drake-tooluse transfer --mode open-loop --tools 0.15 --runs 1 --episodes 2 --out transfer-open
 check drake-tooluse record-video --out episode.gif --render-size 160 120 --every 10
+# The pull with the shipped hook policy, and the choice (the far-push policy) with its recording.
+check drake-tooluse demo --task pull --out demo-pull --no-progress
+check drake-tooluse choose-tool --task push-far --seed 2 --rollouts 1 --record choice.html
 
 echo "== wheel check"
 printf '%s\n' "${SUMMARY[@]}"
