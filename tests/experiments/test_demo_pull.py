@@ -47,3 +47,10 @@ def test_demo_pull_rejects_bad_arguments(tmp_path, capsys, argv, message):
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_demo_pull_runs_the_scripted_reference_when_asked(tmp_path):
+    from drake_tooluse.experiments.demo_pull import SCRIPTED, run_demo_pull
+
+    m = run_demo_pull(tmp_path / "run", max_steps=5, progress=False, policy=SCRIPTED)
+    assert m["controller"] == "scripted pull" and m["pull"]["steps"] == 5
