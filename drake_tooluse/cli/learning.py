@@ -71,17 +71,18 @@ def cmd_train(args) -> dict:
     from drake_tooluse.learning.config import RUN_CONFIG, read_run_config, resolve_config
     from drake_tooluse.learning.train import train
 
-    if saved is not None and not _settings_given(args):  # the run's own settings
-        config = dataclasses.replace(
-            read_run_config(Path(out_dir) / RUN_CONFIG)[0], timesteps=timesteps
-        )
+    # A resume takes the run's own settings; flags given with it must match them (`train`
+    # refuses, naming what differs), and the env, algorithm and seed not given are the run's.
+    own = read_run_config(Path(out_dir) / RUN_CONFIG)[0] if saved is not None else None
+    if own is not None and not _settings_given(args):
+        config = dataclasses.replace(own, timesteps=timesteps)
     else:
         config = resolve_config(
-            args.env or DEFAULT_ENV,
-            args.algo or DEFAULT_ALGO,
+            args.env or (own.env_id if own else DEFAULT_ENV),
+            args.algo or (own.algo if own else DEFAULT_ALGO),
             timesteps,
             args.n_envs,
-            args.seed if args.seed is not None else 0,
+            args.seed if args.seed is not None else (own.seed if own else 0),
             init_from=str(args.init_from) if args.init_from else None,
             overrides=overrides,
             env_kwargs=env_kwargs,

@@ -235,10 +235,12 @@ def test_resume_alone_continues_with_the_run_s_own_settings(tmp_path, monkeypatc
     (run / "config.json").write_text(json.dumps({**asdict(saved), "command": ""}))
     assert main(["train", "--resume", str(run), "--timesteps", "2000", "--json"]) == 0
     assert asked[-1] == replace(saved, timesteps=2000)  # not the defaults (ToolPush-v0, ppo, 0)
-    # Flags given with --resume are the run's settings as asked (train compares them).
-    assert main(["train", "--resume", str(run), "--seed", "7", "--json"]) == 0
-    assert (asked[-1].env_id, asked[-1].algo, asked[-1].seed) == (
-        "drake_tooluse/ToolPush-v0",
-        "ppo",
+    # Flags given with --resume are the settings asked (train compares them with the run's);
+    # the env, algorithm and seed not given are the run's.
+    assert main(["train", "--resume", str(run), "--n-envs", "2", "--json"]) == 0
+    assert (asked[-1].env_id, asked[-1].algo, asked[-1].seed, asked[-1].n_envs) == (
+        "drake_tooluse/ToolPull-v0",
+        "a2c",
         7,
+        2,
     )
