@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.docs.common import strings
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = [
     "env_fidelity",
@@ -99,19 +101,8 @@ def test_a_run_without_update_docs_leaves_the_docs_untouched(tmp_path):
     assert json.loads(written.read_text())["results"]
 
 
-def _strings(value):
-    if isinstance(value, dict):
-        for v in value.values():
-            yield from _strings(v)
-    elif isinstance(value, list):
-        for v in value:
-            yield from _strings(v)
-    elif isinstance(value, str):
-        yield value
-
-
 @pytest.mark.parametrize("name", SCRIPTS)
 def test_the_stored_results_hold_no_absolute_paths(name):
     stored = json.loads((ROOT / "docs" / "results" / f"{name}.json").read_text())
-    absolute = [s for s in _strings(stored) if os.path.isabs(s)]
+    absolute = [s for s in strings(stored) if os.path.isabs(s)]
     assert not absolute, absolute[:3]

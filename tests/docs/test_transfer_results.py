@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from tests.docs.common import strings
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "benchmarks" / "transfer_experiments.py"
 STORED = ROOT / "docs" / "results" / "transfer"
@@ -19,17 +21,6 @@ def _script():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
-
-
-def _strings(value):
-    if isinstance(value, dict):
-        for v in value.values():
-            yield from _strings(v)
-    elif isinstance(value, list):
-        for v in value:
-            yield from _strings(v)
-    elif isinstance(value, str):
-        yield value
 
 
 def test_the_transfer_page_quotes_the_table_the_report_prints():
@@ -51,7 +42,7 @@ def test_the_stored_results_hold_no_absolute_paths():
     files = sorted(STORED.glob("*/transfer.json"))
     assert files
     for file in files:
-        absolute = [s for s in _strings(json.loads(file.read_text())) if os.path.isabs(s)]
+        absolute = [s for s in strings(json.loads(file.read_text())) if os.path.isabs(s)]
         assert not absolute, (file, absolute[:3])
 
 
