@@ -4,7 +4,7 @@ with the other task's tool.
     python benchmarks/pull_policy.py [--policy models/policies/ppo_toolpull]
         [--instances 100] [--seed 1000] [--cross-instances 20]
 
-1. **Reality** (issue 32's "≥ 70 %"): N seeded instances (seeds SEED … SEED+N−1, apart from
+1. **Reality** (the goal: ≥ 70 % success): N seeded instances (seeds SEED … SEED+N−1, apart from
    the training's and the shipped evaluation's). Each draws a hook from HookTool's ranges,
    and the pull world as reality meets it (`tool_choice.task_scenarios("pull")`: actuation
    delay, conservative joint limits, camera noise) with the seed's draw of the cube's start,
@@ -33,6 +33,7 @@ from drake_tooluse.experiments.tool_choice import (
     PushTipPolicy,
     ScriptedPullPolicy,
     measure,
+    run_outcome,
     task_scenarios,
     tool_label,
 )
@@ -48,11 +49,6 @@ def instance_hook(seed: int) -> HookTool:
     return HookTool(*draw_hook(np.random.default_rng([seed, 1])))
 
 
-def run(policy, scenario, belief) -> Outcome:
-    outcome, error = attempt(policy.run, scenario, belief)
-    return outcome or Outcome(False, float("nan"), error)
-
-
 def reality(policies: dict, instances: range) -> dict:
     """Each policy's outcomes on the instances, in reality, with the camera's belief."""
     nominal, real = task_scenarios("pull")
@@ -65,7 +61,7 @@ def reality(policies: dict, instances: range) -> dict:
             if belief is None:
                 outcomes[name].append(Outcome(False, float("nan"), f"measurement: {error}"))
                 continue
-            outcome = run(policy, world, belief)
+            outcome = run_outcome(policy, world, belief)
             outcomes[name].append(outcome)
             if not outcome.success:
                 print(
@@ -85,7 +81,7 @@ def with_other_tool(task: str, policy, tools, instances: range) -> list[Outcome]
     for seed in instances:
         held, believed = tools(instance_hook(seed))
         world = run_worlds(nominal, nominal, held, seed)[1]
-        outcomes.append(run(policy, world, RobotBelief(believed)))
+        outcomes.append(run_outcome(policy, world, RobotBelief(believed)))
     return outcomes
 
 
@@ -145,7 +141,8 @@ def main() -> None:
     if args.cross_instances:
         cross = range(args.seed, args.seed + args.cross_instances)
         print(
-            f"\nEach task's policy with the other task's tool (nominal worlds), seeds {cross.start}…{cross.stop - 1}\n"
+            "\nEach task's policy with the other task's tool (nominal worlds), seeds "
+            f"{cross.start}…{cross.stop - 1}\n"
         )
         print(HEADER)
         push = PushTipPolicy(TRANSFER_POLICY)

@@ -24,9 +24,8 @@ from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.demo import FIGURE_DPI, mark_goal
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
-from drake_tooluse.experiments.tool_choice import PULL_ENV_ID, holding, task_scenarios
+from drake_tooluse.experiments.tool_choice import LearnedPullPolicy, holding, task_scenarios
 from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json, check_output_dir
-from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import PULL_POLICY
 from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.tasks.pull.registration import MAX_EPISODE_STEPS
@@ -85,9 +84,7 @@ def _controller(policy, scenario):
     directory, or "scripted"."""
     if str(policy) == SCRIPTED:
         return ScriptedPull(scenario.table.top_z), "scripted pull"
-    loaded = load_policy(policy)
-    check_policy_env(loaded, PULL_ENV_ID)
-    return loaded.act, f"policy {Path(policy).name}"
+    return LearnedPullPolicy(policy).policy.act, f"policy {Path(policy).name}"
 
 
 def run_demo_pull(

@@ -16,9 +16,10 @@ the best, and does the task with it in the perturbed "reality".
   (`paths.TRANSFER_POLICY`), and to the far goal with that policy fine-tuned on
   ToolPushFar-v0 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
   (`paths.PULL_POLICY`, `LearnedPullPolicy`; `ScriptedPullPolicy` is the scripted
-  reference). No policy exists for a hook pushing or a straight tool pulling (the pull's control acts on
-  a hook's inner corner, which a straight tool lacks): such a candidate is predicted 0 with
-  that reason, and the oracle counts it 0 too (the robot has no way to use it).
+  reference). No policy exists for a hook pushing or a straight tool pulling (the pull's
+  control acts on a hook's inner corner, which a straight tool lacks): such a candidate is
+  predicted 0 with that reason, and the oracle counts it 0 too (the robot has no way to use
+  it).
 - **Prediction**: the tool measured in reality (`measure_belief`, `measure_hook_belief`),
   then K rollouts in the nominal world holding the *measured* tool (the instance's box start;
   each rollout its own draw of the nominal mass, friction and grasp) → predicted success rate
@@ -295,6 +296,13 @@ def believed_tool_label(belief: RobotBelief) -> str:
     return tool_label(belief.tool)
 
 
+def run_outcome(policy: ToolPolicy, scenario: Scenario, belief: RobotBelief) -> Outcome:
+    """`policy.run(scenario, belief)`; a run that raises (RuntimeError, ValueError) is a
+    failure with its error, and the caller goes on."""
+    outcome, error = attempt(policy.run, scenario, belief)
+    return outcome or Outcome(False, math.nan, error)
+
+
 def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list[float]:
     """The actuation delay of each rollout (s): evenly from 0 to `delay_margin` (the margin
     alone for one rollout), each a multiple of the plant's `time_step`."""
@@ -325,8 +333,7 @@ def predict(
         rollout = validate_scenario(
             dc.replace(rollout, control=dc.replace(rollout.control, actuation_delay=delay))
         )
-        outcome, error = attempt(policy.run, rollout, belief)
-        outcomes.append(outcome or Outcome(False, math.nan, error))
+        outcomes.append(run_outcome(policy, rollout, belief))
     finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
     return {
         "predicted_success": float(np.mean([o.success for o in outcomes])),
