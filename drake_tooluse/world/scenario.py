@@ -151,6 +151,9 @@ def default_plant_config() -> MultibodyPlantConfig:
     )
 
 
+MAX_ACTUATION_DELAY = 0.2  # s
+
+
 @dc.dataclass
 class ControlConfig:
     """Joint PD gains of the seven right-arm joints (s0 … w2) and the control period."""
@@ -161,7 +164,7 @@ class ControlConfig:
     kd: list[float] = dc.field(default_factory=lambda: [120.0, 120.0, 50.0, 50.0, 8.0, 8.0, 3.0])
     control_period: float = 0.04
     # Joint targets reach the motors this late (s): a real robot's command latency. A multiple
-    # of plant.time_step, in [0, 0.2].
+    # of plant.time_step, in [0, MAX_ACTUATION_DELAY].
     actuation_delay: float = 0.0
 
 
@@ -284,7 +287,9 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(
         s.control.control_period, s.plant.time_step, 1.0, "control.control_period", unit="s"
     )
-    delay = check_in_range(s.control.actuation_delay, 0.0, 0.2, "control.actuation_delay", unit="s")
+    delay = check_in_range(
+        s.control.actuation_delay, 0.0, MAX_ACTUATION_DELAY, "control.actuation_delay", unit="s"
+    )
     steps = delay / s.plant.time_step
     if abs(steps - round(steps)) > 1e-6:
         raise ValueError(
@@ -529,6 +534,12 @@ def with_tool_length(scenario: Scenario, length: float) -> Scenario:
     """A copy of `scenario` holding a tool of `length` m."""
     tool = dc.replace(scenario.tool, length=check_tool_length(length))
     return validate_scenario(dc.replace(scenario, tool=tool))
+
+
+def with_actuation_delay(scenario: Scenario, delay: float) -> Scenario:
+    """A copy of `scenario` whose joint targets reach the motors `delay` s late."""
+    control = dc.replace(scenario.control, actuation_delay=delay)
+    return validate_scenario(dc.replace(scenario, control=control))
 
 
 def with_tool(scenario: Scenario, tool) -> Scenario:

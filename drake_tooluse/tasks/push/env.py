@@ -60,7 +60,13 @@ from drake_tooluse.validation import (
     check_mapping,
     check_one_of,
 )
-from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool_length
+from drake_tooluse.world.scenario import (
+    MAX_ACTUATION_DELAY,
+    Scenario,
+    load_scenario,
+    with_actuation_delay,
+    with_tool_length,
+)
 
 
 @dc.dataclass
@@ -72,6 +78,10 @@ class EnvConfig:
     # [lo, hi] m: each episode's tool length drawn uniformly from it (the world's true tool and
     # the robot's belief both; `include_tool_length` puts it in the observation). None: one tool.
     tool_length_range: list | None = None
+    # [lo, hi] s: each episode's actuation delay (joint targets reaching the motors late)
+    # drawn uniformly from the plant-step multiples in it, over the scenario's
+    # `control.actuation_delay`: domain randomization for a robot whose delay is not known.
+    actuation_delay_range: list | None = None
     reward_type: str = "tool_and_box"
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "position_quaternion"  # see systems.tip_target
@@ -138,6 +148,8 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
         config.tool_length_range = _check_length_range(config)
+    if config.actuation_delay_range is not None:
+        config.actuation_delay_range = _check_delay_range(config.actuation_delay_range)
     if config.meshcat is not None and not isinstance(config.meshcat, Meshcat):
         raise ValueError(
             f"meshcat={config.meshcat!r} must be a pydrake.geometry.Meshcat (e.g. "
@@ -161,6 +173,29 @@ def _check_length_range(config: EnvConfig) -> list[float]:
     if not lo < hi:
         raise ValueError(f"tool_length_range={[lo, hi]} must have lo < hi")
     return [lo, hi]
+
+
+def _check_delay_range(r) -> list[float]:
+    if not isinstance(r, (list, tuple)) or len(r) != 2:
+        raise ValueError(f"actuation_delay_range={r!r} must be [lo, hi] (s)")
+    lo = check_in_range(r[0], 0.0, MAX_ACTUATION_DELAY, "actuation_delay_range[0]", unit="s")
+    hi = check_in_range(r[1], 0.0, MAX_ACTUATION_DELAY, "actuation_delay_range[1]", unit="s")
+    if not lo < hi:
+        raise ValueError(f"actuation_delay_range={[lo, hi]} must have lo < hi")
+    return [lo, hi]
+
+
+def delay_choices(delay_range, time_step: float) -> list[float]:
+    """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
+    `time_step` in it (the delay is a whole number of plant steps)."""
+    lo, hi = delay_range
+    first, last = math.ceil(lo / time_step - 1e-9), math.floor(hi / time_step + 1e-9)
+    if first > last:
+        raise ValueError(
+            f"actuation_delay_range={[lo, hi]} s holds no multiple of the plant's time step "
+            f"{time_step} s"
+        )
+    return [k * time_step for k in range(first, last + 1)]
 
 
 def _scenario(config: EnvConfig) -> Scenario:
@@ -295,7 +330,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     ±0.02 m and yaw ±0.2 rad, its mass × [0.7, 1.3] and friction × [0.7, 1.3], the true
     grasp ±0.01 m along the tool and ±0.005 m across it (the goal moves with the box). With
     `tool_length_range=[lo, hi]`, each reset draws the tool's length uniformly from it (the
-    world's and the robot's belief alike). Otherwise every reset starts the same.
+    world's and the robot's belief alike); with `actuation_delay_range=[lo, hi]`, then the
+    actuation delay, uniformly among the plant-step multiples in it (the robot is not told).
+    Otherwise every reset starts the same.
 
     ### Episode End
 
@@ -318,6 +355,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | scenario | None | a Scenario, or a scenario YAML file; None: the default scenario (diagrams/push.yaml's values) |
     | tool_length | None | the tool's length (m, in (0, 0.60]), over the scenario's |
     | tool_length_range | None | [lo, hi] m: each episode's tool length drawn uniformly (not with tool_length) |
+    | actuation_delay_range | None | [lo, hi] s, in [0, 0.2]: each episode's actuation delay drawn uniformly among the plant-step multiples in it |
     | reward_type | "tool_and_box" | "tool_and_box" (Env1, Env3) or "box" (Env2); set by the id |
     | goal_extra | 0.0 | m added to the goal's distance along y, in [-0.15, 0.25]; set by the id |
     | action_mode | "position_quaternion" | "position_quaternion", "pose" or "position" (Action Space) |
@@ -385,11 +423,16 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self.config = config
         self.scenario = self._base_scenario = _scenario(config)
         self.diagram = None
-        if config.tool_length_range is None:
+        self._delays = None
+        if config.actuation_delay_range is not None:
+            self._delays = delay_choices(
+                config.actuation_delay_range, self.scenario.plant.time_step
+            )
+        if config.tool_length_range is None and self._delays is None:
             self._build(config)
             simulator = self._simulator
-        else:  # DrakeGymEnv makes each episode's simulator (`_next_tool`) at its reset
-            simulator = self._next_tool
+        else:  # DrakeGymEnv makes each episode's simulator (`_next_world`) at its reset
+            simulator = self._next_world
         n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
         self._start_gym(
             simulator,
@@ -442,14 +485,20 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self._sanity_reader = PhysicalSanityReader(self.world)
         self._simulator = Simulator(self.diagram)
 
-    def _next_tool(self, generator) -> Simulator:
-        """The next episode's world: a tool of a length drawn from `tool_length_range` with
-        the env's seeded generator (Drake's `generator` is not used: `np_random` is the one
-        the env's `reset(seed=...)` seeds, before this is called)."""
-        lo, hi = self.config.tool_length_range
-        length = float(self.np_random.uniform(lo, hi))
+    def _next_world(self, generator) -> Simulator:
+        """The next episode's world: a tool of a length drawn from `tool_length_range`, then
+        an actuation delay drawn from `actuation_delay_range`'s choices, each where given,
+        with the env's seeded generator (Drake's `generator` is not used: `np_random` is the
+        one the env's `reset(seed=...)` seeds, before this is called)."""
+        scenario = self._base_scenario
+        if self.config.tool_length_range is not None:
+            lo, hi = self.config.tool_length_range
+            scenario = with_tool_length(scenario, float(self.np_random.uniform(lo, hi)))
+        if self._delays is not None:
+            delay = self._delays[int(self.np_random.integers(len(self._delays)))]
+            scenario = with_actuation_delay(scenario, delay)
         self._release_world()
-        self.scenario = with_tool_length(self._base_scenario, length)
+        self.scenario = scenario
         self._build(self.config)
         return self._simulator
 

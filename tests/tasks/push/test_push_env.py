@@ -295,3 +295,45 @@ def test_a_tool_length_range_draws_each_episodes_tool_from_the_seed():
 def test_bad_tool_length_ranges_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
         gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+
+
+def test_an_actuation_delay_range_draws_each_episodes_delay_from_the_seed():
+    """Domain randomization of the command latency: each episode's world is built with a
+    delay drawn from the plant-step multiples in the range, from the env's seeded generator,
+    and the arm then answers an action that much later."""
+    env = gym.make(
+        "drake_tooluse/ToolPush-v0", action_mode="position", actuation_delay_range=[0, 0.06]
+    )
+    delays = {}
+    for seed in range(8):
+        env.reset(seed=seed)
+        delays[seed] = env.unwrapped.scenario.control.actuation_delay
+    assert set(delays.values()) <= {0.0, 0.02, 0.04, 0.06} and len(set(delays.values())) > 1
+    env.reset(seed=3)
+    assert env.unwrapped.scenario.control.actuation_delay == delays[3]
+    env.close()
+
+    def tip_after_one_step(**kwargs):
+        env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **kwargs)
+        obs0, _ = env.reset(seed=0)
+        obs, *_ = env.step(np.array([0.0, 1.0, 0.0]))
+        env.close()
+        return obs[6:9] - obs0[6:9]  # the tip's motion in the step
+
+    prompt = tip_after_one_step()
+    late = tip_after_one_step(actuation_delay_range=[0.05, 0.07])  # 0.06 s only
+    assert np.linalg.norm(late) < 0.5 * np.linalg.norm(prompt)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"actuation_delay_range": [0.04, 0.0]}, r"must have lo < hi"),
+        ({"actuation_delay_range": [0.0, 0.5]}, r"actuation_delay_range\[1\]=0.5 s is outside"),
+        ({"actuation_delay_range": 0.04}, r"must be \[lo, hi\] \(s\)"),
+        ({"actuation_delay_range": [0.005, 0.015]}, r"holds no multiple of the plant's time step"),
+    ],
+)
+def test_bad_actuation_delay_ranges_are_refused(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
