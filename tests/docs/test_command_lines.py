@@ -168,6 +168,11 @@ RULES = [
     Rule(r"python benchmarks/tool_choice\.py.*", "run", add=("--rollouts", "1")),
     Rule(r"python benchmarks/env_sanity\.py.*", "run", add=("--steps", "100")),
     Rule(
+        r"python benchmarks/push_policies_hold\.py.*",
+        "run",
+        add=("--episodes", "1", "--runs", "1", "--tools", "0.175"),
+    ),
+    Rule(
         r"python -m sphinx .*",
         "covered",
         covered_by="tests/docs/test_api_reference.py::test_push_outcome_ports_render",
