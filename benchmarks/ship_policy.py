@@ -1,8 +1,9 @@
-"""Copies a trained run's best policy into models/policies/NAME with its metrics and the exact
-commands that trained and evaluated it.
+"""Copies a trained run's best (or final) policy into models/policies/NAME with its metrics and
+the exact commands that trained and evaluated it.
 
     python benchmarks/ship_policy.py --run runs/paper/ppo_env1_fullik --name ppo_toolpush
         [--out DIR]    # default models/policies/NAME
+        [--which final]    # the run's final policy (default its best)
 
 The metrics are re-measured here with `drake-tooluse evaluate` on the copied policy, so the
 shipped metrics.json is what that command prints for the shipped files.
@@ -28,6 +29,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--run", type=Path, required=True, help="a training run directory")
     ap.add_argument("--name", required=True, help="directory name under models/policies")
+    ap.add_argument(
+        "--which",
+        choices=("best", "final"),
+        default="best",
+        help="the run's best policy (by its periodic evaluation) or its final one",
+    )
     ap.add_argument("--episodes", type=int, default=100)
     ap.add_argument("--seed", type=int, default=1000)
     ap.add_argument(
@@ -39,7 +46,7 @@ def main() -> None:
     shown = target.relative_to(ROOT) if target.is_relative_to(ROOT) else target
     tmp = target.with_name(f".{target.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
-    shutil.copytree(args.run / "best", tmp)
+    shutil.copytree(args.run / args.which, tmp)
     meta = json.loads((tmp / "policy.json").read_text())
     evaluate = [
         "drake-tooluse",
@@ -81,7 +88,7 @@ def main() -> None:
     # The task's headline figure's mean (final_box_to_goal_mean_m, final_object_to_goal_…).
     mean_key = next(iter(episode_metrics(meta["env_id"])[0].summary([0.0])))
     print(
-        f"shipped {args.run / 'best'} -> {target}: {mean_key} "
+        f"shipped {args.run / args.which} -> {target}: {mean_key} "
         f"{metrics[mean_key] * 100:.2f} cm, success {metrics['success_rate'] * 100:.0f} %"
     )
 
