@@ -21,6 +21,7 @@ and whether each goal is met.
 """
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -109,4 +110,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(run_script(main))
+    sys.exit(run_script(main))
