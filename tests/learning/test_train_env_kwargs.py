@@ -30,6 +30,11 @@ def test_env_kwargs_merge_over_the_yaml():
         (["--scenario", "no/such.yaml"], "no/such.yaml"),
         (["--env-kwargs", '{"meshcat": 3}'], "meshcat=3 must be a pydrake.geometry.Meshcat"),
         (["--env-kwargs", '{"meshcat": "x"}'], "meshcat='x' must be a pydrake.geometry.Meshcat"),
+        # Checked against the scenario's plant step before any env process starts.
+        (
+            ["--env-kwargs", '{"actuation_delay_range": [0.005, 0.015]}'],
+            "holds no multiple of the plant's time step 0.02 s",
+        ),
     ],
 )
 def test_bad_env_options_are_one_line_errors(argv, message, tmp_path, capsys):

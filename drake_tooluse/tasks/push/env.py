@@ -162,30 +162,30 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     return config
 
 
-def _check_length_range(config: EnvConfig) -> list[float]:
-    r = config.tool_length_range
+def _check_interval(r, name: str, unit: str, check) -> list[float]:
+    """`[lo, hi]` with lo < hi, each end checked by `check(value, its name)`."""
     if not isinstance(r, (list, tuple)) or len(r) != 2:
-        raise ValueError(f"tool_length_range={r!r} must be [lo, hi] (m)")
+        raise ValueError(f"{name}={r!r} must be [lo, hi] ({unit})")
+    lo, hi = check(r[0], f"{name}[0]"), check(r[1], f"{name}[1]")
+    if not lo < hi:
+        raise ValueError(f"{name}={[lo, hi]} must have lo < hi")
+    return [lo, hi]
+
+
+def _check_length_range(config: EnvConfig) -> list[float]:
     if config.tool_length is not None:
         raise ValueError("give tool_length or tool_length_range, not both")
-    lo = check_tool_length(r[0], "tool_length_range[0]")
-    hi = check_tool_length(r[1], "tool_length_range[1]")
-    if not lo < hi:
-        raise ValueError(f"tool_length_range={[lo, hi]} must have lo < hi")
-    return [lo, hi]
+    return _check_interval(config.tool_length_range, "tool_length_range", "m", check_tool_length)
 
 
 def _check_delay_range(r) -> list[float]:
-    if not isinstance(r, (list, tuple)) or len(r) != 2:
-        raise ValueError(f"actuation_delay_range={r!r} must be [lo, hi] (s)")
-    lo = check_in_range(r[0], 0.0, MAX_ACTUATION_DELAY, "actuation_delay_range[0]", unit="s")
-    hi = check_in_range(r[1], 0.0, MAX_ACTUATION_DELAY, "actuation_delay_range[1]", unit="s")
-    if not lo < hi:
-        raise ValueError(f"actuation_delay_range={[lo, hi]} must have lo < hi")
-    return [lo, hi]
+    def check(value, name):
+        return check_in_range(value, 0.0, MAX_ACTUATION_DELAY, name, unit="s")
+
+    return _check_interval(r, "actuation_delay_range", "s", check)
 
 
-def delay_choices(delay_range, time_step: float) -> list[float]:
+def _delay_choices(delay_range, time_step: float) -> list[float]:
     """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
     `time_step` in it (the delay is a whole number of plant steps)."""
     lo, hi = delay_range
@@ -405,7 +405,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
-        _config(kwargs, name)
+        config = _config(kwargs, name)
+        if config.actuation_delay_range is not None:  # its choices depend on the scenario's
+            _delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
         return current_kwargs(kwargs or {})
 
     @classmethod
@@ -425,7 +427,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self.diagram = None
         self._delays = None
         if config.actuation_delay_range is not None:
-            self._delays = delay_choices(
+            self._delays = _delay_choices(
                 config.actuation_delay_range, self.scenario.plant.time_step
             )
         if config.tool_length_range is None and self._delays is None:
