@@ -26,9 +26,12 @@ import time
 from pathlib import Path
 
 from drake_tooluse.cli.common import run_script
-from drake_tooluse.experiments.transfer import run_transfer
+from drake_tooluse.experiments.transfer import check_transfer_args, run_transfer
 from drake_tooluse.learning.evaluate import evaluate
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR
+from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
+from drake_tooluse.validation import check_int, check_seed
 
 ROOT = Path(__file__).resolve().parent.parent
 POLICIES = ("ppo_toolpush_tip", "ppo_toolpush", "ppo_toolpush_paper_action")
@@ -48,6 +51,22 @@ def shown(policy: Path) -> str:
 
 def quiet(_line: str) -> None:
     """Drops the transfer's line per run."""
+
+
+def check_args(args) -> None:
+    """Every argument checked before the first policy runs: a ValueError (or
+    FileNotFoundError, for a policy directory) naming the bad one."""
+    check_int(args.episodes, 1, 1_000_000, "--episodes")
+    check_seed(args.seed, "--seed", args.episodes)
+    check_transfer_args(args.tools, args.runs, "closed-loop", args.reality_seed)
+    for path in args.policies:
+        policy = load_policy(path)
+        if policy.meta.env_id not in PUSH_ENV_IDS:
+            raise ValueError(
+                f"{path} is a policy for {policy.meta.env_id}; this benchmark runs push "
+                f"policies ({', '.join(PUSH_ENV_IDS)})"
+            )
+        check_policy_env(policy, env_kwargs=PAPER_TASK)
 
 
 def measure(policy: Path, args) -> dict:
@@ -80,6 +99,10 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=20, help="reality runs per tool")
     ap.add_argument("--reality-seed", type=int, default=300, help="seed of the first run")
     args = ap.parse_args()
+    try:
+        check_args(args)
+    except (ValueError, FileNotFoundError) as e:
+        ap.error(str(e))
     tools = " | ".join(f"reality {t * 100:g} cm" for t in args.tools)
     print(f"| policy | sim distance (cm) | sim success | sim flags | {tools} | goals | wall (s) |")
     print("|---" * (6 + len(args.tools)) + "|")
