@@ -41,12 +41,17 @@ def main() -> None:
         "--out", type=Path, help="the policy directory to write (default models/policies/NAME)"
     )
     args = ap.parse_args()
+    source = args.run / args.which
+    if not (source / "policy.json").is_file():
+        ap.error(f"--run {args.run}: no {args.which} policy in it ({source} has no policy.json)")
+    if not (args.run / "summary.json").is_file():
+        ap.error(f"--run {args.run}: the run has not finished (no summary.json)")
     target = (args.out or ROOT / "models" / "policies" / args.name).resolve()
     # As the command is recorded: relative to the repository (its cwd) where it lies in it.
     shown = target.relative_to(ROOT) if target.is_relative_to(ROOT) else target
     tmp = target.with_name(f".{target.name}.tmp")
     shutil.rmtree(tmp, ignore_errors=True)
-    shutil.copytree(args.run / args.which, tmp)
+    shutil.copytree(source, tmp)
     meta = json.loads((tmp / "policy.json").read_text())
     evaluate = [
         "drake-tooluse",
@@ -88,7 +93,7 @@ def main() -> None:
     # The task's headline figure's mean (final_box_to_goal_mean_m, final_object_to_goal_…).
     mean_key = next(iter(episode_metrics(meta["env_id"])[0].summary([0.0])))
     print(
-        f"shipped {args.run / args.which} -> {target}: {mean_key} "
+        f"shipped {source} -> {target}: {mean_key} "
         f"{metrics[mean_key] * 100:.2f} cm, success {metrics['success_rate'] * 100:.0f} %"
     )
 
