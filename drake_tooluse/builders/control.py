@@ -150,13 +150,14 @@ def add_tip_control(
     home=None,
     workspace=None,
     max_joint_speed=None,
+    continuous_quaternion: bool = False,
 ) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
     plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
     (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
     `Workspace.above_table`). The target's `action` input is left for the caller to connect.
     `max_joint_speed` (7, rad/s; default None: unbounded) bounds how fast the joint targets
-    move (`ToolTipIKSystem`)."""
+    move (`ToolTipIKSystem`). `continuous_quaternion`: see `systems.tip_target`."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -165,6 +166,7 @@ def add_tip_control(
             ik.chain,
             pose_to_vector(home_tip_pose(s) if home is None else home),
             Workspace.above_table(s.table.top_z) if workspace is None else workspace,
+            continuous_quaternion,
         ),
     )
     builder.Connect(

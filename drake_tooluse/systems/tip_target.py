@@ -10,6 +10,14 @@ Three action modes (all actions are in [-1, 1]; values outside are clipped):
 
 The target position is kept inside a workspace box above the table (clipped, see
 `Workspace`), so a policy cannot drive the target through the table or out of reach.
+
+`position_quaternion` adds its change to the quaternion of the tip's current orientation. q and
+-q are the same orientation, and Drake's `RotationMatrix.ToQuaternion` picks the sign by the
+largest component: for this scene's home tip orientation, w ≈ 0 = (0, ±0.707, ±0.707, 0), the
+sign jumps from one step to the next, and the same action turns the tip one way or the other.
+`continuous_quaternion` takes the quaternion in the hemisphere of the initial target's instead
+(as a mocap body's stored quaternion, which the paper's Fetch env moved, is continuous); off,
+the sign is Drake's (the earlier study and policies).
 """
 
 from __future__ import annotations
@@ -134,15 +142,22 @@ class TipTargetSystem(LeafSystem):
     Output ports:
         tip_pose_desired: [p_WT (3, m), quaternion wxyz (4)] — the current tip pose moved by
             the action (`position` mode holds the initial orientation instead).
+    `continuous_quaternion`: see the module docstring.
     """
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
     def __init__(
-        self, mode: str, chain: ArmChain, initial_target: np.ndarray, workspace: Workspace
+        self,
+        mode: str,
+        chain: ArmChain,
+        initial_target: np.ndarray,
+        workspace: Workspace,
+        continuous_quaternion: bool = False,
     ):
         super().__init__()
         self._mode = mode
+        self._continuous_quaternion = continuous_quaternion
         self._workspace = workspace
         self._chain = chain
         # The forward kinematics' outputs (R_WT, p_WT, J), reused: `ArmChain.pose` would
@@ -162,6 +177,8 @@ class TipTargetSystem(LeafSystem):
             quat = self._held_quaternion
         else:  # MakeUnchecked: the constructor's rotation (it checks nothing in release builds)
             quat = RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz()  # without its dispatch
+            if self._continuous_quaternion and quat.dot(self._held_quaternion) < 0.0:
+                quat = -quat  # the same orientation, in the initial target's hemisphere
         if not self._action.HasValue(context):
             return np.concatenate([p_WT, quat])
         # The port holds its size of floats: what `check_action` checks beyond that is their

@@ -57,15 +57,25 @@ def add_push_task(
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
     max_joint_speed=None,
+    continuous_quaternion: bool = False,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
     `action` input is left unconnected. `max_joint_speed` (7, rad/s): the bound on the joint
-    targets' speed (`add_tip_control`; default None: none)."""
+    targets' speed (`add_tip_control`; default None: none). `continuous_quaternion`: the
+    `position_quaternion` action's sign convention (`systems.tip_target`)."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
-    control = add_tip_control(builder, world, ik, q0, action_mode, max_joint_speed=max_joint_speed)
+    control = add_tip_control(
+        builder,
+        world,
+        ik,
+        q0,
+        action_mode,
+        max_joint_speed=max_joint_speed,
+        continuous_quaternion=continuous_quaternion,
+    )
     goal = goal_position(scenario)
     return PushTask.wire(
         builder,
@@ -121,7 +131,16 @@ def build_policy_diagram(
     mode, include_length = policy_observation(policy)
     action_mode = policy.meta.env_kwargs.get("action_mode", "position_quaternion")
     builder = DiagramBuilder()
-    task = add_push_task(builder, scenario, belief, action_mode, mode, include_length)
+    continuous = bool(policy.meta.env_kwargs.get("continuous_quaternion", False))
+    task = add_push_task(
+        builder,
+        scenario,
+        belief,
+        action_mode,
+        mode,
+        include_length,
+        continuous_quaternion=continuous,
+    )
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:
         raise ValueError(

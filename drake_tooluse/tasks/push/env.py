@@ -102,6 +102,11 @@ class EnvConfig:
     # the table, but the arm is slower than the policies trained without it expect. Off by
     # default: the env's behaviour stays as it was.
     bound_joint_speed: bool = False
+    # `position_quaternion`: add the action's change to the tip quaternion taken in the
+    # hemisphere of the initial one, not with Drake's sign, which jumps at this scene's home
+    # orientation (see systems.tip_target). Off by default: the earlier study and the policies
+    # trained with Drake's sign stay reproducible.
+    continuous_quaternion: bool = False
 
 
 # Values earlier versions wrote into policy files and run configurations, read as today's.
@@ -144,6 +149,7 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_bool(config.randomize, "randomize")
     check_bool(config.end_at_success, "end_at_success")
     check_bool(config.bound_joint_speed, "bound_joint_speed")
+    check_bool(config.continuous_quaternion, "continuous_quaternion")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
@@ -369,6 +375,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
     | end_at_success | False | terminate at the first success (Episode End) |
     | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
+    | continuous_quaternion | False | `position_quaternion`: the change is added in the initial quaternion's hemisphere (systems.tip_target) |
 
     ### Info
 
@@ -457,6 +464,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.include_tool_length,
             config.reward_type,
             max_joint_speed=V_MAX if config.bound_joint_speed else None,
+            continuous_quaternion=config.continuous_quaternion,
         )
         task.export(builder)
         self.task = task
