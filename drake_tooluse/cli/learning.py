@@ -1,4 +1,4 @@
-"""`train`, `evaluate` and `sweep`: stable-baselines3 through the Gymnasium envs."""
+"""`train`, `evaluate`, `convert-policy`, `distill` and `sweep`: stable-baselines3 through the Gymnasium envs."""
 
 from __future__ import annotations
 
@@ -224,6 +224,33 @@ def format_convert_policy(out: dict) -> str:
     return f"converted {out['converted']} -> {out['out']} (loads without pickles)"
 
 
+def cmd_distill(args) -> dict:
+    policy_dir_arg(args.teacher, "--teacher")
+    output_dir_arg(args.out, "--out")
+    count_arg(args.rounds, "--rounds", 1, 1000)
+    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    seed_arg(args.seed, count=args.rounds * args.episodes)
+    from drake_tooluse.experiments.distill import DistillConfig, check_teacher, distill
+    from drake_tooluse.learning.policy_dir import load_policy
+
+    try:
+        check_teacher(load_policy(args.teacher))
+    except ValueError as e:
+        raise UsageError(f"--teacher {str(args.teacher)!r}: {e}") from None
+    config = DistillConfig(rounds=args.rounds, episodes=args.episodes, seed=args.seed)
+    command = shlex.join(["drake-tooluse", *sys.argv[1:]])
+    return distill(args.teacher, args.out, config, command, log=lambda r: print(r, file=sys.stderr))
+
+
+def format_distill(out: dict) -> str:
+    last = out["rounds"][-1]
+    return (
+        f"distilled {out['teacher']} -> {out['out']}: {len(out['rounds'])} rounds, "
+        f"{last['samples']} samples; the student's last round: success "
+        f"{last['success']:.0%}, RMSE per action {last['rmse']}"
+    )
+
+
 def format_flagged(out: dict) -> str:
     """The episodes past a physical limit, per flag, where there are any ("" if none)."""
     flagged = {k: n for k, n in out.get("flagged_episodes", {}).items() if n}
@@ -403,6 +430,19 @@ def add_parsers(sub) -> None:
     p.add_argument("--out", type=Path, required=True, help="new directory (or --policy itself)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_convert_policy, show=format_convert_policy)
+
+    p = sub.add_parser(
+        "distill",
+        help="a policy of the paper's 7-d action (position_quaternion) from a push policy of "
+        "the position action, by DAgger (experiments.distill); fine-tune it with train --init-from",
+    )
+    p.add_argument("--teacher", type=Path, required=True, help="the position policy directory")
+    p.add_argument("--out", type=Path, required=True, help="new policy directory")
+    p.add_argument("--rounds", type=int, default=16, help="DAgger rounds")
+    p.add_argument("--episodes", type=int, default=60, help="episodes per round")
+    seed_help = "seed of the first episode (then +1 each), the noise and the fitting"
+    p.add_argument("--seed", type=int, default=7000, help=seed_help)
+    p.set_defaults(run=cmd_distill, show=format_distill)
 
     p = sub.add_parser(
         "sweep",

@@ -1,0 +1,94 @@
+"""`learning.distill`: the student starts as its teacher, with the paper's 7-d action; one
+DAgger round writes a policy directory that loads and acts; a teacher it cannot widen is a
+one-line usage error."""
+
+import numpy as np
+import pytest
+
+from drake_tooluse.experiments.distill import (
+    DistillConfig,
+    OrientationExpert,
+    action_mean,
+    check_teacher,
+    distill,
+    widened_student,
+)
+from drake_tooluse.learning.policy_dir import LoadedPolicy, load_policy
+from drake_tooluse.paths import POLICIES_DIR
+from drake_tooluse.tasks.push.env import ToolPushEnv
+from tests.cli.test_errors import assert_one_line_error
+
+TEACHER = POLICIES_DIR / "ppo_toolpush"
+
+
+@pytest.fixture(scope="module")
+def teacher():
+    return load_policy(TEACHER)
+
+
+def test_the_widened_student_acts_as_its_teacher_and_turns_nothing(teacher):
+    model, meta = widened_student(teacher, "test")
+    assert meta.action_shape == [7]
+    assert meta.env_kwargs["action_mode"] == "position_quaternion"
+    assert meta.env_kwargs["continuous_quaternion"] is True
+    observations = np.random.default_rng(0).normal(size=(5, 30)).astype(np.float32)
+    for observation in observations:
+        ours = action_mean(LoadedPolicy(model, meta, teacher.obs_rms), observation)
+        np.testing.assert_allclose(ours[:3], action_mean(teacher, observation), rtol=1e-6)
+        np.testing.assert_array_equal(ours[3:], np.zeros(4))
+
+
+def test_the_expert_turns_the_tip_back_to_its_initial_orientation(teacher):
+    env = ToolPushEnv(action_mode="position_quaternion", continuous_quaternion=True)
+    try:
+        observation, _ = env.reset(seed=0)
+        expert = OrientationExpert(teacher)
+        assert np.abs(expert(env, observation)[3:]).max() < 1e-3  # at home: nothing to turn
+        for _ in range(20):  # pushes with the tip turned: the expert turns it back
+            observation, *_ = env.step(np.array([0.5, 0.5, -0.3, 0.0, 0.4, 0.0, 0.0]))
+        turn = expert(env, observation)[3:]
+        assert np.abs(turn).max() == 1.0  # farther than one step's change reaches
+        for _ in range(15):
+            observation, *_ = env.step(np.concatenate([[0.0, 0.0, 0.0], turn]))
+            turn = expert(env, observation)[3:]
+        assert np.abs(turn).max() < 0.2  # back within 0.01 of each initial component
+    finally:
+        env.close()
+
+
+def test_one_round_writes_a_policy_that_loads_and_acts(teacher, tmp_path):
+    logged = []
+    out = distill(
+        TEACHER,
+        tmp_path / "student",
+        DistillConfig(rounds=2, episodes=1, epochs=2),
+        log=logged.append,
+    )
+    assert [r["acting"] for r in out["rounds"]] == ["expert", "student"]
+    assert logged == out["rounds"] and out["rounds"][-1]["samples"] == 200
+    student = load_policy(tmp_path / "student")
+    assert student.meta.action_shape == [7]
+    env = ToolPushEnv(**student.meta.env_kwargs)
+    try:
+        observation, _ = env.reset(seed=1)
+        action = student.act(observation)
+        assert action.shape == (7,) and np.all(np.abs(action) <= 1)
+    finally:
+        env.close()
+
+
+def test_a_teacher_it_cannot_widen_is_refused(capsys, tmp_path):
+    with pytest.raises(ValueError, match="action_mode 'position'; this one is .* 'position_quat"):
+        check_teacher(load_policy(POLICIES_DIR / "ppo_toolpush_paper_action"))
+    with pytest.raises(ValueError, match="observe the paper's 30 values"):
+        check_teacher(load_policy(POLICIES_DIR / "ppo_toolpush_tip"))
+    assert_one_line_error(
+        capsys,
+        ["distill", "--teacher", POLICIES_DIR / "ppo_toolpush_tip", "--out", tmp_path / "s"],
+        r"--teacher '.*ppo_toolpush_tip': the teacher must observe the paper's 30 values",
+    )
+    assert_one_line_error(
+        capsys,
+        ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--rounds", "0"],
+        r"--rounds",
+    )
