@@ -230,14 +230,31 @@ def cmd_distill(args) -> dict:
     count_arg(args.rounds, "--rounds", 1, 1000)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, count=args.rounds * args.episodes)
-    from drake_tooluse.experiments.distill import DistillConfig, check_teacher, distill
+    from drake_tooluse.experiments.distill import (
+        STUDENT_MODES,
+        DistillConfig,
+        check_teacher,
+        distill,
+    )
     from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.learning.task_envs import check_env_kwargs
 
+    choice_arg(args.action_mode, STUDENT_MODES, "--action-mode", "student action mode")
+    env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs") or {}
+    teacher = load_policy(args.teacher)
     try:
-        check_teacher(load_policy(args.teacher))
+        check_teacher(teacher)
     except ValueError as e:
         raise UsageError(f"--teacher {str(args.teacher)!r}: {e}") from None
-    config = DistillConfig(rounds=args.rounds, episodes=args.episodes, seed=args.seed)
+    env_id = teacher.meta.env_id
+    check_env_kwargs(env_id, {**teacher.meta.env_kwargs, **env_kwargs}, "--env-kwargs")
+    config = DistillConfig(
+        action_mode=args.action_mode,
+        env_kwargs=env_kwargs,
+        rounds=args.rounds,
+        episodes=args.episodes,
+        seed=args.seed,
+    )
     command = shlex.join(["drake-tooluse", *sys.argv[1:]])
     return distill(args.teacher, args.out, config, command, log=lambda r: print(r, file=sys.stderr))
 
@@ -409,8 +426,9 @@ def add_parsers(sub) -> None:
     p.add_argument(
         "--to-time-limit",
         action="store_true",
-        help="run each episode on past its success to the 100-step limit and judge it where it "
-        "ends (default: an episode ends at its success)",
+        help="run each episode to its 100-step limit and judge it where it ends, also in an "
+        "env made with end_at_success (default: as the env runs; the push envs run to the "
+        "limit unless end_at_success)",
     )
     p.add_argument(
         "--no-progress",
@@ -438,6 +456,14 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--teacher", type=Path, required=True, help="the position policy directory")
     p.add_argument("--out", type=Path, required=True, help="new policy directory")
+    p.add_argument(
+        "--action-mode",
+        default="position_quaternion",
+        help="the student's: position_quaternion (the paper's 7-d action) or position",
+    )
+    p.add_argument(
+        "--env-kwargs", metavar="JSON", help="the student's env kwargs, over the teacher's"
+    )
     p.add_argument("--rounds", type=int, default=16, help="DAgger rounds")
     p.add_argument("--episodes", type=int, default=60, help="episodes per round")
     seed_help = "seed of the first episode (then +1 each), the noise and the fitting"

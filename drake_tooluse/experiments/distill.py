@@ -1,25 +1,30 @@
-"""A policy of the paper's 7-d action, distilled from a push policy of the 3-d position action.
+"""A push policy on the paper's observation, of the position or the paper's 7-d action,
+distilled by DAgger (Ross et al., 2011) from a push policy of the position action.
 
-The paper's action moves the tool tip's position and adds a change to its orientation
-quaternion; a policy of it must also learn to keep the tip's orientation, which a position
-policy is given (its target holds the initial orientation). This starts from what a
-position policy does: the student is the teacher's network, its action head widened from 3 to
-7 outputs (the 4 new ones zero), and DAgger (Ross et al., 2011) teaches it the expert's
-action at the states it visits itself:
+The student observes the paper's 30 values (`gripper_joints`); the teacher, of the position
+action, observes the same or the task in tool-tip space (`tip`, which it computes from the
+student's observation: `ToolPushObservation.tip_from_paper`). A teacher on the paper's
+observation starts the student as its own network (its action head widened for the 7-d
+action, the new outputs zero); a `tip` teacher's student starts as a fresh network of its
+policy_kwargs, with the observation normalization of round 0's observations.
+
+The paper's 7-d action moves the tip and adds a change to its orientation quaternion; a
+policy of it must also keep the tip's orientation, which a position policy is given (its target
+holds the initial one). The expert's action is then
 
     expert(s) = [teacher(s), clip((q_0 - q(s)) / MAX_QUATERNION_STEP, -1, 1)]
 
 q_0 the episode's initial tip quaternion, q(s) the tip's, of the robot model at the observed
-joint angles, in q_0's hemisphere: the quaternion change that turns the tip back to its
-initial orientation in one step (as far as one step's change reaches). That needs the env's
+joint angles, in q_0's hemisphere: the change that turns the tip back to its initial
+orientation in one step, as far as one step's change reaches. That needs the env's
 `continuous_quaternion` (with Drake's sign, which jumps at the home orientation, the same
 change turns the tip either way), which the student's env kwargs set.
 
 Round 0 runs the expert (every other episode with Gaussian noise on its actions, so the data
 hold recoveries), each later round the student; after each round the student's actor (its
-network and action head, not the value network, which PPO fine-tuning starts from) is fitted
-to all the data so far (mean squared error of the action means). The result is a policy
-directory like a trained one, to evaluate, or to fine-tune with `train --init-from`.
+network and action head, not the value network) is fitted to all the data so far (mean squared
+error of the action means). The result is a policy directory like a trained one, to evaluate,
+or to fine-tune with `train --init-from`.
 """
 
 from __future__ import annotations
@@ -32,19 +37,23 @@ import gymnasium as gym
 import numpy as np
 import torch
 from pydrake.math import RotationMatrix
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 
-from drake_tooluse.learning.policy_dir import build_model, load_policy, save_policy
+from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
 from drake_tooluse.robot.kinematics import fk_jacobian
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
-STUDENT_MODE = "position_quaternion"
-QUATERNION_LOG_STD = -2.3  # the new outputs' exploration noise for fine-tuning: std 0.1
+STUDENT_MODES = ("position", "position_quaternion")
+TEACHER_OBSERVATIONS = ("gripper_joints", "tip")
+QUATERNION_LOG_STD = -2.3  # the quaternion outputs' exploration noise for fine-tuning: std 0.1
 JOINTS = slice(16, 23)  # the joint angles in the paper's observation (tasks.push.observation)
 
 
 @dc.dataclass(frozen=True)
 class DistillConfig:
+    action_mode: str = "position_quaternion"  # the student's
+    env_kwargs: dict = dc.field(default_factory=dict)  # the student's env, over the teacher's
     rounds: int = 16
     episodes: int = 60  # per round, 100 steps each
     seed: int = 7000  # of the first episode (then +1 each) and of the noise and the fitting
@@ -55,75 +64,88 @@ class DistillConfig:
 
 
 def check_teacher(teacher) -> None:
-    """The teacher must be a push policy of the position action on the paper's observation."""
+    """The teacher must be a push policy of the position action, observing the paper's 30
+    values or the task in tip space (without the tool length)."""
     kwargs = teacher.meta.env_kwargs
-    mode = kwargs.get("action_mode", STUDENT_MODE)
-    observation = kwargs.get("observation_mode", "gripper_joints")
+    mode = kwargs.get("action_mode", "position_quaternion")
     if not teacher.meta.env_id.startswith("drake_tooluse/ToolPush") or mode != "position":
         raise ValueError(
             f"the teacher must be a push policy of action_mode 'position'; this one is a "
             f"{teacher.meta.env_id} policy of action_mode {mode!r}"
         )
-    size = OBSERVATION_SIZES["gripper_joints"]
-    if observation != "gripper_joints" or teacher.meta.observation_shape != [size]:
+    observation = kwargs.get("observation_mode", "gripper_joints")
+    if observation not in TEACHER_OBSERVATIONS or teacher.meta.observation_shape != [
+        OBSERVATION_SIZES[observation]
+    ]:
         raise ValueError(
-            f"the teacher must observe the paper's {size} values (observation_mode "
-            f"'gripper_joints', no tool length); it observes {teacher.meta.observation_shape}"
+            f"the teacher must observe the paper's 30 values or the 12 of the tip (no tool "
+            f"length); it observes {teacher.meta.observation_shape}"
         )
 
 
-def widened_student(teacher, command: str):
-    """The teacher's network with a 7-output action head (the quaternion outputs zero), its
-    meta for `position_quaternion` with `continuous_quaternion`."""
-    env_kwargs = {
-        **teacher.meta.env_kwargs,
-        "action_mode": STUDENT_MODE,
-        "continuous_quaternion": True,
-    }
+def _observes_paper(policy) -> bool:
+    return policy.meta.env_kwargs.get("observation_mode", "gripper_joints") == "gripper_joints"
+
+
+def student_of(teacher, config: DistillConfig, command: str):
+    """The student's model and meta: the teacher's network (action head widened, the new
+    outputs zero) where it observes the paper's values, else a fresh one of its kwargs."""
+    env_kwargs = {**teacher.meta.env_kwargs, **config.env_kwargs}
+    env_kwargs.update(action_mode=config.action_mode, observation_mode="gripper_joints")
+    if config.action_mode == "position_quaternion":
+        env_kwargs["continuous_quaternion"] = True
     meta = dc.replace(
         teacher.meta,
         env_kwargs=env_kwargs,
-        action_shape=[ACTION_MODES[STUDENT_MODE]],
+        observation_shape=[OBSERVATION_SIZES["gripper_joints"]],
+        action_shape=[ACTION_MODES[config.action_mode]],
         command=command,
         evaluation=None,
+        trained_timesteps=0,
     )
     model = build_model(meta)
-    weights = dict(teacher.model.policy.state_dict())
+    ours, theirs = model.policy.state_dict(), dict(teacher.model.policy.state_dict())
     n = teacher.meta.action_shape[0]
-    for name, fill in (("action_net.weight", 0.0), ("action_net.bias", 0.0)):
-        wide = torch.full_like(model.policy.state_dict()[name], fill)
-        wide[:n] = weights[name]
-        weights[name] = wide
+    if _observes_paper(teacher):
+        for name in ("action_net.weight", "action_net.bias"):
+            wide = torch.zeros_like(ours[name])
+            wide[:n] = theirs[name]
+            theirs[name] = wide
+    else:
+        theirs = dict(ours)
     log_std = torch.full((meta.action_shape[0],), QUATERNION_LOG_STD)
-    log_std[:n] = weights["log_std"]
-    weights["log_std"] = log_std
-    model.policy.load_state_dict(weights)
+    log_std[:n] = teacher.model.policy.state_dict()["log_std"]
+    theirs["log_std"] = log_std
+    model.policy.load_state_dict(theirs)
     return model, meta
 
 
-class OrientationExpert:
-    """The teacher's action and the quaternion change back to the initial tip orientation."""
+class Expert:
+    """The teacher's action at the student's observation and, for the 7-d action, the
+    quaternion change back to the initial tip orientation."""
 
-    def __init__(self, teacher):
+    def __init__(self, teacher, action_mode: str):
         self._teacher = teacher
+        self._tip_teacher = not _observes_paper(teacher)
+        self._turns = action_mode == "position_quaternion"
         self._R, self._p, self._J = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
 
     def __call__(self, env, observation: np.ndarray) -> np.ndarray:
+        seen = observation
+        if self._tip_teacher:
+            seen = env.observation_system.tip_from_paper(observation).astype(np.float32)
+        move = action_mean(self._teacher, seen)
+        if not self._turns:
+            return move
         target = env.target_system
         q0 = target._held_quaternion  # the initial target's orientation
-        fk_jacobian(
-            target._chain.fixed,
-            target._chain.axes,
-            observation[JOINTS].astype(float),
-            self._R,
-            self._p,
-            self._J,
-        )
+        chain = target._chain
+        joints = observation[JOINTS].astype(float)
+        fk_jacobian(chain.fixed, chain.axes, joints, self._R, self._p, self._J)
         q = RotationMatrix.MakeUnchecked(self._R).ToQuaternion().wxyz()
         if q.dot(q0) < 0.0:
             q = -q  # as the env's continuous_quaternion signs it
-        turn = np.clip((q0 - q) / MAX_QUATERNION_STEP, -1.0, 1.0)
-        return np.concatenate([action_mean(self._teacher, observation), turn])
+        return np.concatenate([move, np.clip((q0 - q) / MAX_QUATERNION_STEP, -1.0, 1.0)])
 
 
 def action_mean(policy, observation: np.ndarray) -> np.ndarray:
@@ -137,20 +159,21 @@ def action_mean(policy, observation: np.ndarray) -> np.ndarray:
 def distill(
     teacher_dir, out, config: DistillConfig = DistillConfig(), command: str = "", log=print
 ) -> dict:
-    """Distils `teacher_dir`'s position policy into a `position_quaternion` policy written to
+    """Distils `teacher_dir`'s policy into a student on the paper's observation, written to
     `out`; returns per round who acted, its success rate and the fit's RMSE per output."""
     teacher = load_policy(teacher_dir)
     check_teacher(teacher)
-    model, meta = widened_student(teacher, command or f"distill {teacher_dir}")
-    student = dc.replace(teacher, model=model, meta=meta)
+    model, meta = student_of(teacher, config, command or f"distill {teacher_dir}")
+    fresh = not _observes_paper(teacher)  # normalized as round 0's observations
+    student = LoadedPolicy(model, meta, None if fresh else teacher.obs_rms)
     env = gym.make(meta.env_id, **meta.env_kwargs)
-    expert = OrientationExpert(teacher)
+    expert = Expert(teacher, config.action_mode)
     rng = np.random.default_rng(config.seed)
     torch.manual_seed(config.seed)
     actor = model.policy
     parameters = [*actor.mlp_extractor.policy_net.parameters(), *actor.action_net.parameters()]
     optimizer = torch.optim.Adam(parameters, lr=config.learning_rate)
-    inputs, labels, rounds = [], [], []
+    observations, labels, rounds = [], [], []
     seed = config.seed
     try:
         for round_ in range(config.rounds):
@@ -158,25 +181,30 @@ def distill(
             for episode in range(config.episodes):
                 observation, _ = env.reset(seed=seed)
                 seed += 1
-                noisy = round_ == 0 and episode % 2 == 1
+                noise = config.noise if round_ == 0 and episode % 2 == 1 else 0.0
                 truncated = False
                 while not truncated:
                     best = expert(env.unwrapped, observation)
-                    inputs.append(student.normalize(observation[None].astype(np.float32))[0])
+                    observations.append(observation)
                     labels.append(best)
                     if round_ == 0:
-                        action = best + (config.noise * rng.standard_normal(7) if noisy else 0)
+                        action = best + noise * rng.standard_normal(best.size)
                     else:
                         action = student.act(observation)
                     observation, _, _, truncated, info = env.step(np.clip(action, -1, 1))
                 successes.append(bool(info["is_success"]))
-            rmse = _fit(actor, optimizer, inputs, labels, config)
+            if fresh and round_ == 0:
+                student.obs_rms = RunningMeanStd(shape=tuple(meta.observation_shape))
+                student.obs_rms.update(np.asarray(observations, float))
+            rmse = _fit(
+                actor, optimizer, student.normalize(np.asarray(observations)), labels, config
+            )
             rounds.append(
                 {
                     "round": round_,
                     "acting": "expert" if round_ == 0 else "student",
                     "success": float(np.mean(successes)),
-                    "samples": len(inputs),
+                    "samples": len(observations),
                     "rmse": [round(float(r), 4) for r in rmse],
                 }
             )
@@ -184,9 +212,9 @@ def distill(
     finally:
         env.close()
     holder = types.SimpleNamespace(
-        obs_rms=teacher.obs_rms, clip_obs=teacher.clip_obs, epsilon=teacher.epsilon
+        obs_rms=student.obs_rms, clip_obs=student.clip_obs, epsilon=student.epsilon
     )
-    save_policy(model, holder if teacher.obs_rms is not None else None, meta, Path(out))
+    save_policy(model, None if student.obs_rms is None else holder, meta, Path(out))
     return {"teacher": str(teacher_dir), "out": str(out), "rounds": rounds}
 
 

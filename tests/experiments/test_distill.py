@@ -7,11 +7,11 @@ import pytest
 
 from drake_tooluse.experiments.distill import (
     DistillConfig,
-    OrientationExpert,
+    Expert,
     action_mean,
     check_teacher,
     distill,
-    widened_student,
+    student_of,
 )
 from drake_tooluse.learning.policy_dir import LoadedPolicy, load_policy
 from drake_tooluse.paths import POLICIES_DIR
@@ -27,7 +27,7 @@ def teacher():
 
 
 def test_the_widened_student_acts_as_its_teacher_and_turns_nothing(teacher):
-    model, meta = widened_student(teacher, "test")
+    model, meta = student_of(teacher, DistillConfig(), "test")
     assert meta.action_shape == [7]
     assert meta.env_kwargs["action_mode"] == "position_quaternion"
     assert meta.env_kwargs["continuous_quaternion"] is True
@@ -42,7 +42,7 @@ def test_the_expert_turns_the_tip_back_to_its_initial_orientation(teacher):
     env = ToolPushEnv(action_mode="position_quaternion", continuous_quaternion=True)
     try:
         observation, _ = env.reset(seed=0)
-        expert = OrientationExpert(teacher)
+        expert = Expert(teacher, "position_quaternion")
         assert np.abs(expert(env, observation)[3:]).max() < 1e-3  # at home: nothing to turn
         for _ in range(20):  # pushes with the tip turned: the expert turns it back
             observation, *_ = env.step(np.array([0.5, 0.5, -0.3, 0.0, 0.4, 0.0, 0.0]))
@@ -80,15 +80,51 @@ def test_one_round_writes_a_policy_that_loads_and_acts(teacher, tmp_path):
 def test_a_teacher_it_cannot_widen_is_refused(capsys, tmp_path):
     with pytest.raises(ValueError, match="action_mode 'position'; this one is .* 'position_quat"):
         check_teacher(load_policy(POLICIES_DIR / "ppo_toolpush_paper_action"))
-    with pytest.raises(ValueError, match="observe the paper's 30 values"):
-        check_teacher(load_policy(POLICIES_DIR / "ppo_toolpush_tip"))
     assert_one_line_error(
         capsys,
-        ["distill", "--teacher", POLICIES_DIR / "ppo_toolpush_tip", "--out", tmp_path / "s"],
-        r"--teacher '.*ppo_toolpush_tip': the teacher must observe the paper's 30 values",
+        ["distill", "--teacher", POLICIES_DIR / "ppo_toolpull", "--out", tmp_path / "s"],
+        r"--teacher '.*ppo_toolpull': the teacher must be a push policy of action_mode 'pos",
+    )
+    assert_one_line_error(
+        capsys,
+        ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--action-mode", "pose"],
+        r"--action-mode",
     )
     assert_one_line_error(
         capsys,
         ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--rounds", "0"],
         r"--rounds",
     )
+
+
+def test_the_tip_observation_made_of_the_papers_is_the_tip_envs():
+    paper = ToolPushEnv(action_mode="position")
+    tip = ToolPushEnv(action_mode="position", observation_mode="tip")
+    try:
+        observation, _ = paper.reset(seed=4)
+        tip_observation, _ = tip.reset(seed=4)
+        actions = np.random.default_rng(0).uniform(-1, 1, (30, 3))
+        worst = 0.0
+        for action in actions:
+            observation, *_ = paper.step(action)
+            tip_observation, *_ = tip.step(action)
+            made = paper.observation_system.tip_from_paper(observation)
+            worst = max(worst, np.abs(made - tip_observation).max())
+        assert np.abs(tip_observation[9:]).max() > 0.05  # the tip moves
+        assert worst < 1e-6  # float32 observations
+    finally:
+        paper.close()
+        tip.close()
+
+
+def test_a_tip_teachers_student_is_a_fresh_network_normalized_as_its_data(tmp_path):
+    distill(
+        POLICIES_DIR / "ppo_toolpush_tip",
+        tmp_path / "student",
+        DistillConfig(action_mode="position", rounds=1, episodes=2, epochs=1),
+        log=lambda r: None,
+    )
+    student = load_policy(tmp_path / "student")
+    assert student.meta.observation_shape == [30] and student.meta.action_shape == [3]
+    assert student.meta.env_kwargs["observation_mode"] == "gripper_joints"
+    assert round(student.obs_rms.count) == 200  # round 0: 2 episodes of 100 steps

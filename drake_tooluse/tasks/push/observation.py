@@ -130,6 +130,23 @@ class ToolPushObservation(GoalObservation, LeafSystem):
             )
         )
 
+    def tip_from_paper(self, observation) -> np.ndarray:
+        """The `tip` observation (no tool length) of the state a `gripper_joints` observation
+        was made of: its goal, box and tip positions, and the tip velocity J(q) v of its joint
+        angles and velocities (the same robot model's)."""
+        o = np.asarray(observation, float)
+        self._model.SetPositions(self._model_context, o[16:23])
+        world_frame = self._model.world_frame()
+        J = self._model.CalcJacobianTranslationalVelocity(
+            self._model_context,
+            JacobianWrtVariable.kV,
+            self._tip,
+            np.zeros(3),
+            world_frame,
+            world_frame,
+        )
+        return np.concatenate((o[:9], J @ o[23:30]))
+
 
 def _index(indices):
     """Indices into the state as a slice where they are consecutive (a view, cheaper than
