@@ -1,9 +1,11 @@
-"""Copies a trained run's best (or final) policy into models/policies/NAME with its metrics and
-the exact commands that trained and evaluated it.
+"""Copies a trained run's best (or final) policy, or a policy directory `drake-tooluse
+distill` wrote, into models/policies/NAME with its metrics and the exact commands that made
+and evaluated it.
 
     python benchmarks/ship_policy.py --run runs/paper/ppo_env1_fullik --name ppo_toolpush
         [--out DIR]    # default models/policies/NAME
         [--which final]    # the run's final policy (default its best)
+    python benchmarks/ship_policy.py --policy runs/student --name ppo_toolpush
 
 The metrics are re-measured here with `drake-tooluse evaluate` on the copied policy, so the
 shipped metrics.json is what that command prints for the shipped files.
@@ -27,7 +29,11 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--run", type=Path, required=True, help="a training run directory")
+    given = ap.add_mutually_exclusive_group(required=True)
+    given.add_argument("--run", type=Path, help="a training run directory")
+    given.add_argument(
+        "--policy", type=Path, help="a policy directory made otherwise (drake-tooluse distill)"
+    )
     ap.add_argument("--name", required=True, help="directory name under models/policies")
     ap.add_argument(
         "--which",
@@ -41,11 +47,19 @@ def main() -> None:
         "--out", type=Path, help="the policy directory to write (default models/policies/NAME)"
     )
     args = ap.parse_args()
-    source = args.run / args.which
-    if not (source / "policy.json").is_file():
-        ap.error(f"--run {args.run}: no {args.which} policy in it ({source} has no policy.json)")
-    if not (args.run / "summary.json").is_file():
-        ap.error(f"--run {args.run}: the run has not finished (no summary.json)")
+    if args.policy is not None:
+        source, wall_time = args.policy, None
+        if not (source / "policy.json").is_file():
+            ap.error(f"--policy {source}: not a policy directory (no policy.json)")
+    else:
+        source = args.run / args.which
+        if not (source / "policy.json").is_file():
+            ap.error(
+                f"--run {args.run}: no {args.which} policy in it ({source} has no policy.json)"
+            )
+        if not (args.run / "summary.json").is_file():
+            ap.error(f"--run {args.run}: the run has not finished (no summary.json)")
+        wall_time = json.loads((args.run / "summary.json").read_text())["wall_time_s"]
     target = (args.out or ROOT / "models" / "policies" / args.name).resolve()
     # As the command is recorded: relative to the repository (its cwd) where it lies in it.
     shown = target.relative_to(ROOT) if target.is_relative_to(ROOT) else target
@@ -77,13 +91,12 @@ def main() -> None:
             cwd=ROOT,
         ).stdout
     )
-    summary = json.loads((args.run / "summary.json").read_text())
     atomic_write_json(
         target / "metrics.json",
         {
             "trained_with": meta["command"],  # as run (cwd: the repository)
             "trained_timesteps": meta["trained_timesteps"],
-            "training_wall_time_s": summary["wall_time_s"],
+            "training_wall_time_s": wall_time,  # None: not a training run's
             "evaluated_with": " ".join(evaluate),
             # Reproduced exactly on this release only (tests/learning/test_shipped_policy.py).
             "evaluated_with_drake": compat.DRAKE_VERSION,
