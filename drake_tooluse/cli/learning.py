@@ -248,7 +248,10 @@ def cmd_distill(args) -> dict:
         raise UsageError(f"--teacher {str(args.teacher)!r}: {e}") from None
     env_id = teacher.meta.env_id
     check_env_kwargs(env_id, {**teacher.meta.env_kwargs, **env_kwargs}, "--env-kwargs")
+    if args.init_from is not None:
+        policy_dir_arg(args.init_from, "--init-from")
     config = DistillConfig(
+        init_from=args.init_from,
         action_mode=args.action_mode,
         env_kwargs=env_kwargs,
         rounds=args.rounds,
@@ -264,7 +267,7 @@ def format_distill(out: dict) -> str:
     return (
         f"distilled {out['teacher']} -> {out['out']}: {len(out['rounds'])} rounds, "
         f"{last['samples']} samples; the student's last round: success "
-        f"{last['success']:.0%}, RMSE per action {last['rmse']}"
+        f"{last['success']:.0%}, RMSE per action {last['rmse']}; {out['wall_time_s']:.0f} s"
     )
 
 
@@ -463,6 +466,11 @@ def add_parsers(sub) -> None:
     )
     p.add_argument(
         "--env-kwargs", metavar="JSON", help="the student's env kwargs, over the teacher's"
+    )
+    p.add_argument(
+        "--init-from",
+        type=Path,
+        help="go on from the student of an earlier distill (same teacher and options)",
     )
     p.add_argument("--rounds", type=int, default=16, help="DAgger rounds")
     p.add_argument("--episodes", type=int, default=60, help="episodes per round")

@@ -30,6 +30,7 @@ or to fine-tune with `train --init-from`.
 from __future__ import annotations
 
 import dataclasses as dc
+import time
 import types
 from pathlib import Path
 
@@ -61,6 +62,9 @@ class DistillConfig:
     learning_rate: float = 3e-4
     batch_size: int = 256
     noise: float = 0.3  # std of the expert's action noise in round 0's odd episodes
+    # A student of an earlier distillation to go on from (its network and normalization): more
+    # rounds, the data collected afresh.
+    init_from: str | Path | None = None
 
 
 def check_teacher(teacher) -> None:
@@ -160,12 +164,19 @@ def distill(
     teacher_dir, out, config: DistillConfig = DistillConfig(), command: str = "", log=print
 ) -> dict:
     """Distils `teacher_dir`'s policy into a student on the paper's observation, written to
-    `out`; returns per round who acted, its success rate and the fit's RMSE per output."""
+    `out`; returns per round who acted, its success rate and the fit's RMSE per output, and
+    the wall time."""
+    start = time.monotonic()
     teacher = load_policy(teacher_dir)
     check_teacher(teacher)
     model, meta = student_of(teacher, config, command or f"distill {teacher_dir}")
     fresh = not _observes_paper(teacher)  # normalized as round 0's observations
     student = LoadedPolicy(model, meta, None if fresh else teacher.obs_rms)
+    if config.init_from is not None:
+        earlier = load_policy(config.init_from)
+        _check_earlier(earlier, meta, config.init_from)
+        model.policy.load_state_dict(earlier.model.policy.state_dict())
+        student.obs_rms, fresh = earlier.obs_rms, False
     env = gym.make(meta.env_id, **meta.env_kwargs)
     expert = Expert(teacher, config.action_mode)
     rng = np.random.default_rng(config.seed)
@@ -215,7 +226,27 @@ def distill(
         obs_rms=student.obs_rms, clip_obs=student.clip_obs, epsilon=student.epsilon
     )
     save_policy(model, None if student.obs_rms is None else holder, meta, Path(out))
-    return {"teacher": str(teacher_dir), "out": str(out), "rounds": rounds}
+    return {
+        "teacher": str(teacher_dir),
+        "out": str(out),
+        "rounds": rounds,
+        "wall_time_s": time.monotonic() - start,
+    }
+
+
+def _check_earlier(earlier, meta, path) -> None:
+    """An earlier student fits: the same observation, action and network."""
+    ours = (meta.env_kwargs.get("action_mode"), meta.observation_shape, meta.action_shape)
+    theirs = (
+        earlier.meta.env_kwargs.get("action_mode"),
+        earlier.meta.observation_shape,
+        earlier.meta.action_shape,
+    )
+    if theirs != ours or earlier.meta.policy_kwargs != meta.policy_kwargs:
+        raise ValueError(
+            f"init_from {str(path)!r} is not a student of this distillation: its action mode, "
+            f"observation and action {theirs}, this one's {ours} (and the same policy_kwargs)"
+        )
 
 
 def _fit(actor, optimizer, inputs, labels, config: DistillConfig) -> np.ndarray:

@@ -2,6 +2,8 @@
 DAgger round writes a policy directory that loads and acts; a teacher it cannot widen is a
 one-line usage error."""
 
+import dataclasses as dc
+
 import numpy as np
 import pytest
 
@@ -128,3 +130,19 @@ def test_a_tip_teachers_student_is_a_fresh_network_normalized_as_its_data(tmp_pa
     assert student.meta.observation_shape == [30] and student.meta.action_shape == [3]
     assert student.meta.env_kwargs["observation_mode"] == "gripper_joints"
     assert round(student.obs_rms.count) == 200  # round 0: 2 episodes of 100 steps
+
+
+def test_an_earlier_student_goes_on_and_one_that_does_not_fit_is_refused(tmp_path):
+    quiet = {"log": lambda r: None}
+    first = DistillConfig(action_mode="position", rounds=1, episodes=1, epochs=1)
+    distill(TEACHER, tmp_path / "a", first, **quiet)
+    more = dc.replace(first, init_from=tmp_path / "a", epochs=0)  # no fitting: the same weights
+    distill(TEACHER, tmp_path / "b", more, **quiet)
+    a, b = load_policy(tmp_path / "a"), load_policy(tmp_path / "b")
+    for name, value in a.model.policy.state_dict().items():
+        assert (value == b.model.policy.state_dict()[name]).all(), name
+    np.testing.assert_array_equal(a.obs_rms.mean, b.obs_rms.mean)
+    with pytest.raises(ValueError, match="is not a student of this distillation"):
+        distill(
+            TEACHER, tmp_path / "c", dc.replace(more, action_mode="position_quaternion"), **quiet
+        )
