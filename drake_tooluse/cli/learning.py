@@ -24,6 +24,7 @@ from drake_tooluse.cli.common import (
 )
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.task_envs import task_env_ids
+from drake_tooluse.validation import check_in_range
 
 MAX_TIMESTEPS = 10**10
 MAX_EPISODES = 100_000
@@ -229,7 +230,9 @@ def cmd_distill(args) -> dict:
     output_dir_arg(args.out, "--out")
     count_arg(args.rounds, "--rounds", 1, 1000)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    count_arg(args.epochs, "--epochs", 0, 10_000)
     seed_arg(args.seed, count=args.rounds * args.episodes)
+    check_in_range(args.learning_rate, 1e-7, 1.0, "--learning-rate")
     from drake_tooluse.experiments.distill import (
         STUDENT_MODES,
         DistillConfig,
@@ -257,6 +260,8 @@ def cmd_distill(args) -> dict:
         rounds=args.rounds,
         episodes=args.episodes,
         seed=args.seed,
+        epochs=args.epochs,
+        learning_rate=args.learning_rate,
     )
     command = shlex.join(["drake-tooluse", *sys.argv[1:]])
     return distill(args.teacher, args.out, config, command, log=lambda r: print(r, file=sys.stderr))
@@ -474,6 +479,8 @@ def add_parsers(sub) -> None:
     )
     p.add_argument("--rounds", type=int, default=16, help="DAgger rounds")
     p.add_argument("--episodes", type=int, default=60, help="episodes per round")
+    p.add_argument("--epochs", type=int, default=20, help="passes over the data per round")
+    p.add_argument("--learning-rate", type=float, default=3e-4, help="Adam's, fitting the student")
     seed_help = "seed of the first episode (then +1 each), the noise and the fitting"
     p.add_argument("--seed", type=int, default=7000, help=seed_help)
     p.set_defaults(run=cmd_distill, show=format_distill)
