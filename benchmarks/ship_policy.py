@@ -13,6 +13,7 @@ shipped metrics.json is what that command prints for the shipped files.
 
 import argparse
 import json
+import shlex
 import shutil
 import subprocess
 import sys
@@ -25,6 +26,22 @@ from drake_tooluse.learning.jobs import this_interpreter
 from drake_tooluse.learning.task_envs import episode_metrics
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+def command_chain(meta: dict) -> list[str]:
+    """The commands that made a policy, first to last: its own, after those of the policy it
+    went on from (`--init-from DIR`, as long as DIR still holds a policy.json)."""
+    chain = [meta["command"]]
+    seen = set()
+    while True:
+        words = shlex.split(chain[0])
+        if "--init-from" not in words:
+            return chain
+        earlier = Path(words[words.index("--init-from") + 1])
+        if earlier in seen or not (earlier / "policy.json").is_file():
+            return chain
+        seen.add(earlier)
+        chain.insert(0, json.loads((earlier / "policy.json").read_text())["command"])
 
 
 def main() -> None:
@@ -95,6 +112,8 @@ def main() -> None:
         target / "metrics.json",
         {
             "trained_with": meta["command"],  # as run (cwd: the repository)
+            # Where it went on from an earlier policy: the commands that made that one first.
+            "made_with": command_chain(meta),
             "trained_timesteps": meta["trained_timesteps"],
             "training_wall_time_s": wall_time,  # None: not a training run's
             "evaluated_with": " ".join(evaluate),

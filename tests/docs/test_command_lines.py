@@ -18,7 +18,8 @@ rule of `RULES` below (a test fails on a line no rule covers, so a new line need
   checkout (diagrams/…, models/policies/…, drake_tooluse/…) reads the checkout's. Budgets
   shrink: each flag of `BUDGETS` present in a command has its values replaced (`--timesteps
   1250000` → `--timesteps 256`, `--episodes 100` → `--episodes 2`, `--runs 10` → `--runs 1`,
-  `--rounds 20` → `--rounds 1`, `--seeds 0 1 2` and `--tools 0.25 0.3` keep their first value, …), and a rule may add flags (`train` gets small rollouts and
+  `--rounds 20` → `--rounds 1`, `--seeds 0 1 2` and `--tools 0.25 0.3` keep their first
+  value, …), and a rule may add flags (`train` gets small rollouts and
   an evaluation every 128 steps, so that `best/` exists for the `evaluate` line after it).
   The command must exit 0.
 
