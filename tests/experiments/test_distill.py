@@ -97,6 +97,16 @@ def test_a_teacher_it_cannot_widen_is_refused(capsys, tmp_path):
         ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--rounds", "0"],
         r"--rounds",
     )
+    assert_one_line_error(
+        capsys,
+        ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--learning-rate", "0"],
+        r"--learning-rate=0 is outside the allowed range \[1e-07, 1\]",
+    )
+    assert_one_line_error(
+        capsys,
+        ["distill", "--teacher", TEACHER, "--out", tmp_path / "s", "--env-kwargs", '{"x": 1}'],
+        r"unknown argument\(s\) \['x'\]",
+    )
 
 
 def test_the_tip_observation_made_of_the_papers_is_the_tip_envs():
