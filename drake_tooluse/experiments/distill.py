@@ -37,11 +37,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from pydrake.math import RotationMatrix
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
-from drake_tooluse.robot.kinematics import fk_jacobian
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
@@ -108,17 +106,15 @@ def student_of(teacher, config: DistillConfig, command: str):
         trained_timesteps=0,
     )
     model = build_model(meta)
-    ours, theirs = model.policy.state_dict(), dict(teacher.model.policy.state_dict())
+    ours, teachers = model.policy.state_dict(), teacher.model.policy.state_dict()
     n = teacher.meta.action_shape[0]
+    theirs = dict(teachers if _observes_paper(teacher) else ours)
     if _observes_paper(teacher):
         for name in ("action_net.weight", "action_net.bias"):
-            wide = torch.zeros_like(ours[name])
-            wide[:n] = theirs[name]
-            theirs[name] = wide
-    else:
-        theirs = dict(ours)
+            theirs[name] = torch.zeros_like(ours[name])
+            theirs[name][:n] = teachers[name]
     log_std = torch.full((meta.action_shape[0],), QUATERNION_LOG_STD)
-    log_std[:n] = teacher.model.policy.state_dict()["log_std"]
+    log_std[:n] = teachers["log_std"]
     theirs["log_std"] = log_std
     model.policy.load_state_dict(theirs)
     return model, meta
@@ -132,7 +128,6 @@ class Expert:
         self._teacher = teacher
         self._tip_teacher = not _observes_paper(teacher)
         self._turns = action_mode == "position_quaternion"
-        self._R, self._p, self._J = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
 
     def __call__(self, env, observation: np.ndarray) -> np.ndarray:
         seen = observation
@@ -141,14 +136,8 @@ class Expert:
         move = action_mean(self._teacher, seen)
         if not self._turns:
             return move
-        target = env.target_system
-        q0 = target._held_quaternion  # the initial target's orientation
-        chain = target._chain
-        joints = observation[JOINTS].astype(float)
-        fk_jacobian(chain.fixed, chain.axes, joints, self._R, self._p, self._J)
-        q = RotationMatrix.MakeUnchecked(self._R).ToQuaternion().wxyz()
-        if q.dot(q0) < 0.0:
-            q = -q  # as the env's continuous_quaternion signs it
+        target = env.target_system  # the env's continuous_quaternion signs q as q0
+        q0, q = target.initial_quaternion, target.quaternion_at(observation[JOINTS])
         return np.concatenate([move, np.clip((q0 - q) / MAX_QUATERNION_STEP, -1.0, 1.0)])
 
 

@@ -176,9 +176,7 @@ class TipTargetSystem(LeafSystem):
         if self._mode == "position":
             quat = self._held_quaternion
         else:  # MakeUnchecked: the constructor's rotation (it checks nothing in release builds)
-            quat = RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz()  # without its dispatch
-            if self._continuous_quaternion and quat.dot(self._held_quaternion) < 0.0:
-                quat = -quat  # the same orientation, in the initial target's hemisphere
+            quat = self._signed(RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz())
         if not self._action.HasValue(context):
             return np.concatenate([p_WT, quat])
         # The port holds its size of floats: what `check_action` checks beyond that is their
@@ -199,6 +197,26 @@ class TipTargetSystem(LeafSystem):
             norm = math.sqrt(moved.dot(moved))  # as `apply_action` normalizes it
             quat = moved / norm if norm > 1e-6 else quat
         return np.concatenate((p, quat))
+
+    @property
+    def initial_quaternion(self) -> np.ndarray:
+        """The initial target's orientation (w x y z): what `position` mode holds."""
+        return self._held_quaternion.copy()
+
+    def quaternion_at(self, q) -> np.ndarray:
+        """The tip orientation's quaternion (w x y z) at the arm's joint angles q, by the robot
+        model's forward kinematics, signed as this system signs the orientation it adds an
+        action's change to."""
+        R_WT, p_WT, J = np.empty((3, 3)), np.empty(3), np.empty((6, 7))
+        fk_jacobian(self._chain.fixed, self._chain.axes, np.asarray(q, float), R_WT, p_WT, J)
+        return self._signed(RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz())
+
+    def _signed(self, quat: np.ndarray) -> np.ndarray:
+        """`quat` (Drake's sign), or with `continuous_quaternion` the same orientation in the
+        initial target's hemisphere."""
+        if self._continuous_quaternion and quat.dot(self._held_quaternion) < 0.0:
+            return -quat
+        return quat
 
     def _calc_target(self, context, output):
         output.SetFromVector(self._target(context))

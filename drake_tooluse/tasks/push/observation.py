@@ -97,21 +97,12 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
         if self._mode == "tip":
-            world_frame = self._model.world_frame()
-            J = self._model.CalcJacobianTranslationalVelocity(
-                self._model_context,
-                JacobianWrtVariable.kV,
-                self._tip,
-                np.zeros(3),
-                world_frame,
-                world_frame,
-            )
             return np.concatenate(
                 (
                     goal,
                     x[self._box_p],
                     self._tip.CalcPoseInWorld(self._model_context).translation(),
-                    J @ x[self._arm_v],
+                    self._tip_jacobian() @ x[self._arm_v],
                     *self._tail,
                 )
             )
@@ -136,8 +127,13 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         angles and velocities (the same robot model's)."""
         o = np.asarray(observation, float)
         self._model.SetPositions(self._model_context, o[16:23])
+        return np.concatenate((o[:9], self._tip_jacobian() @ o[23:30]))
+
+    def _tip_jacobian(self) -> np.ndarray:
+        """J (3 × 7): the tip's translational velocity in W per arm joint velocity, at the
+        positions last set in the robot model's context."""
         world_frame = self._model.world_frame()
-        J = self._model.CalcJacobianTranslationalVelocity(
+        return self._model.CalcJacobianTranslationalVelocity(
             self._model_context,
             JacobianWrtVariable.kV,
             self._tip,
@@ -145,7 +141,6 @@ class ToolPushObservation(GoalObservation, LeafSystem):
             world_frame,
             world_frame,
         )
-        return np.concatenate((o[:9], J @ o[23:30]))
 
 
 def _index(indices):

@@ -29,7 +29,7 @@ def target_quaternions(continuous: bool, hold: bool) -> tuple[np.ndarray, list, 
     env = ToolPushEnv(action_mode="position_quaternion", continuous_quaternion=continuous)
     try:
         observation, _ = env.reset(seed=3)
-        held = env.target_system._held_quaternion.copy()
+        held = env.target_system.initial_quaternion
         context = env.target_system.GetMyContextFromRoot(env.simulator.get_context())
         targets, errors = [], []
         for _ in range(STEPS):
