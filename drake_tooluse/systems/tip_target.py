@@ -200,7 +200,7 @@ class TipTargetSystem(LeafSystem):
 
     @property
     def initial_quaternion(self) -> np.ndarray:
-        """The initial target's orientation (w x y z): what `position` mode holds."""
+        """The initial target's orientation as a quaternion (w x y z), which `position` mode holds."""
         return self._held_quaternion.copy()
 
     def quaternion_at(self, q) -> np.ndarray:
