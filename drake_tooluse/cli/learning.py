@@ -225,46 +225,100 @@ def format_convert_policy(out: dict) -> str:
     return f"converted {out['converted']} -> {out['out']} (loads without pickles)"
 
 
+# distill's settings: with --resume none is given (the distillation's own are used).
+DISTILL_SETTINGS = {
+    "teacher": "--teacher",
+    "out": "--out",
+    "action_mode": "--action-mode",
+    "env_kwargs": "--env-kwargs",
+    "init_from": "--init-from",
+    "rounds": "--rounds",
+    "episodes": "--episodes",
+    "epochs": "--epochs",
+    "learning_rate": "--learning-rate",
+    "seed": "--seed",
+}
+
+
 def cmd_distill(args) -> dict:
-    policy_dir_arg(args.teacher, "--teacher")
-    output_dir_arg(args.out, "--out")
-    count_arg(args.rounds, "--rounds", 1, 1000)
-    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
-    count_arg(args.epochs, "--epochs", 0, 10_000)
-    seed_arg(args.seed, count=args.rounds * args.episodes)
-    check_in_range(args.learning_rate, 1e-7, 1.0, "--learning-rate")
-    from drake_tooluse.experiments.distill import (
-        STUDENT_MODES,
-        DistillConfig,
-        check_teacher,
-        distill,
-    )
+    from drake_tooluse.experiments.distill import PROGRESS
+
+    if args.resume is not None:
+        given = [flag for name, flag in DISTILL_SETTINGS.items() if getattr(args, name) is not None]
+        if given:
+            raise UsageError(
+                f"--resume goes on with the distillation's own settings; leave out {', '.join(given)}"
+            )
+        output_dir_arg(args.resume, "--resume", must_be_new=False)
+        if not (args.resume / PROGRESS).is_file():
+            raise UsageError(
+                f"--resume {str(args.resume)!r} holds no unfinished distillation (no {PROGRESS}): "
+                "it finished, or is not a distillation's"
+            )
+        from drake_tooluse.experiments.distill import resume_distill
+
+        return _resumable(args.resume, lambda log: resume_distill(args.resume, log=log))
+    if args.teacher is None or args.out is None:
+        raise UsageError("give --teacher and --out for a new distillation, or --resume DIR")
+    if (args.out / PROGRESS).is_file():
+        raise UsageError(
+            f"--out {str(args.out)!r} already holds an unfinished distillation; continue it "
+            f"with --resume {str(args.out)!r}, or give a new --out"
+        )
+    config = _distill_config(args)
+    command = shlex.join(["drake-tooluse", *sys.argv[1:]])
+    from drake_tooluse.experiments.distill import distill
+
+    return _resumable(args.out, lambda log: distill(args.teacher, args.out, config, command, log))
+
+
+def _distill_config(args):
+    """The DistillConfig of a new distillation's flags, each checked (defaults for those not
+    given)."""
+    from drake_tooluse.experiments.distill import STUDENT_MODES, DistillConfig, check_teacher
     from drake_tooluse.learning.policy_dir import load_policy
     from drake_tooluse.learning.task_envs import check_env_kwargs
 
-    choice_arg(args.action_mode, STUDENT_MODES, "--action-mode", "student action mode")
-    env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs") or {}
+    given = {
+        name: getattr(args, name) for name in DISTILL_SETTINGS if name not in ("teacher", "out")
+    }
+    config = DistillConfig(**{k: v for k, v in given.items() if v is not None})
+    config = dataclasses.replace(
+        config, env_kwargs=parse_json_arg(args.env_kwargs, "--env-kwargs") or {}
+    )
+    policy_dir_arg(args.teacher, "--teacher")
+    output_dir_arg(args.out, "--out")
+    count_arg(config.rounds, "--rounds", 1, 1000)
+    count_arg(config.episodes, "--episodes", 1, MAX_EPISODES)
+    count_arg(config.epochs, "--epochs", 0, 10_000)
+    seed_arg(config.seed, count=config.rounds * config.episodes)
+    check_in_range(config.learning_rate, 1e-7, 1.0, "--learning-rate")
+    choice_arg(config.action_mode, STUDENT_MODES, "--action-mode", "student action mode")
     teacher = load_policy(args.teacher)
     try:
         check_teacher(teacher)
     except ValueError as e:
         raise UsageError(f"--teacher {str(args.teacher)!r}: {e}") from None
     env_id = teacher.meta.env_id
-    check_env_kwargs(env_id, {**teacher.meta.env_kwargs, **env_kwargs}, "--env-kwargs")
-    if args.init_from is not None:
-        policy_dir_arg(args.init_from, "--init-from")
-    config = DistillConfig(
-        init_from=args.init_from,
-        action_mode=args.action_mode,
-        env_kwargs=env_kwargs,
-        rounds=args.rounds,
-        episodes=args.episodes,
-        seed=args.seed,
-        epochs=args.epochs,
-        learning_rate=args.learning_rate,
-    )
-    command = shlex.join(["drake-tooluse", *sys.argv[1:]])
-    return distill(args.teacher, args.out, config, command, log=lambda r: print(r, file=sys.stderr))
+    check_env_kwargs(env_id, {**teacher.meta.env_kwargs, **config.env_kwargs}, "--env-kwargs")
+    if config.init_from is not None:
+        policy_dir_arg(config.init_from, "--init-from")
+    return config
+
+
+def _resumable(out, run) -> dict:
+    """`run(log)`, its rounds logged to stderr; stopped, it says how to go on."""
+    from drake_tooluse.experiments.distill import PROGRESS
+
+    try:
+        return run(lambda r: print(r, file=sys.stderr))
+    except KeyboardInterrupt:
+        if not (Path(out) / PROGRESS).is_file():
+            raise
+        raise KeyboardInterrupt(
+            f"the rounds so far are saved in {str(out)!r}; go on with "
+            f"`drake-tooluse distill --resume {shlex.quote(str(out))}`"
+        ) from None
 
 
 def format_distill(out: dict) -> str:
@@ -462,12 +516,17 @@ def add_parsers(sub) -> None:
         help="a policy of the paper's 7-d action (position_quaternion) from a push policy of "
         "the position action, by DAgger (experiments.distill); fine-tune it with train --init-from",
     )
-    p.add_argument("--teacher", type=Path, required=True, help="the position policy directory")
-    p.add_argument("--out", type=Path, required=True, help="new policy directory")
+    p.add_argument("--teacher", type=Path, help="the position policy directory")
+    p.add_argument("--out", type=Path, help="new policy directory")
+    p.add_argument(
+        "--resume",
+        type=Path,
+        metavar="DIR",
+        help="go on with a stopped distillation in DIR (its --out), from its last round",
+    )
     p.add_argument(
         "--action-mode",
-        default="position_quaternion",
-        help="the student's: position_quaternion (the paper's 7-d action) or position",
+        help="the student's: position_quaternion (the paper's 7-d action, the default) or position",
     )
     p.add_argument(
         "--env-kwargs", metavar="JSON", help="the student's env kwargs, over the teacher's"
@@ -477,12 +536,16 @@ def add_parsers(sub) -> None:
         type=Path,
         help="go on from the student of an earlier distill (same teacher and options)",
     )
-    p.add_argument("--rounds", type=int, default=16, help="DAgger rounds")
-    p.add_argument("--episodes", type=int, default=60, help="episodes per round")
-    p.add_argument("--epochs", type=int, default=20, help="passes over the data per round")
-    p.add_argument("--learning-rate", type=float, default=3e-4, help="Adam's, fitting the student")
-    seed_help = "seed of the first episode (then +1 each), the noise and the fitting"
-    p.add_argument("--seed", type=int, default=7000, help=seed_help)
+    p.add_argument("--rounds", type=int, help="DAgger rounds (default: 16)")
+    p.add_argument("--episodes", type=int, help="episodes per round (default: 60)")
+    p.add_argument("--epochs", type=int, help="passes over the data per round (default: 20)")
+    p.add_argument(
+        "--learning-rate", type=float, help="Adam's, fitting the student (default: 3e-4)"
+    )
+    seed_help = (
+        "seed of the first episode (then +1 each), the noise and the fitting (default: 7000)"
+    )
+    p.add_argument("--seed", type=int, help=seed_help)
     p.set_defaults(run=cmd_distill, show=format_distill)
 
     p = sub.add_parser(

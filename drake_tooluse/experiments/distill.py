@@ -30,6 +30,7 @@ or to fine-tune with `train --init-from`.
 from __future__ import annotations
 
 import dataclasses as dc
+import io
 import time
 import types
 from pathlib import Path
@@ -39,6 +40,7 @@ import numpy as np
 import torch
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
+from drake_tooluse.files import read_json, to_json
 from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
@@ -47,6 +49,12 @@ STUDENT_MODES = ("position", "position_quaternion")
 TEACHER_OBSERVATIONS = ("gripper_joints", "tip")
 QUATERNION_LOG_STD = -2.3  # the quaternion outputs' exploration noise for fine-tuning: std 0.1
 JOINTS = slice(16, 23)  # the joint angles in the paper's observation (tasks.push.observation)
+# An unfinished distillation's state, beside the student so far in its directory: gone when
+# it finishes.
+PROGRESS = "distill_progress.json"
+PROGRESS_TENSORS = "distill_progress.pt"
+PROGRESS_DATA = "distill_data.npz"
+PROGRESS_FORMAT = 1
 
 
 @dc.dataclass(frozen=True)
@@ -154,14 +162,45 @@ def distill(
 ) -> dict:
     """Distils `teacher_dir`'s policy into a student on the paper's observation, written to
     `out`; returns per round who acted, its success rate and the fit's RMSE per output, and
-    the wall time."""
+    the wall time. Each finished round is saved in `out` (the student so far, with the
+    distillation's state: `resume_distill` goes on from it after a kill)."""
+    if (Path(out) / PROGRESS).is_file():
+        raise FileExistsError(
+            f"{str(out)!r} already holds an unfinished distillation; continue it with "
+            "resume_distill, or give a new out"
+        )
+    teacher = str(Path(teacher_dir).resolve())
+    return _distill(teacher, Path(out), config, command or f"distill {teacher_dir}", log, None)
+
+
+def resume_distill(out, log=print) -> dict:
+    """Goes on with the distillation whose unfinished state `out` holds (one that was
+    stopped), from its last finished round, with its own teacher and settings: the same
+    student as had it not been stopped."""
+    path = Path(out) / PROGRESS
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"{str(out)!r} holds no unfinished distillation (no {PROGRESS}): it finished, or "
+            "is not a distillation's"
+        )
+    progress = read_json(path, "distillation state")
+    if progress.get("format") != PROGRESS_FORMAT:
+        raise ValueError(
+            f"{str(path)!r} is of format {progress.get('format')!r}; this version reads "
+            f"format {PROGRESS_FORMAT}"
+        )
+    config = DistillConfig(**progress["config"])
+    return _distill(progress["teacher"], Path(out), config, progress["command"], log, progress)
+
+
+def _distill(teacher_dir: str, out: Path, config, command: str, log, progress) -> dict:
     start = time.monotonic()
     teacher = load_policy(teacher_dir)
     check_teacher(teacher)
-    model, meta = student_of(teacher, config, command or f"distill {teacher_dir}")
+    model, meta = student_of(teacher, config, command)
     fresh = not _observes_paper(teacher)  # normalized as round 0's observations
     student = LoadedPolicy(model, meta, None if fresh else teacher.obs_rms)
-    if config.init_from is not None:
+    if config.init_from is not None and progress is None:
         earlier = load_policy(config.init_from)
         _check_earlier(earlier, meta, config.init_from)
         model.policy.load_state_dict(earlier.model.policy.state_dict())
@@ -174,9 +213,13 @@ def distill(
     parameters = [*actor.mlp_extractor.policy_net.parameters(), *actor.action_net.parameters()]
     optimizer = torch.optim.Adam(parameters, lr=config.learning_rate)
     observations, labels, rounds = [], [], []
-    seed = config.seed
+    seed, earlier_time = config.seed, 0.0
+    if progress is not None:
+        observations, labels = _restore(out, progress, student, optimizer, rng)
+        rounds, seed = progress["rounds"], progress["next_seed"]
+        earlier_time = progress["wall_time_s"]
     try:
-        for round_ in range(config.rounds):
+        for round_ in range(len(rounds), config.rounds):
             successes = []
             for episode in range(config.episodes):
                 observation, _ = env.reset(seed=seed)
@@ -208,19 +251,77 @@ def distill(
                     "rmse": [round(float(r), 4) for r in rmse],
                 }
             )
+            state = {
+                "format": PROGRESS_FORMAT,
+                "teacher": teacher_dir,
+                "command": command,
+                "config": _config_dict(config),
+                "rounds": rounds,
+                "next_seed": seed,
+                "wall_time_s": earlier_time + time.monotonic() - start,
+                "numpy_random": rng.bit_generator.state,
+            }
+            _save_round(model, student, meta, out, state, optimizer, observations, labels)
             log(rounds[-1])
     finally:
         env.close()
-    holder = types.SimpleNamespace(
-        obs_rms=student.obs_rms, clip_obs=student.clip_obs, epsilon=student.epsilon
-    )
-    save_policy(model, None if student.obs_rms is None else holder, meta, Path(out))
+    save_policy(model, _normalization(student), meta, out)  # the state files go with the rename
     return {
-        "teacher": str(teacher_dir),
+        "teacher": teacher_dir,
         "out": str(out),
         "rounds": rounds,
-        "wall_time_s": time.monotonic() - start,
+        "wall_time_s": earlier_time + time.monotonic() - start,
     }
+
+
+def _normalization(student: LoadedPolicy):
+    """The student's observation normalization as `save_policy` takes it (None: none)."""
+    if student.obs_rms is None:
+        return None
+    return types.SimpleNamespace(
+        obs_rms=student.obs_rms, clip_obs=student.clip_obs, epsilon=student.epsilon
+    )
+
+
+def _config_dict(config: DistillConfig) -> dict:
+    values = dc.asdict(config)
+    if values["init_from"] is not None:
+        values["init_from"] = str(Path(values["init_from"]).resolve())
+    return values
+
+
+def _save_round(model, student, meta, out: Path, state, optimizer, observations, labels):
+    """The student after a round, as a policy directory, with what `resume_distill` needs to
+    go on: the state (JSON), the optimizer's and torch's random state (tensors, read back
+    with `weights_only`) and the data so far (`.npz`, read back without pickles). One
+    directory, swapped in whole."""
+    tensors, data = io.BytesIO(), io.BytesIO()
+    torch.save({"optimizer": optimizer.state_dict(), "torch_rng": torch.get_rng_state()}, tensors)
+    np.savez(data, observations=np.asarray(observations), labels=np.asarray(labels))
+    files = {
+        PROGRESS: (to_json(state) + "\n").encode(),
+        PROGRESS_TENSORS: tensors.getvalue(),
+        PROGRESS_DATA: data.getvalue(),
+    }
+    save_policy(model, _normalization(student), meta, out, extra_files=files)
+
+
+def _restore(out: Path, progress: dict, student, optimizer, rng) -> tuple[list, list]:
+    """Puts the saved round back: the student's network and normalization, the optimizer,
+    the random generators; returns the observations and labels so far."""
+    saved = load_policy(out)
+    student.model.policy.load_state_dict(saved.model.policy.state_dict())
+    student.obs_rms = saved.obs_rms
+    try:
+        tensors = torch.load(out / PROGRESS_TENSORS, map_location="cpu", weights_only=True)
+        optimizer.load_state_dict(tensors["optimizer"])
+        torch.set_rng_state(tensors["torch_rng"])
+        with np.load(out / PROGRESS_DATA, allow_pickle=False) as data:
+            observations, labels = list(data["observations"]), list(data["labels"])
+    except (OSError, RuntimeError, KeyError, ValueError) as e:
+        raise ValueError(f"cannot restore the distillation in {str(out)!r}: {e}") from None
+    rng.bit_generator.state = progress["numpy_random"]
+    return observations, labels
 
 
 def _check_earlier(earlier, meta, path) -> None:

@@ -1,18 +1,23 @@
 """`learning.distill`: the student starts as its teacher, with the paper's 7-d action; one
 DAgger round writes a policy directory that loads and acts; a teacher it cannot widen is a
-one-line usage error."""
+one-line usage error; a stopped distillation goes on to the student it would have made."""
 
 import dataclasses as dc
+import re
 
 import numpy as np
 import pytest
+import torch
 
+from drake_tooluse.cli import main
 from drake_tooluse.experiments.distill import (
+    PROGRESS,
     DistillConfig,
     Expert,
     action_mean,
     check_teacher,
     distill,
+    resume_distill,
     student_of,
 )
 from drake_tooluse.learning.policy_dir import LoadedPolicy, load_policy
@@ -156,3 +161,82 @@ def test_an_earlier_student_goes_on_and_one_that_does_not_fit_is_refused(tmp_pat
         distill(
             TEACHER, tmp_path / "c", dc.replace(more, action_mode="position_quaternion"), **quiet
         )
+
+
+def _stop_after(round_: int):
+    def log(r):
+        if r["round"] == round_:
+            raise KeyboardInterrupt
+
+    return log
+
+
+def test_a_stopped_distillation_goes_on_to_the_same_student(tmp_path):
+    """Stopped after its second round (as by Ctrl-C: the round is saved before it is
+    logged), then resumed: the student, its normalization and the rounds' records are the
+    uninterrupted run's, bit for bit, and the state files are gone."""
+    config = DistillConfig(rounds=3, episodes=1, epochs=2)
+    whole = distill(TEACHER, tmp_path / "whole", config, log=lambda r: None)
+    with pytest.raises(KeyboardInterrupt):
+        distill(TEACHER, tmp_path / "stopped", config, log=_stop_after(1))
+    assert (tmp_path / "stopped" / PROGRESS).is_file()
+    assert load_policy(tmp_path / "stopped").meta.action_shape == [7]  # the student so far
+    with pytest.raises(FileExistsError, match="already holds an unfinished distillation"):
+        distill(TEACHER, tmp_path / "stopped", config, log=lambda r: None)
+    logged = []
+    resumed = resume_distill(tmp_path / "stopped", log=logged.append)
+    assert [r["round"] for r in logged] == [2]
+    assert resumed["rounds"] == whole["rounds"]
+    a, b = load_policy(tmp_path / "whole"), load_policy(tmp_path / "stopped")
+    for name, value in a.model.policy.state_dict().items():
+        assert torch.equal(value, b.model.policy.state_dict()[name]), name
+    np.testing.assert_array_equal(a.obs_rms.mean, b.obs_rms.mean)
+    np.testing.assert_array_equal(a.obs_rms.var, b.obs_rms.var)
+    assert sorted(p.name for p in (tmp_path / "stopped").iterdir()) == sorted(
+        p.name for p in (tmp_path / "whole").iterdir()
+    )
+    with pytest.raises(FileNotFoundError, match="holds no unfinished distillation"):
+        resume_distill(tmp_path / "stopped")
+
+
+def test_the_command_line_says_how_to_go_on_and_resumes(capsys, tmp_path, monkeypatch):
+    out = tmp_path / "s"
+    import drake_tooluse.experiments.distill as module
+
+    real = module.distill
+
+    def stopped(teacher, out_, config, command, log):
+        return real(teacher, out_, config, command, _stop_after(0))
+
+    monkeypatch.setattr(module, "distill", stopped)
+    flags = ["--rounds", "2", "--episodes", "1", "--epochs", "1"]
+    code = main(["distill", "--teacher", str(TEACHER), "--out", str(out), *flags])
+    err = capsys.readouterr().err
+    assert code == 130 and f"drake-tooluse distill --resume {out}" in err, err
+    monkeypatch.setattr(module, "distill", real)
+    assert_one_line_error(
+        capsys, ["distill", "--teacher", TEACHER, "--out", out], r"continue it with --resume"
+    )
+    assert_one_line_error(
+        capsys, ["distill", "--resume", out, "--rounds", "3"], r"leave out --rounds"
+    )
+    assert main(["distill", "--resume", str(out)]) == 0
+    assert "2 rounds" in capsys.readouterr().out
+    assert_one_line_error(capsys, ["distill", "--resume", out], r"holds no unfinished")
+
+
+def test_the_help_names_the_defaults_that_apply(capsys):
+    with pytest.raises(SystemExit):
+        main(["distill", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    defaults = DistillConfig()
+    for flag, value in [
+        ("--rounds", defaults.rounds),
+        ("--episodes", defaults.episodes),
+        ("--epochs", defaults.epochs),
+        ("--learning-rate", defaults.learning_rate),
+        ("--seed", defaults.seed),
+    ]:
+        shown = re.search(rf"{flag} \S+ [^-]*\(default: ([^)]+)\)", text)
+        assert shown and float(shown[1]) == value, flag
+    assert f"{defaults.action_mode} (the paper's 7-d action, the default)" in text
