@@ -54,7 +54,7 @@ class ToolTipIKSystem(LeafSystem):
         super().__init__()
         self._ik = ik
         q0 = ik.check_q(q0, "q0")
-        self._max_step = None
+        self._max_step, self._period = None, period
         if max_joint_speed is not None:
             speed = np.asarray(max_joint_speed, float).reshape(-1)
             if speed.shape != (7,) or not np.all(speed > 0) or not np.all(np.isfinite(speed)):
@@ -80,6 +80,11 @@ class ToolTipIKSystem(LeafSystem):
     @property
     def ik(self) -> ToolTipIK:
         return self._ik
+
+    @property
+    def max_joint_speed(self) -> np.ndarray | None:
+        """The bound on the joint targets' speed (7, rad/s), or None: unbounded."""
+        return None if self._max_step is None else self._max_step / self._period
 
     def q_desired(self, context) -> np.ndarray:
         """The joint targets of the last solve in `context` (this system's context)."""

@@ -27,6 +27,7 @@ from drake_tooluse.builders.control import (
 from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
 from drake_tooluse.builders.visualization import add_meshcat_visualizer
+from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
@@ -131,7 +132,7 @@ def build_policy_diagram(
     mode, include_length = policy_observation(policy)
     action_mode = policy.meta.env_kwargs.get("action_mode", "position_quaternion")
     builder = DiagramBuilder()
-    continuous = bool(policy.meta.env_kwargs.get("continuous_quaternion", False))
+    kwargs = policy.meta.env_kwargs  # the control it learned with, as its env built it
     task = add_push_task(
         builder,
         scenario,
@@ -139,7 +140,8 @@ def build_policy_diagram(
         action_mode,
         mode,
         include_length,
-        continuous_quaternion=continuous,
+        max_joint_speed=V_MAX if kwargs.get("bound_joint_speed", False) else None,
+        continuous_quaternion=bool(kwargs.get("continuous_quaternion", False)),
     )
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:

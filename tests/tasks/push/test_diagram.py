@@ -1,5 +1,7 @@
 """The trained policy inside a Drake diagram (PolicySystem), not through the Gym wrapper."""
 
+import dataclasses as dc
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -42,11 +44,20 @@ def test_policy_system_acts_as_the_policy(policy_dir):
     np.testing.assert_allclose(system.get_output_port().Eval(context), policy.act(obs))
 
 
-def test_policy_diagram_matches_the_env_rollout(policy_dir):
-    built = build_policy_diagram(Scenario(), load_policy(policy_dir))
-    run = run_policy(built, max_steps=20)
+@pytest.mark.parametrize("bound_joint_speed", [False, True])
+def test_policy_diagram_matches_the_env_rollout(policy_dir, bound_joint_speed):
+    """The diagram controls the arm as the policy's env did, its speed bound included."""
     policy = load_policy(policy_dir)
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    kwargs = {"action_mode": "position", "bound_joint_speed": bound_joint_speed}
+    policy.meta = dc.replace(policy.meta, env_kwargs={**policy.meta.env_kwargs, **kwargs})
+    built = build_policy_diagram(Scenario(), policy)
+    run = run_policy(built, max_steps=20)
+    env = gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+    ours, envs = built.control.ik_system.max_joint_speed, env.unwrapped.ik_system.max_joint_speed
+    if bound_joint_speed:
+        np.testing.assert_allclose(ours, envs)
+    else:
+        assert ours is None and envs is None
     obs, _ = env.reset(seed=0)
     tips = [obs[6:9]]
     for _ in range(run.steps):
