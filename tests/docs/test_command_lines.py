@@ -175,6 +175,7 @@ RULES = [
         "run",
         add=("--episodes", "1", "--runs", "1", "--tools", "0.175"),
     ),
+    Rule(r"python benchmarks/distill_gap\.py .*", "run", add=("--episodes", "1", "--delays", "0")),
     Rule(
         r"python -m sphinx .*",
         "covered",

@@ -1,0 +1,46 @@
+"""benchmarks/distill_gap.py refuses bad arguments with one line naming the value, before any
+episode runs (its measurement runs in the docs tests, with small budgets), and finds the
+teacher a student was distilled from."""
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from drake_tooluse.learning.policy_dir import load_policy
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "benchmarks" / "distill_gap.py"
+STUDENT = ROOT / "models" / "policies" / "ppo_toolpush_paper_action"
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("distill_gap", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--student", "no/such/policy"], "'no/such/policy' is not a policy directory"),
+        (["--student", str(STUDENT), "--episodes", "0"], "--episodes=0 is outside"),
+        (["--student", str(STUDENT), "--delays", "0.5"], "--delays 0.5 is outside [0, 0.2] s"),
+        (
+            ["--student", str(STUDENT), "--teacher", str(STUDENT)],
+            "the teacher must be a push policy of action_mode 'position'",
+        ),
+    ],
+)
+def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
+    monkeypatch.setattr("sys.argv", ["distill_gap.py", *argv])
+    with pytest.raises(SystemExit) as exit:
+        _script().main()
+    out, err = capsys.readouterr()
+    assert exit.value.code == 2 and message in err and out == ""
+    assert err.strip().splitlines()[-1].startswith("distill_gap.py: error: ")
+
+
+def test_the_teacher_is_the_one_the_student_was_distilled_from():
+    assert _script().teacher_of(load_policy(STUDENT)) == Path("models/policies/ppo_toolpush_tip")
