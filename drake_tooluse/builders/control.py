@@ -151,13 +151,16 @@ def add_tip_control(
     workspace=None,
     max_joint_speed=None,
     continuous_quaternion: bool = False,
+    target_from_observed_state: bool = False,
 ) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
     plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
     (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
     `Workspace.above_table`). The target's `action` input is left for the caller to connect.
     `max_joint_speed` (7, rad/s; default None: unbounded) bounds how fast the joint targets
-    move (`ToolTipIKSystem`). `continuous_quaternion`: see `systems.tip_target`."""
+    move (`ToolTipIKSystem`). `continuous_quaternion`: see `systems.tip_target`. With
+    `target_from_observed_state` the target moves from the arm state a policy observed, not
+    from the plant's next step (`ToolTipIKSystem`'s `solve_before_plant_step`)."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -174,7 +177,10 @@ def add_tip_control(
     )
     control = TipControl(target, ik, np.asarray(q0, float))
     control.ik_system = builder.AddNamedSystem(
-        "tool_tip_ik", ToolTipIKSystem(ik, q0, s.control.control_period, max_joint_speed)
+        "tool_tip_ik",
+        ToolTipIKSystem(
+            ik, q0, s.control.control_period, max_joint_speed, target_from_observed_state
+        ),
     )
     builder.Connect(
         target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")

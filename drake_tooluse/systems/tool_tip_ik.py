@@ -46,11 +46,26 @@ class ToolTipIKSystem(LeafSystem):
     With `max_joint_speed` (7, rad/s), each joint target moves at most that speed × `period`
     per solve towards the IK's answer (a bound on the commanded joint velocity; the status
     still reports the solve). Default None: the IK's answer is the target.
+
+    With `solve_before_plant_step`, the solve is an unrestricted update: it runs in the batch of
+    the plant's own step (a MultibodyPlant with sampled output ports steps in an unrestricted
+    update, and Drake applies those before the discrete updates due at the same time), so what
+    it reads of the plant, through `tip_pose_desired`, is the state at the start of the step,
+    the one a policy observed at the end of the last control period. Default False (a discrete
+    update, as the earlier policies were trained): it reads the plant's state one plant step
+    later.
     """
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
 
-    def __init__(self, ik: ToolTipIK, q0, period: float, max_joint_speed=None):
+    def __init__(
+        self,
+        ik: ToolTipIK,
+        q0,
+        period: float,
+        max_joint_speed=None,
+        solve_before_plant_step: bool = False,
+    ):
         super().__init__()
         self._ik = ik
         q0 = ik.check_q(q0, "q0")
@@ -68,7 +83,12 @@ class ToolTipIKSystem(LeafSystem):
         self._status = self.DeclareDiscreteState(np.array([1.0, 0.0, 0.0, 0.0]))
         self._desired_group, self._status_group = int(self._desired), int(self._status)
         # Callbacks through weak_method: a released diagram frees this system (lifetime.py).
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_method(self._update))
+        if solve_before_plant_step:
+            self.DeclarePeriodicUnrestrictedUpdateEvent(
+                period, 0.0, weak_method(self._unrestricted_update)
+            )
+        else:
+            self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, weak_method(self._update))
         self.DeclareVectorOutputPort(
             "q_desired", 7, weak_method(self._calc_q), prerequisites_of_calc={self.xd_ticket()}
         )
@@ -94,6 +114,9 @@ class ToolTipIKSystem(LeafSystem):
         """Whether the last solve in `context` (this system's context) succeeded: the
         `status` port's first value."""
         return bool(self._status_port.Eval(context)[0] > 0.5)
+
+    def _unrestricted_update(self, context, state):
+        self._update(context, state.get_mutable_discrete_state())
 
     def _update(self, context, discrete_state):
         # `discrete_state` starts as a copy of the state (Drake fills it before the update), so

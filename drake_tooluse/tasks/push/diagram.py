@@ -59,13 +59,16 @@ def add_push_task(
     reward_type: str = "tool_and_box",
     max_joint_speed=None,
     continuous_quaternion: bool = False,
+    target_from_observed_state: bool = False,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
     `action` input is left unconnected. `max_joint_speed` (7, rad/s): the bound on the joint
     targets' speed (`add_tip_control`; default None: none). `continuous_quaternion`: the
-    `position_quaternion` action's sign convention (`systems.tip_target`)."""
+    `position_quaternion` action's sign convention (`systems.tip_target`).
+    `target_from_observed_state`: the action moves the target from the state the policy
+    observed (`add_tip_control`)."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     control = add_tip_control(
@@ -76,6 +79,7 @@ def add_push_task(
         action_mode,
         max_joint_speed=max_joint_speed,
         continuous_quaternion=continuous_quaternion,
+        target_from_observed_state=target_from_observed_state,
     )
     goal = goal_position(scenario)
     return PushTask.wire(
@@ -142,6 +146,7 @@ def build_policy_diagram(
         include_length,
         max_joint_speed=V_MAX if kwargs.get("bound_joint_speed", False) else None,
         continuous_quaternion=bool(kwargs.get("continuous_quaternion", False)),
+        target_from_observed_state=bool(kwargs.get("target_from_observed_state", False)),
     )
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:

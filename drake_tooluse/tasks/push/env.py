@@ -107,6 +107,13 @@ class EnvConfig:
     # orientation (see systems.tip_target). Off by default: the earlier study and the policies
     # trained with Drake's sign stay reproducible.
     continuous_quaternion: bool = False
+    # Move the tip target from the arm state the policy observed, as Fetch's mocap moved the
+    # gripper from where the observation saw it. Off, the IK reads the plant's state one plant
+    # step (20 ms) after it (the plant's step runs first at the same time: `ToolTipIKSystem`):
+    # the `position_quaternion` action, which adds its change to the current orientation, then
+    # turns the tip by what it moved in those 20 ms too. Off by default: the earlier study and
+    # the policies trained so stay reproducible.
+    target_from_observed_state: bool = False
 
 
 # Values earlier versions wrote into policy files and run configurations, read as today's.
@@ -150,6 +157,7 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_bool(config.end_at_success, "end_at_success")
     check_bool(config.bound_joint_speed, "bound_joint_speed")
     check_bool(config.continuous_quaternion, "continuous_quaternion")
+    check_bool(config.target_from_observed_state, "target_from_observed_state")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
@@ -376,6 +384,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | end_at_success | False | terminate at the first success (Episode End) |
     | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
     | continuous_quaternion | False | `position_quaternion`: the change is added in the initial quaternion's hemisphere (systems.tip_target) |
+    | target_from_observed_state | False | the action moves the tip target from the observed arm state, not the next plant step's (tool_tip_ik) |
 
     ### Info
 
@@ -465,6 +474,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.reward_type,
             max_joint_speed=V_MAX if config.bound_joint_speed else None,
             continuous_quaternion=config.continuous_quaternion,
+            target_from_observed_state=config.target_from_observed_state,
         )
         task.export(builder)
         self.task = task

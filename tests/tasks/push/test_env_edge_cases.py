@@ -37,6 +37,10 @@ def test_a_step_before_reset_is_refused():
         ({"meshcat": "localhost:7000"}, r"meshcat='localhost:7000' must be a pydrake"),
         ({"bound_joint_speed": "on"}, r"bound_joint_speed='on' must be True or False"),
         ({"continuous_quaternion": 1}, r"continuous_quaternion=1 must be True or False"),
+        (
+            {"target_from_observed_state": "yes"},
+            r"target_from_observed_state=.yes. must be True or False",
+        ),
         ({"colour": "red"}, r"unknown argument\(s\) \['colour'\]"),
     ],
 )
