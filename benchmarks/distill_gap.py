@@ -76,6 +76,11 @@ def rollouts(act, env_kwargs: dict, env_id: str, episodes: int, seed: int) -> di
     }
 
 
+def cm(metres: float) -> str:
+    """Metres in cm, or "–" where there is nothing to average (no near misses)."""
+    return "–" if np.isnan(metres) else f"{metres * 100:.2f}"
+
+
 def check_args(args) -> None:
     check_int(args.episodes, 1, 100_000, "--episodes")
     check_seed(args.seed, "--seed", args.episodes)
@@ -117,7 +122,7 @@ def main() -> int:
             print(
                 f"| {delay * 1000:g} | {who} | {r['success'] * 100:.0f} % | "
                 f"{r['box_to_goal'] * 100:.2f} | {r['failures']} | {r['near_misses']} | "
-                f"{r['miss_box_to_goal'] * 100:.2f} | {r['miss_tip_to_box'] * 100:.2f} | "
+                f"{cm(r['miss_box_to_goal'])} | {cm(r['miss_tip_to_box'])} | "
                 f"{time.perf_counter() - start:.0f} |",
                 flush=True,
             )

@@ -117,10 +117,14 @@ def add_world_at_home(
     return world, ik, q0
 
 
-def add_joint_command(builder, world: World, command, control: TipControl) -> None:
+def add_joint_command(
+    builder, world: World, command, control: TipControl, updated_before_plant: bool = False
+) -> None:
     """Joint targets to the plant's PD controllers, through the actuation delay if the
     scenario has one. `command` is an output port of the desired state [q* (7), v* (7)], or
-    of q* alone (7: held over the control period, zero velocity appended)."""
+    of q* alone (7: held over the control period, zero velocity appended);
+    `updated_before_plant`: it changes in the plant's own update batch (`ToolTipIKSystem`'s
+    `solve_before_plant_step`), not after it."""
     s = world.scenario
     if command.size() == 7:
         zeros = builder.AddSystem(ConstantVectorSource(np.zeros(7)))
@@ -132,9 +136,12 @@ def add_joint_command(builder, world: World, command, control: TipControl) -> No
     if steps > 0:
         # A DiscreteTimeDelay of N updates, sampled on the plant's own ticks, reaches the
         # plant's step N + 1 ticks late (its update reads the delay's output from before the
-        # same tick): N = steps - 1 gives `actuation_delay` exactly (tested).
+        # same tick): N = steps - 1 gives `actuation_delay` exactly (tested). A command that
+        # changes in the plant's batch is sampled by the delay one tick sooner than the plant
+        # would read it: one update more.
+        updates = steps - 1 + int(updated_before_plant)
         control.delay = builder.AddNamedSystem(
-            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, steps - 1, 14)
+            "actuation_delay", DiscreteTimeDelay(s.plant.time_step, updates, 14)
         )
         builder.Connect(command, control.delay.get_input_port())
         command = control.delay.get_output_port()
@@ -185,7 +192,13 @@ def add_tip_control(
     builder.Connect(
         target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")
     )
-    add_joint_command(builder, world, control.ik_system.GetOutputPort("desired_state"), control)
+    add_joint_command(
+        builder,
+        world,
+        control.ik_system.GetOutputPort("desired_state"),
+        control,
+        updated_before_plant=target_from_observed_state,
+    )
     return control
 
 

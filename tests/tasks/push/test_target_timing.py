@@ -35,3 +35,32 @@ def test_a_zero_action_holds_the_target_at_the_observed_tip_only_with_the_option
         assert gap < 1e-4  # the IK's tolerance
     else:
         assert gap > 1e-3  # the tip moved on for a plant step
+
+
+def first_motion(observed_state: bool, delay: float) -> float:
+    """When (s) the arm first moves after an action fixed at reset, plant step by plant step."""
+    kwargs = {} if delay == 0 else {"actuation_delay_range": [delay, delay + 1e-3]}
+    env = ToolPushEnv(action_mode="position", target_from_observed_state=observed_state, **kwargs)
+    try:
+        env.reset(seed=0)
+        context = env.simulator.get_mutable_context()
+        env.action_port.FixValue(context, np.array([0.0, 1.0, 0.0]))
+        h = env.world.plant.time_step()
+        for k in range(1, 20):
+            env.simulator.AdvanceTo(k * h)
+            v = env.world.plant.GetVelocities(env._plant_context, env.world.baxter)
+            if np.abs(v).max() > 1e-6:
+                return k * h
+        raise AssertionError("the arm never moved")
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("delay", [0.02, 0.04])
+def test_the_actuation_delay_is_the_same_either_way(delay):
+    """The IK solving in the plant's batch changes what it reads, not when the arm answers:
+    the delay system samples its command one tick sooner, so it holds it one update more."""
+    prompt = first_motion(True, 0.0)
+    assert first_motion(False, 0.0) == prompt
+    assert first_motion(True, delay) == pytest.approx(prompt + delay)
+    assert first_motion(False, delay) == pytest.approx(prompt + delay)
