@@ -103,7 +103,7 @@ class ToolTipIKSystem(LeafSystem):
 
     @property
     def max_joint_speed(self) -> np.ndarray | None:
-        """The bound on the joint targets' speed (7, rad/s), or None: unbounded."""
+        """The bound on the joint targets' speed (7 values, rad/s), or None where unbounded."""
         return None if self._max_step is None else self._max_step / self._period
 
     def q_desired(self, context) -> np.ndarray:
