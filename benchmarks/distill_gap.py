@@ -28,15 +28,22 @@ from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.scenario import MAX_ACTUATION_DELAY
 
+ROOT = Path(__file__).resolve().parent.parent
+
 
 def teacher_of(student) -> Path:
-    """The `--teacher` of the command that distilled `student`."""
+    """The `--teacher` of the command that distilled `student` (relative to the checkout
+    where it is not relative to the working directory)."""
     words = shlex.split(student.meta.command or "")
     if "--teacher" not in words[:-1]:
         raise ValueError(
             f"the student's command {student.meta.command!r} names no --teacher; give --teacher"
         )
-    return Path(words[words.index("--teacher") + 1])
+    teacher = Path(words[words.index("--teacher") + 1])
+    # A relative path is from where distill ran; the shipped students ran in the checkout.
+    if not teacher.is_absolute() and not teacher.exists() and (ROOT / teacher).exists():
+        return ROOT / teacher
+    return teacher
 
 
 def paper_task(student, delay: float) -> dict:
