@@ -28,21 +28,22 @@ from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.scenario import MAX_ACTUATION_DELAY
 
-ROOT = Path(__file__).resolve().parent.parent
 
-
-def teacher_of(student) -> Path:
-    """The `--teacher` of the command that distilled `student` (relative to the checkout
-    where it is not relative to the working directory)."""
+def teacher_of(student, student_dir) -> Path:
+    """The `--teacher` of the command that distilled `student` (in `student_dir`). A relative
+    path is from where distill ran: the working directory, or else the nearest directory
+    above the student's that holds it (the checkout, for a shipped student)."""
     words = shlex.split(student.meta.command or "")
     if "--teacher" not in words[:-1]:
         raise ValueError(
             f"the student's command {student.meta.command!r} names no --teacher; give --teacher"
         )
     teacher = Path(words[words.index("--teacher") + 1])
-    # A relative path is from where distill ran; the shipped students ran in the checkout.
-    if not teacher.is_absolute() and not teacher.exists() and (ROOT / teacher).exists():
-        return ROOT / teacher
+    if teacher.is_absolute() or teacher.exists():
+        return teacher
+    for parent in Path(student_dir).resolve().parents:
+        if (parent / teacher).exists():
+            return parent / teacher
     return teacher
 
 
@@ -107,7 +108,8 @@ def main() -> int:
     try:
         check_args(args)
         student = load_policy(args.student)
-        teacher = load_policy(args.teacher or teacher_of(student))
+        teacher_dir = args.teacher or teacher_of(student, args.student)
+        teacher = load_policy(teacher_dir)
         check_teacher(teacher)
     except (ValueError, FileNotFoundError) as e:
         ap.error(str(e))
@@ -135,7 +137,7 @@ def main() -> int:
             )
     print(
         f"the paper's task (0.175 m tool), {args.episodes} episodes from seed {args.seed} per "
-        f"row; student {args.student}, expert: {args.teacher or teacher_of(student)} with "
+        f"row; student {args.student}, expert: {teacher_dir} with "
         f"the {mode} label"
     )
     return 0

@@ -44,6 +44,7 @@ def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
 
 def test_the_teacher_is_the_one_the_student_was_distilled_from(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
-    assert _script().teacher_of(load_policy(STUDENT)) == Path("models/policies/ppo_toolpush_tip")
-    monkeypatch.chdir(tmp_path)  # elsewhere: the checkout's
-    assert _script().teacher_of(load_policy(STUDENT)) == ROOT / "models/policies/ppo_toolpush_tip"
+    teacher = Path("models/policies/ppo_toolpush_tip")
+    assert _script().teacher_of(load_policy(STUDENT), STUDENT) == teacher
+    monkeypatch.chdir(tmp_path)  # elsewhere: the student's checkout's
+    assert _script().teacher_of(load_policy(STUDENT), STUDENT) == ROOT / teacher
