@@ -225,32 +225,35 @@ def format_convert_policy(out: dict) -> str:
     return f"converted {out['converted']} -> {out['out']} (loads without pickles)"
 
 
-# distill's settings: with --resume none is given (the distillation's own are used).
-DISTILL_SETTINGS = {
-    "teacher": "--teacher",
-    "out": "--out",
-    "action_mode": "--action-mode",
-    "env_kwargs": "--env-kwargs",
-    "init_from": "--init-from",
-    "rounds": "--rounds",
-    "episodes": "--episodes",
-    "epochs": "--epochs",
-    "learning_rate": "--learning-rate",
-    "seed": "--seed",
-}
+# distill's settings (DistillConfig's fields, bar env_kwargs, parsed from JSON): with --resume
+# none is given (the distillation's own are used).
+DISTILL_OPTIONS = (
+    "action_mode",
+    "init_from",
+    "rounds",
+    "episodes",
+    "epochs",
+    "learning_rate",
+    "seed",
+)
+DISTILL_SETTINGS = ("teacher", "out", "env_kwargs", *DISTILL_OPTIONS)
+
+
+def _flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
 
 
 def cmd_distill(args) -> dict:
-    from drake_tooluse.experiments.distill import PROGRESS
+    from drake_tooluse.experiments.distill import PROGRESS, unfinished
 
     if args.resume is not None:
-        given = [flag for name, flag in DISTILL_SETTINGS.items() if getattr(args, name) is not None]
+        given = [_flag(name) for name in DISTILL_SETTINGS if getattr(args, name) is not None]
         if given:
             raise UsageError(
                 f"--resume goes on with the distillation's own settings; leave out {', '.join(given)}"
             )
         output_dir_arg(args.resume, "--resume", must_be_new=False)
-        if not (args.resume / PROGRESS).is_file():
+        if not unfinished(args.resume):
             raise UsageError(
                 f"--resume {str(args.resume)!r} holds no unfinished distillation (no {PROGRESS}): "
                 "it finished, or is not a distillation's"
@@ -260,7 +263,7 @@ def cmd_distill(args) -> dict:
         return _resumable(args.resume, lambda log: resume_distill(args.resume, log=log))
     if args.teacher is None or args.out is None:
         raise UsageError("give --teacher and --out for a new distillation, or --resume DIR")
-    if (args.out / PROGRESS).is_file():
+    if unfinished(args.out):
         raise UsageError(
             f"--out {str(args.out)!r} already holds an unfinished distillation; continue it "
             f"with --resume {str(args.out)!r}, or give a new --out"
@@ -279,12 +282,10 @@ def _distill_config(args):
     from drake_tooluse.learning.policy_dir import load_policy
     from drake_tooluse.learning.task_envs import check_env_kwargs
 
-    given = {
-        name: getattr(args, name) for name in DISTILL_SETTINGS if name not in ("teacher", "out")
-    }
-    config = DistillConfig(**{k: v for k, v in given.items() if v is not None})
-    config = dataclasses.replace(
-        config, env_kwargs=parse_json_arg(args.env_kwargs, "--env-kwargs") or {}
+    given = {name: getattr(args, name) for name in DISTILL_OPTIONS}
+    config = DistillConfig(
+        **{k: v for k, v in given.items() if v is not None},
+        env_kwargs=parse_json_arg(args.env_kwargs, "--env-kwargs") or {},
     )
     policy_dir_arg(args.teacher, "--teacher")
     output_dir_arg(args.out, "--out")
@@ -308,12 +309,12 @@ def _distill_config(args):
 
 def _resumable(out, run) -> dict:
     """`run(log)`, its rounds logged to stderr; stopped, it says how to go on."""
-    from drake_tooluse.experiments.distill import PROGRESS
+    from drake_tooluse.experiments.distill import unfinished
 
     try:
         return run(lambda r: print(r, file=sys.stderr))
     except KeyboardInterrupt:
-        if not (Path(out) / PROGRESS).is_file():
+        if not unfinished(out):
             raise
         raise KeyboardInterrupt(
             f"the rounds so far are saved in {str(out)!r}; go on with "

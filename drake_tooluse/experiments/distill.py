@@ -164,6 +164,11 @@ def action_mean(policy, observation: np.ndarray) -> np.ndarray:
         return actor.action_net(actor.mlp_extractor.forward_actor(normalized))[0].numpy()
 
 
+def unfinished(out) -> bool:
+    """Whether `out` holds a stopped distillation's state (`resume_distill` goes on with it)."""
+    return (Path(out) / PROGRESS).is_file()
+
+
 def distill(
     teacher_dir, out, config: DistillConfig = DistillConfig(), command: str = "", log=print
 ) -> dict:
@@ -171,7 +176,7 @@ def distill(
     `out`; returns per round who acted, its success rate and the fit's RMSE per output, and
     the wall time. Each finished round is saved in `out` (the student so far, with the
     distillation's state: `resume_distill` goes on from it after a kill)."""
-    if (Path(out) / PROGRESS).is_file():
+    if unfinished(out):
         raise FileExistsError(
             f"{str(out)!r} already holds an unfinished distillation; continue it with "
             "resume_distill, or give a new out"
@@ -184,12 +189,12 @@ def resume_distill(out, log=print) -> dict:
     """Goes on with the distillation whose unfinished state `out` holds (one that was
     stopped), from its last finished round, with its own teacher and settings: the same
     student as had it not been stopped."""
-    path = Path(out) / PROGRESS
-    if not path.is_file():
+    if not unfinished(out):
         raise FileNotFoundError(
             f"{str(out)!r} holds no unfinished distillation (no {PROGRESS}): it finished, or "
             "is not a distillation's"
         )
+    path = Path(out) / PROGRESS
     progress = read_json(path, "distillation state")
     if progress.get("format") != PROGRESS_FORMAT:
         raise ValueError(

@@ -4,7 +4,6 @@ hold no machine's absolute paths."""
 
 import argparse
 import hashlib
-import importlib.util
 import json
 import os
 import subprocess
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.benchmark_scripts import benchmark_script
 from tests.docs.common import strings
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -34,15 +34,6 @@ class _Parsed(Exception):
     def __init__(self, namespace):
         super().__init__()
         self.namespace = namespace
-
-
-def _script(name: str):
-    spec = importlib.util.spec_from_file_location(
-        f"benchmark_{name}", ROOT / "benchmarks" / f"{name}.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _parsed_args(module, argv, monkeypatch) -> argparse.Namespace:
@@ -73,7 +64,7 @@ def test_by_default_a_script_writes_a_new_run_directory_and_the_docs_only_when_a
     name, tmp_path, monkeypatch
 ):
     monkeypatch.chdir(tmp_path)
-    module = _script(name)
+    module = benchmark_script(name)
     default = module.OUTPUT.path(_parsed_args(module, [], monkeypatch))
     assert default.parent.parent == Path("runs"), default
     assert default.parent.name.startswith(f"{name}-") and default.name == f"{name}.json"

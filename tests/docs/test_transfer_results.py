@@ -2,13 +2,13 @@
 stored results, the stored results hold no machine's absolute paths, and the script writes
 tracked files only when asked (`--update-docs`), with paths relative to the run."""
 
-import importlib.util
 import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+from tests.benchmark_scripts import benchmark_script
 from tests.docs.common import strings
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -17,10 +17,7 @@ STORED = ROOT / "docs" / "results" / "transfer"
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("transfer_experiments", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return benchmark_script("transfer_experiments")
 
 
 def test_the_transfer_page_quotes_the_table_the_report_prints():

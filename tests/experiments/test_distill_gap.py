@@ -2,23 +2,19 @@
 episode runs (its measurement runs in the docs tests, with small budgets), and finds the
 teacher a student was distilled from."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 
 from drake_tooluse.learning.policy_dir import load_policy
+from tests.benchmark_scripts import benchmark_script
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "benchmarks" / "distill_gap.py"
 STUDENT = ROOT / "models" / "policies" / "ppo_toolpush_paper_action"
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("distill_gap", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return benchmark_script("distill_gap")
 
 
 @pytest.mark.parametrize(

@@ -1,20 +1,17 @@
 """benchmarks/push_policies_hold.py refuses bad arguments with one line naming the value,
 before any policy runs (its measurement runs in the docs tests, with small budgets)."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 
+from tests.benchmark_scripts import benchmark_script
+
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "benchmarks" / "push_policies_hold.py"
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("push_policies_hold", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return benchmark_script("push_policies_hold")
 
 
 @pytest.mark.parametrize(
