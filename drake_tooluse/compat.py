@@ -16,7 +16,9 @@ are all still there (it already uses the 1.54 names `SetDefaultFloatingBaseBodyP
 So files that record what Drake computed (the committed block diagrams, the shipped policies'
 metrics) record the release that made them, and are reproduced exactly only on that release
 (`reproduces_exactly`); elsewhere their checks compare what the project owns within stated
-tolerances.
+tolerances. A rollout's floats also move with the builds of numpy, torch and OpenCV, so the
+shipped policies' episodes are compared bit for bit only where the builds that made them are
+all installed (`exact_versions_installed`, with the pins of `.ci/exact-versions.txt`).
 """
 
 from __future__ import annotations
@@ -31,6 +33,8 @@ __all__ = [
     "DRAKE_VERSION",
     "NO_WITNESS_FUNCTIONS",
     "drake_version",
+    "exact_versions_installed",
+    "read_pins",
     "reproduces_exactly",
 ]
 
@@ -57,6 +61,36 @@ def reproduces_exactly(recorded: str | None) -> bool:
     on the installed Drake: only on that same release. Another release may move simulated
     episodes by millimetres and draws other plant ports."""
     return recorded is not None and recorded != "unknown" and recorded == DRAKE_VERSION
+
+
+def exact_versions_installed(pins: dict[str, str]) -> tuple[bool, str]:
+    """Whether every package of `pins` ({pip name: version}, e.g. {"numpy": "2.4.6"}) is
+    installed at exactly that version: float results of a policy rollout move with the builds
+    of Drake, numpy, torch and OpenCV, so a figure is reproduced bit for bit only under the
+    builds that made it. Returns (the answer, the first difference in words or "")."""
+    for name, wanted in pins.items():
+        try:
+            installed = version(name)
+        except PackageNotFoundError:
+            installed = "not installed"
+        if installed != wanted:
+            return False, f"{name} {installed} is installed, the exact figures need {wanted}"
+    return True, ""
+
+
+def read_pins(text: str) -> dict[str, str]:
+    """The `name==version` lines of a pip constraints file's `text` ({name: version});
+    comments and blank lines skipped. A line of another form is a ValueError naming it."""
+    pins = {}
+    for line in text.splitlines():
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        name, sep, pinned = line.partition("==")
+        if not sep or not name.strip() or not pinned.strip():
+            raise ValueError(f"constraint {line!r} must be of the form name==version")
+        pins[name.strip()] = pinned.strip()
+    return pins
 
 
 # How pydrake is bound to C++: "pybind11" (up to Drake 1.57) or "nanobind" (from 1.58).

@@ -5,6 +5,7 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
 from packaging.requirements import Requirement
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import RigidBody
@@ -82,3 +83,27 @@ def test_the_drake_names_the_project_calls_are_there():
     for name in ("SetFreeBodyPose", "SetDefaultFloatingBaseBodyPose"):
         assert hasattr(MultibodyPlant, name), name
     assert hasattr(RigidBody, "is_floating_base_body")
+
+
+def test_exact_versions_are_all_pins_installed():
+    assert compat.exact_versions_installed({"drake": compat.DRAKE_VERSION}) == (True, "")
+    exact, why = compat.exact_versions_installed({"drake": "0.0.1"})
+    assert not exact and why == (
+        f"drake {compat.DRAKE_VERSION} is installed, the exact figures need 0.0.1"
+    )
+    exact, why = compat.exact_versions_installed({"no-such-package-x": "1"})
+    assert not exact and "no-such-package-x not installed" in why
+
+
+def test_pins_are_read_from_a_constraints_file():
+    text = "# made here\n\ndrake==1.51.1  # Drake\ntorch==2.13.0+cpu\n"
+    assert compat.read_pins(text) == {"drake": "1.51.1", "torch": "2.13.0+cpu"}
+    with pytest.raises(ValueError, match=r"constraint 'numpy>=2' must be of the form"):
+        compat.read_pins("numpy>=2")
+    shipped = Path(__file__).resolve().parents[1] / ".ci" / "exact-versions.txt"
+    assert set(compat.read_pins(shipped.read_text())) == {
+        "drake",
+        "numpy",
+        "torch",
+        "opencv-python-headless",
+    }
