@@ -540,6 +540,17 @@ def pickle_files(directory) -> list[str]:
     return [n for n in (LEGACY_MODEL, LEGACY_NORMALIZATION) if (directory / n).exists()]
 
 
+def _check_inside_policy(directory: Path, path: Path) -> None:
+    """Refuses, before it is opened, a policy file that is a symbolic link leading out of
+    its directory (`policy.json` -> /etc/passwd would be parsed, and quoted in an error), as
+    a scenario in a policy directory may read nothing outside it."""
+    if path.is_symlink() and not path.resolve().is_relative_to(directory.resolve()):
+        raise ValueError(
+            f"{str(path)!r} is a symbolic link to {str(path.resolve())!r}, outside the policy "
+            f"directory {str(directory)!r}; a policy's files must lie in its directory"
+        )
+
+
 def load_policy(directory, trust_pickle: bool = False) -> LoadedPolicy:
     """Loads a policy directory. No code in its files runs: the weights are safetensors, the
     rest JSON. A directory in the older pickle format is refused unless `trust_pickle`. A
@@ -551,6 +562,8 @@ def load_policy(directory, trust_pickle: bool = False) -> LoadedPolicy:
             f"{str(directory)!r} is not a policy directory (it needs {META}, {WEIGHTS} and, if "
             f"normalised, {NORMALIZATION})"
         )
+    for name in (META, WEIGHTS, NORMALIZATION, LEGACY_NORMALIZATION):
+        _check_inside_policy(directory, directory / name)
     meta = parse_meta(read_json(meta_path, "policy metadata"), meta_path)
     if not (directory / WEIGHTS).is_file():
         legacy = pickle_files(directory)

@@ -149,3 +149,24 @@ def test_a_trusted_old_directory_without_its_zip_is_named(tmp_path):
         FileNotFoundError, match=r"has no policy.safetensors \(nor the older policy.zip\)$"
     ):
         load_policy(legacy, trust_pickle=True)
+
+
+@pytest.mark.parametrize("name", ["policy.json", "normalization.json", "policy.safetensors"])
+def test_a_policy_file_linked_out_of_its_directory_is_refused_unread(tmp_path, capsys, name):
+    policy = tmp_path / "policy"
+    shutil.copytree(TRANSFER_POLICY, policy)
+    foreign = tmp_path / "elsewhere" / name
+    foreign.parent.mkdir()
+    foreign.write_bytes((policy / name).read_bytes())
+    (policy / name).unlink()
+    (policy / name).symlink_to(foreign)
+    with pytest.raises(ValueError, match=r"is a symbolic link to .*outside the policy directory"):
+        load_policy(policy)
+    assert main(["evaluate", "--policy", str(policy), "--episodes", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "outside the policy directory" in err
+    # A link that stays inside the directory is the directory's own file.
+    (policy / name).unlink()
+    foreign.rename(policy / f"real-{name}")
+    (policy / name).symlink_to(policy / f"real-{name}")
+    assert load_policy(policy).meta.env_id
