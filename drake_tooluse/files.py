@@ -451,6 +451,21 @@ def _writable_parent(path: Path, option: str) -> None:
         raise ValueError(f"{option} {str(path)!r}: {str(parent)!r} is a file, not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ValueError(f"{option} {str(path)!r}: the directory {str(parent)!r} is not writable")
+    _probe_write(parent, option, path)
+
+
+def _probe_write(directory: Path, option: str, path: Path) -> None:
+    """Creates and removes a file in `directory`: what `os.access` cannot tell (a root user
+    in /proc, a read-only mount) fails here, before the work, not at the atomic write after
+    it with an internal temporary name."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".probe.tmp-", dir=directory)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(
+            f"{option} {str(path)!r}: cannot write in {str(directory)!r} ({e.strerror})"
+        ) from None
 
 
 def check_output_file(path, option: str, suffix: str | None = None) -> Path:
@@ -481,6 +496,7 @@ def check_output_dir(path, option: str, must_be_new: bool = True) -> Path:
             )
         if not os.access(path, os.W_OK | os.X_OK):
             raise ValueError(f"{option} {str(path)!r} is not writable")
+        _probe_write(path, option, path)
         return path
     _writable_parent(path, option)
     return path

@@ -82,3 +82,22 @@ def test_save_extraction_writes_a_new_directory_whole(tmp_path):
     with pytest.raises(FileExistsError, match="exists and is not empty; give a new directory"):
         save_extraction(ex, tmp_path / "t")
     assert np.allclose(TipTrajectory.load(npz).positions, kept.positions)
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["demo", "--out", "/proc/demo-out"],
+        ["measure", "--save-images", "/proc/images"],
+        ["choose-tool", "--record", "/proc/choice.html"],
+        ["record-video", "--out", "/proc/video.gif"],
+    ],
+)
+def test_an_output_where_nothing_can_be_written_is_refused_before_the_work(argv, capsys):
+    # /proc passes os.access for root, and a file in it fails: the check writes one.
+    assert main(argv) == EXIT_USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'/proc'" in err, err
+    assert "cannot write in '/proc'" in err or "'/proc' is not writable" in err, err
+    assert ".tmp-" not in err
