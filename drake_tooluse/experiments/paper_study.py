@@ -454,11 +454,21 @@ def record(study: Study, run: tuple, entry: dict, about: tuple, results: dict) -
 
 def queue_of(study: Study, only=None, seeds=None) -> list[tuple[str, int]]:
     """The runs of the cells `only` (default all, in the study's order), of the seeds `seeds`
-    (default each cell's own); unknown cells are an error naming them."""
+    (default each cell's own); unknown cells, and a seed none of those cells has, are an
+    error naming them."""
     check_cell_names(study.cells, only)
+    cells = only or list(study.cells)
+    if seeds is not None:
+        known = sorted({seed for cell in cells for seed in study.cells[cell]["seeds"]})
+        missing = [seed for seed in seeds if seed not in known]
+        if missing:
+            raise ValueError(
+                f"seeds {missing} are in no cell of {cells}: nothing would run for them; "
+                f"their seeds are {known}"
+            )
     return [
         (cell, seed)
-        for cell in only or list(study.cells)
+        for cell in cells
         for seed in study.cells[cell]["seeds"]
         if seeds is None or seed in seeds
     ]

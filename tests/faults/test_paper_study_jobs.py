@@ -265,6 +265,7 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
     for argv, says in (
         (["--parallel", "0"], "--parallel=0 is outside the allowed range [1, 64]"),
         (["--only", "nope"], "unknown cell(s) ['nope']"),
+        (["--seeds", "7"], "seeds [7] are in no cell of ["),
         (["--out", out, "--update-docs"], "give --out DIR or --update-docs, not both"),
     ):
         assert (
