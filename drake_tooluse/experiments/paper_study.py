@@ -143,14 +143,30 @@ def read_results(path: Path) -> dict:
     if not path.is_file():
         return {}
     try:
-        results = json.loads(path.read_text())
+        results = json.loads(path.read_text(), parse_constant=_no_constant)
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
         raise ValueError(f"{path}: not a readable JSON results file ({e})") from None
+    except ValueError as e:  # NaN or Infinity: no figure of a finished run is either
+        raise ValueError(f"{path}: {e}; a results file holds finite numbers only") from None
     if not isinstance(results, dict):
         raise ValueError(
             f"{path}: a results file is a JSON object (cell -> seeds), not {type(results).__name__}"
         )
+    for cell, entry in results.items():
+        seeds = entry.get("seeds", {}) if isinstance(entry, dict) else None
+        if not isinstance(seeds, dict):
+            raise ValueError(f"{path}: cell {cell!r} is not an object with a 'seeds' object")
+        for seed in seeds:
+            if not (seed.isdigit() and isinstance(seeds[seed], dict)):
+                raise ValueError(
+                    f"{path}: cell {cell!r} has seed {seed!r}; seeds are non-negative "
+                    "integers, each an object"
+                )
     return results
+
+
+def _no_constant(name: str):
+    raise ValueError(f"it holds {name}")
 
 
 def _summary(out: Path) -> dict | None:

@@ -52,7 +52,13 @@ def test_a_malformed_results_file_is_a_one_line_error(tmp_path, capsys):
     out = tmp_path / "study"
     out.mkdir()
     results = out / "paper_study.json"
-    for text, says in (("{bad", "not a readable JSON"), ("[1]", "not list")):
+    for text, says in (
+        ("{bad", "not a readable JSON"),
+        ("[1]", "not list"),
+        ('{"c": {"seeds": {"0": {"x": NaN}}}}', "it holds NaN; a results file holds finite"),
+        ('{"c": {"seeds": {"abc": {}}}}', "cell 'c' has seed 'abc'; seeds are non-negative"),
+        ('{"c": {"seeds": []}}', "cell 'c' is not an object with a 'seeds' object"),
+    ):
         results.write_text(text)
         assert cli_main(["study-report", "--out", str(out), "--check"]) == 2
         err = capsys.readouterr().err
