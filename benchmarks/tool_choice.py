@@ -18,15 +18,19 @@ import time
 
 import numpy as np
 
-from drake_tooluse.cli.common import run_script
+from drake_tooluse.cli.common import count_arg, run_script, seed_arg
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     DELAY_MARGIN,
+    MAX_DELAY_MARGIN,
+    MAX_ROLLOUTS,
     TASKS,
     Policies,
     TaskInstance,
+    check_rack,
     choose_tool,
 )
+from drake_tooluse.validation import check_in_range
 
 RATIO_GOAL, END_TO_END_GOAL = 0.90, 0.75
 
@@ -53,12 +57,17 @@ def main() -> None:
         "--delay-margin", type=float, default=DELAY_MARGIN, help="see tool_choice.predict (s)"
     )
     args = ap.parse_args()
-    if args.instances < 1:
-        ap.error(f"--instances={args.instances} must be at least 1")
     for task in args.tasks:
         if task not in TASKS:
             ap.error(f"--tasks: unknown task {task!r}; choose from {list(TASKS)}")
-    rack = args.tools or DEFAULT_RACK
+    try:  # the checks `drake-tooluse choose-tool` makes, before any work
+        count_arg(args.instances, "--instances", 1, 10_000)
+        seed_arg(args.seed, "--seed", args.instances)
+        count_arg(args.rollouts, "--rollouts", 1, MAX_ROLLOUTS)
+        check_in_range(args.delay_margin, 0.0, MAX_DELAY_MARGIN, "--delay-margin", unit="s")
+        rack = check_rack(args.tools or DEFAULT_RACK)
+    except ValueError as e:
+        ap.error(str(e))
     policies = Policies()
     start = time.perf_counter()
     results = []

@@ -1,0 +1,29 @@
+"""benchmarks/tool_choice.py checks its arguments as `drake-tooluse choose-tool` does: a bad
+value is one line naming it and its range, exit 2, before any work."""
+
+import pytest
+
+from tests.benchmark_scripts import benchmark_script
+
+
+@pytest.mark.parametrize(
+    "argv, says",
+    [
+        (["--tools", "hook:a,b"], "tool 'hook:a,b' is not straight:L"),
+        (["--tools", "straight:-1"], "tool length=-1 m is outside the allowed range"),
+        (["--seed", "-1"], "--seed=-1 is outside the allowed range [0, 4294967295]"),
+        (["--seed", "99999999999"], "--seed=99999999999 is outside the allowed range"),
+        (["--rollouts", "0"], "--rollouts=0 is outside the allowed range [1, 20]"),
+        (["--delay-margin", "nan"], "--delay-margin=nan must be a finite number"),
+        (["--instances", "0"], "--instances=0 is outside the allowed range"),
+    ],
+)
+def test_bad_arguments_are_one_line_errors(argv, says, monkeypatch, capsys):
+    tool_choice = benchmark_script("tool_choice")
+    monkeypatch.setattr("sys.argv", ["tool_choice.py", *argv])
+    monkeypatch.setattr(tool_choice, "Policies", lambda: pytest.fail("work started"))
+    with pytest.raises(SystemExit) as exited:
+        tool_choice.main()
+    assert exited.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert says in err[-1] and "Traceback" not in "\n".join(err)
