@@ -305,9 +305,11 @@ def run_outcome(policy: ToolPolicy, scenario: Scenario, belief: RobotBelief) -> 
 
 def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list[float]:
     """The actuation delay of each rollout (s): evenly from 0 to `delay_margin` (the margin
-    alone for one rollout), each a multiple of the plant's `time_step`."""
+    alone for one rollout), each the nearest multiple of the plant's `time_step`, never past
+    the margin (a margin of 0.03 s with 0.02 s steps gives delays up to 0.02 s, not 0.04)."""
     fractions = np.linspace(0.0, 1.0, rollouts) if rollouts > 1 else [1.0]
-    return [round(f * delay_margin / time_step) * time_step for f in fractions]
+    most = math.floor(delay_margin / time_step + 1e-9)
+    return [min(round(f * delay_margin / time_step), most) * time_step for f in fractions]
 
 
 def predict(
@@ -424,6 +426,8 @@ def choose_tool(
         "seed": instance.seed,
         "rollouts": rollouts,
         "delay_margin_s": delay_margin,
+        # The delays the rollouts ran with (multiples of the plant step, up to the margin).
+        "rollout_delays_s": rollout_delays(rollouts, delay_margin, nominal.plant.time_step),
         "chosen": candidates[chosen]["tool"],
         "chosen_index": chosen,
         "success": candidates[chosen]["reality"]["success"],
@@ -458,7 +462,7 @@ def _reality_run(instance, candidate, worlds, policies: Policies, recording_path
 def format_choice(out: dict) -> str:
     lines = [
         f"{out['task']} (seed {out['seed']}), {out['rollouts']} predicted rollouts per tool "
-        f"(actuation delays up to {out['delay_margin_s'] * 1000:.0f} ms):"
+        f"(actuation delays up to {max(out['rollout_delays_s']) * 1000:.0f} ms):"
     ]
     for i, c in enumerate(out["candidates"]):
         mark = "*" if i == out["chosen_index"] else " "

@@ -95,6 +95,10 @@ def test_rollouts_span_the_delay_margin():
     assert rollout_delays(1, 0.06, 0.02) == pytest.approx([0.06])
     assert rollout_delays(2, 0.0, 0.02) == [0.0, 0.0]
     assert rollout_delays(4, 0.06, 0.02) == pytest.approx([0.0, 0.02, 0.04, 0.06])
+    # Never past the margin: 0.03 s rounds to 0.04 s, over it; the largest delay under it runs.
+    assert rollout_delays(1, 0.03, 0.02) == pytest.approx([0.02])
+    assert rollout_delays(3, 0.03, 0.02) == pytest.approx([0.0, 0.02, 0.02])
+    assert max(rollout_delays(5, 0.05, 0.02)) <= 0.05
 
 
 def test_the_pull_runner_judges_the_cube():
