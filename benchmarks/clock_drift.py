@@ -2,13 +2,13 @@
 minimal Drake diagram and for the project's push and pull envs, how many control steps end off
 the period grid and how many hold no control update or two.
 
-`pydrake.gym.DrakeGymEnv.step` (1.51.1) and this project's envs (`TaskGymEnv._advance`)
-advance with `AdvanceTo(context.get_time() + time_step)`: each step's end is the sum of the
-ones before, so floating-point error accumulates, and a step that ends a few 1e-15 s before
-its period leaves that period's controller update (the IK) to the next step: one action never
-acts, the next acts twice. Advancing to `k * time_step` (k the integer step count) holds every
-step on the grid. The minimal diagram is the reproduction written up for Drake in
-docs/CLOCK.md.
+`pydrake.gym.DrakeGymEnv.step` (1.51.1) and this project's -v0 envs advance with
+`AdvanceTo(context.get_time() + time_step)`: each step's end is the sum of the ones before, so
+floating-point error accumulates, and a step that ends a few 1e-15 s before its period leaves
+that period's controller update (the IK) to the next step: one action never acts, the next
+acts twice. Advancing to `k * time_step` (k the integer step count), as the -v1 envs do
+(`builders.task_gym_env.CountedClockGymEnv`), holds every step on the grid. The minimal
+diagram is the reproduction written up for Drake in docs/CLOCK.md.
 
     python benchmarks/clock_drift.py [--steps 300]
 """
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 
 import gymnasium as gym
 from pydrake.systems.analysis import Simulator
@@ -26,6 +27,12 @@ import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.cli.common import count_arg, run_script
 
 PERIOD, PLANT_STEP = 0.04, 0.02  # the envs' control period and plant step (s)
+ENV_IDS = (  # the summed clock (-v0) and the counted one (-v1), per task
+    "drake_tooluse/ToolPush-v0",
+    "drake_tooluse/ToolPush-v1",
+    "drake_tooluse/ToolPull-v0",
+    "drake_tooluse/ToolPull-v1",
+)
 
 
 class UpdateCounter(LeafSystem):
@@ -63,7 +70,9 @@ def minimal(steps: int, summed: bool) -> tuple[int, int, int]:
 def env_off_grid(env_id: str, steps: int) -> int:
     """Steps of `env_id` (random actions, seed 0, reset at each episode's end) whose
     simulated time ends below k * period, k the step's count in its episode."""
-    env = gym.make(env_id)
+    with warnings.catch_warnings():  # Gymnasium's "out of date" warning of the -v0 ids
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make(env_id)
     try:
         env.reset(seed=0)
         env.action_space.seed(0)
@@ -94,7 +103,7 @@ def main(argv=None) -> int:
         off, none, two = minimal(steps, summed)
         how = "context.get_time() + period" if summed else "k * period (integer count)"
         print(f"  {how:30s} {off:5d} end off the grid; {none} hold no update, {two} hold two")
-    for env_id in ("drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPull-v0"):
+    for env_id in ENV_IDS:
         below = env_off_grid(env_id, steps)
         print(f"{env_id}: {below} of {steps} random steps end below their period")
     return 0

@@ -1,7 +1,7 @@
 """drake-tooluse: a Baxter robot using a tool, in Drake.
 
-Importing the package registers every task's Gymnasium env ids (`drake_tooluse/ToolPush-v0`,
-`drake_tooluse/ToolPull-v0`, …); it imports no Drake. The layers, in the order they import each
+Importing the package registers every task's Gymnasium env ids (`drake_tooluse/ToolPush-v1`,
+`drake_tooluse/ToolPull-v1`, …); it imports no Drake. The layers, in the order they import each
 other, are described in docs/ARCHITECTURE.md.
 """
 

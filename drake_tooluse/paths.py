@@ -59,9 +59,9 @@ POLICIES_DIR = MODELS_DIR / "policies"
 SHIPPED_POLICY = POLICIES_DIR / "ppo_toolpush"
 # The policy for other tools: it observes the task in tool-tip space only.
 TRANSFER_POLICY = POLICIES_DIR / "ppo_toolpush_tip"
-# That policy fine-tuned on pushes 0.10 m further (ToolPushFar-v0): tool choice's push-far.
+# That policy fine-tuned on pushes 0.10 m further (ToolPushFar-v1): tool choice's push-far.
 FAR_PUSH_POLICY = POLICIES_DIR / "ppo_toolpush_tip_far"
-# One policy for every hook: it pulls a cube from out of reach (ToolPull-v0).
+# One policy for every hook: it pulls a cube from out of reach (ToolPull-v1).
 PULL_POLICY = POLICIES_DIR / "ppo_toolpull"
 
 # Scenarios: the repo's diagrams/ (its YAML scenarios beside the rendered block diagrams).

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.primitives import ConstantVectorSource, DiscreteTimeDelay, Multiplexer
 
+from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs, pose_to_vector
 from drake_tooluse.robot.model import TIP_FRAME, RobotBelief
 from drake_tooluse.systems.tip_target import TipTargetSystem, Workspace
@@ -38,6 +39,31 @@ from drake_tooluse.world.scene import World, add_world, home_tip_pose, true_tool
 IK_LIBRARY_STARTS = 4
 IK_ATTEMPTS = 1
 HOME_IK_ATTEMPTS = 16
+
+
+@dataclass(frozen=True)
+class ControlBehaviour:
+    """How a policy's action reaches the joints. The defaults are the one behaviour of every
+    task's `-v1` env and of its deployed diagram:
+
+    - `max_joint_speed` (7, rad/s): the joint targets move at most at Baxter's rated joint
+      speeds (`V_MAX`), so that no action flings the arm through the table;
+    - `continuous_quaternion`: a `position_quaternion` action is added to the tip quaternion
+      taken in the initial one's hemisphere, not with Drake's sign, which jumps at this
+      scene's home orientation (`systems.tip_target`);
+    - `target_from_observed_state`: the target moves from the arm state the policy observed,
+      not from the plant's state one plant step later (`ToolTipIKSystem`).
+
+    `BEHAVIOUR_V0` is the earlier behaviour, which the `-v0` ids keep only so that the policies
+    trained on them still run as they were trained."""
+
+    max_joint_speed: tuple | None = tuple(V_MAX)
+    continuous_quaternion: bool = True
+    target_from_observed_state: bool = True
+
+
+BEHAVIOUR_V1 = ControlBehaviour()
+BEHAVIOUR_V0 = ControlBehaviour(None, False, False)
 
 
 @dataclass
@@ -156,18 +182,14 @@ def add_tip_control(
     action_mode: str,
     home=None,
     workspace=None,
-    max_joint_speed=None,
-    continuous_quaternion: bool = False,
-    target_from_observed_state: bool = False,
+    behaviour: ControlBehaviour = BEHAVIOUR_V1,
 ) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
     plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
     (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
     `Workspace.above_table`). The target's `action` input is left for the caller to connect.
-    `max_joint_speed` (7, rad/s; default None: unbounded) bounds how fast the joint targets
-    move (`ToolTipIKSystem`). `continuous_quaternion`: see `systems.tip_target`. With
-    `target_from_observed_state` the target moves from the arm state a policy observed, not
-    from the plant's next step (`ToolTipIKSystem`'s `solve_before_plant_step`)."""
+    `behaviour`: how the action reaches the joints (`ControlBehaviour`; default the `-v1`
+    envs')."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -176,7 +198,7 @@ def add_tip_control(
             ik.chain,
             pose_to_vector(home_tip_pose(s) if home is None else home),
             Workspace.above_table(s.table.top_z) if workspace is None else workspace,
-            continuous_quaternion,
+            behaviour.continuous_quaternion,
         ),
     )
     builder.Connect(
@@ -186,7 +208,11 @@ def add_tip_control(
     control.ik_system = builder.AddNamedSystem(
         "tool_tip_ik",
         ToolTipIKSystem(
-            ik, q0, s.control.control_period, max_joint_speed, target_from_observed_state
+            ik,
+            q0,
+            s.control.control_period,
+            behaviour.max_joint_speed,
+            behaviour.target_from_observed_state,
         ),
     )
     builder.Connect(
@@ -197,7 +223,7 @@ def add_tip_control(
         world,
         control.ik_system.GetOutputPort("desired_state"),
         control,
-        updated_before_plant=target_from_observed_state,
+        updated_before_plant=behaviour.target_from_observed_state,
     )
     return control
 

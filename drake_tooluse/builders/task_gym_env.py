@@ -16,6 +16,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 from pydrake.gym import DrakeGymEnv
+from pydrake.systems.analysis import SimulatorStatus
 
 from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.systems.lifetime import release_diagram
@@ -49,7 +50,47 @@ RELEASED_ATTRIBUTES = (
 )
 
 
-class TaskGymEnv(DrakeGymEnv):
+class CountedClockGymEnv(DrakeGymEnv):
+    """`DrakeGymEnv` whose every step ends at exactly k · time_step, k the steps since the
+    reset counted in integers. DrakeGymEnv's own step (1.51.1) advances to
+    `context.get_time() + time_step`, a sum that drifts: about 1 step in 20 ends a few 1e-15 s
+    short of its period, so that period's controller update falls into the next step and one
+    action never acts (docs/CLOCK.md). An env made the Drake way (a reward port, a monitor,
+    DrakeGymEnv's `step`) subclasses this in its place."""
+
+    # The -v0 envs' summed clock, kept only while policies trained on it are shipped.
+    DRIFTING_CLOCK = False
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        self._steps_done = 0
+        return super().reset(seed=seed, options=options)
+
+    def _next_step_time(self) -> float:
+        """The time the next step ends at (the step is counted)."""
+        if self.DRIFTING_CLOCK:
+            return self.simulator.get_context().get_time() + self.time_step
+        self._steps_done += 1
+        return self._steps_done * self.time_step
+
+    def step(self, action):
+        """DrakeGymEnv's `step` (1.51.1), advancing to `_next_step_time()`: the action fixed
+        on the action port, one step simulated; a RuntimeError from Drake truncates the
+        episode with the observation before the step, reward 0 and an empty info."""
+        assert self.simulator, "You must call reset() first"
+        context = self.simulator.get_context()
+        self.action_port.FixValue(context, action)
+        prev_observation = self.observation_port.Eval(context)
+        try:
+            status = self.simulator.AdvanceTo(self._next_step_time())
+        except RuntimeError:
+            return prev_observation, 0, False, True, {}
+        observation = self.observation_port.Eval(context)
+        reward = self.reward(self.simulator.get_system(), context)
+        terminated = status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition
+        return observation, reward, terminated, False, self.info_handler(self.simulator)
+
+
+class TaskGymEnv(CountedClockGymEnv):
     """DrakeGymEnv with what every task's env does the same (see the module docstring)."""
 
     def _start_gym(self, simulator, time_step, action_size, observation_size, render_mode) -> None:
@@ -150,7 +191,7 @@ class TaskGymEnv(DrakeGymEnv):
             fixed, vector = self._action_value
             fixed.GetMutableData()  # tells its dependents that it changes
             vector.SetFromVector(action)
-        if advance(self.simulator, context.get_time() + self.time_step) is not None:
+        if advance(self.simulator, self._next_step_time()) is not None:
             return None
         return finite_state_vector(self.world.plant, self._plant_context)
 

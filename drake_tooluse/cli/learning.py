@@ -115,7 +115,7 @@ def cmd_train(args) -> dict:
 
 
 DEFAULT_TIMESTEPS = 1_250_000
-DEFAULT_ENV = "drake_tooluse/ToolPush-v0"
+DEFAULT_ENV = "drake_tooluse/ToolPush-v1"
 DEFAULT_ALGO = "ppo"
 # The flags that set a run's configuration: a resume given none of them takes the run's own.
 SETTINGS_FLAGS = (
@@ -408,7 +408,7 @@ def cmd_sweep(args) -> dict:
     try:
         rows = sweep(
             args.algos or ["ppo"],
-            args.envs or ["drake_tooluse/ToolPush-v0"],
+            args.envs or ["drake_tooluse/ToolPush-v1"],
             seeds,
             timesteps,
             args.out,
@@ -555,7 +555,7 @@ def add_parsers(sub) -> None:
         "(pip install '.[cluster]')",
     )
     p.add_argument("--algos", nargs="+", help=f"algorithms, of {list(ALGOS)} (default: ppo)")
-    p.add_argument("--envs", nargs="+", help="env ids (default: drake_tooluse/ToolPush-v0)")
+    p.add_argument("--envs", nargs="+", help="env ids (default: drake_tooluse/ToolPush-v1)")
     p.add_argument("--seeds", type=int, nargs="+", help="one run per seed (default: 0)")
     p.add_argument("--timesteps", type=int, help="environment steps per run (default: 300000)")
     p.add_argument("--out", type=Path, help="new directory for the runs and the table")

@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 from matplotlib.figure import Figure
 
+from drake_tooluse.builders.control import BEHAVIOUR_V1
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.demo import FIGURE_DPI, mark_goal
@@ -80,11 +81,12 @@ def _summary(out: Path, measurement, metrics: dict, pull, scenario) -> Path:
 
 
 def _controller(policy, scenario):
-    """(the observation → action callable, its name in the metrics) of `policy`: a policy
-    directory, or "scripted"."""
+    """(the observation → action callable, its name in the metrics, how its action reaches
+    the joints) of `policy`: a policy directory, or "scripted"."""
     if str(policy) == SCRIPTED:
-        return ScriptedPull(scenario.table.top_z), "scripted pull"
-    return LearnedPullPolicy(policy).policy.act, f"policy {Path(policy).name}"
+        return ScriptedPull(scenario.table.top_z), "scripted pull", BEHAVIOUR_V1
+    learned = LearnedPullPolicy(policy)
+    return learned.policy.act, f"policy {Path(policy).name}", learned.behaviour
 
 
 def run_demo_pull(
@@ -110,7 +112,7 @@ def run_demo_pull(
     _, reality = task_scenarios("pull")
     tool = HookTool(handle_length, hook_length, hook_angle)  # checks the sizes
     scenario = holding(reality, tool, DEMO_GRASP_ALONG)
-    controller, controller_name = _controller(policy, scenario)
+    controller, controller_name, behaviour = _controller(policy, scenario)
     truth = {
         "handle_length": handle_length,
         "hook_length": hook_length,
@@ -136,6 +138,7 @@ def run_demo_pull(
             meshcat=meshcat,
             recording_path=work / "recording.html",
             scene_camera=True,
+            behaviour=behaviour,
         )
         times["pull_s"] = time.perf_counter() - t0
         log("[3/3] writing figures and metrics …")

@@ -48,6 +48,7 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from drake_tooluse.files import read_json, to_json
 from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
+from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
 STUDENT_MODES = ("position", "position_quaternion")
@@ -102,14 +103,21 @@ def _observes_paper(policy) -> bool:
     return policy.meta.env_kwargs.get("observation_mode", "gripper_joints") == "gripper_joints"
 
 
+def _takes_legacy_options(env_id: str) -> bool:
+    """Whether `env_id`'s env takes the -v0 ids' options (`tasks.push.legacy`)."""
+    config = getattr(env_class(env_id), "CONFIG", None)
+    return config is not None and "continuous_quaternion" in {f.name for f in dc.fields(config)}
+
+
 def student_of(teacher, config: DistillConfig, command: str):
     """The student's model and meta: the teacher's network (action head widened, the new
     outputs zero) where it observes the paper's values, else a fresh one of its kwargs."""
     env_kwargs = {**teacher.meta.env_kwargs, **config.env_kwargs}
     env_kwargs.update(action_mode=config.action_mode, observation_mode="gripper_joints")
-    if config.action_mode == "position_quaternion":
+    if config.action_mode == "position_quaternion" and _takes_legacy_options(teacher.meta.env_id):
+        # A -v0 env (the -v1 envs always do both): the quaternion in one hemisphere, and the
+        # label's change is from the observed orientation, so the target must move from it.
         env_kwargs["continuous_quaternion"] = True
-        # The label's change is from the observed orientation: the target must move from it.
         env_kwargs.setdefault("target_from_observed_state", True)
     meta = dc.replace(
         teacher.meta,

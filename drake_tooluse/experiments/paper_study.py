@@ -10,7 +10,7 @@ machine, N at a time (`learning.jobs`).
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
 goes on. A run whose settings are not its cell's (a cell redefined; env kwargs compared under
-today's mode names, `tasks.push.env.current_kwargs`) is refused, not reused. The results are
+today's mode names, `tasks.push.legacy.current_kwargs`) is refused, not reused. The results are
 written atomically after every run. The run directories do not outlive the machine, so each
 run's small files are archived (`archive_run`: config, summary, best policy, progress.csv,
 evaluations; while it trains, every `archive_every` its latest checkpoint too, unless a replay
@@ -47,7 +47,7 @@ from drake_tooluse.experiments.paper_study_cells import StudyFiles, check_cell_n
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
-from drake_tooluse.tasks.push.env import current_kwargs
+from drake_tooluse.tasks.push.legacy import current_kwargs
 from drake_tooluse.validation import check_int
 
 # What of a run directory is archived (TensorBoard's events and `final/` are not: the report

@@ -4,7 +4,7 @@ by rolling out that tool's policy in its own nominal simulation of the measured 
 the best, and does the task with it in the perturbed "reality".
 
 - **Task instances** (`TaskInstance`, seeded): `push` (the push world, `diagrams/push.yaml`,
-  goal 0.20 m along y), `push-far` (the same, goal 0.10 m further: ToolPushFar-v0's) and
+  goal 0.20 m along y), `push-far` (the same, goal 0.10 m further: ToolPushFar-v1's) and
   `pull` (`diagrams/pull.yaml`: a cube beyond the bare gripper's reach, pulled 0.20 m
   back). The seed draws the instance's randomization (`world.randomization`): the box's
   start, and in reality its mass, friction and the grasp of whichever tool is held.
@@ -14,7 +14,7 @@ the best, and does the task with it in the perturbed "reality".
 - **Policies per (task, tool kind)** (`ToolPolicy`, the interface a learned policy plugs
   into; `Policies`): a straight tool pushes with the shipped tool-tip policy
   (`paths.TRANSFER_POLICY`), and to the far goal with that policy fine-tuned on
-  ToolPushFar-v0 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
+  ToolPushFar-v1 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
   (`paths.PULL_POLICY`, `LearnedPullPolicy`; `ScriptedPullPolicy` is the scripted
   reference). No policy exists for a hook pushing or a straight tool pulling (the pull's
   control acts on a hook's inner corner, which a straight tool lacks): such a candidate is
@@ -43,6 +43,7 @@ from typing import Protocol
 
 import numpy as np
 
+from drake_tooluse.builders.control import BEHAVIOUR_V1
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.builders.visualization import start_meshcat
@@ -58,6 +59,8 @@ from drake_tooluse.paths import (
 )
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.tasks.contract import env_class
+from drake_tooluse.tasks.pull.env import ToolPullEnv
 from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
@@ -65,8 +68,7 @@ from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
 TASKS = ("push", "push-far", "pull")
-PULL_ENV_ID = "drake_tooluse/ToolPull-v0"
-FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v0's goal_extra)
+FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v1's goal_extra)
 MIN_TOOLS, MAX_TOOLS = 1, 5
 MAX_ROLLOUTS = 20
 DEFAULT_ROLLOUTS = 3
@@ -213,25 +215,38 @@ class PushTipPolicy:
         return Outcome(push.success, push.final_box_to_goal, push.error)
 
 
-def run_recorded_pull(scenario: Scenario, controller, belief: RobotBelief, recording_path):
-    """`run_pull` for MAX_STEPS; with `recording_path`, recorded in a new Meshcat and written
-    there."""
+def run_recorded_pull(
+    scenario: Scenario, controller, belief: RobotBelief, recording_path, behaviour=BEHAVIOUR_V1
+):
+    """`run_pull` for MAX_STEPS, the action reaching the joints as `behaviour` has it (a
+    policy's: its env's); with `recording_path`, recorded in a new Meshcat and written there."""
     meshcat = None if recording_path is None else start_meshcat()
     return run_pull(
-        scenario, controller, belief, MAX_STEPS, meshcat=meshcat, recording_path=recording_path
+        scenario,
+        controller,
+        belief,
+        MAX_STEPS,
+        meshcat=meshcat,
+        recording_path=recording_path,
+        behaviour=behaviour,
     )
 
 
 class LearnedPullPolicy:
-    """A hook pulls with a learned ToolPull-v0 policy (default the shipped one, `PULL_POLICY`),
-    run to the step limit and judged where the cube ends."""
+    """A hook pulls with a learned policy of the pull task (default the shipped one,
+    `PULL_POLICY`), run to the step limit and judged where the cube ends, its action reaching
+    the joints as in the env it learned in."""
 
     def __init__(self, policy_dir=PULL_POLICY):
         self.policy = load_policy(policy_dir)
-        check_policy_env(self.policy, PULL_ENV_ID)
+        env_id, kwargs = check_policy_env(self.policy)
+        env = env_class(env_id)
+        if not issubclass(env, ToolPullEnv):
+            raise ValueError(f"{policy_dir} is a policy of {env_id}, not of the pull task")
+        self.behaviour = env.control_behaviour(kwargs)
 
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
-        pull = run_recorded_pull(scenario, self.policy.act, belief, recording_path)
+        pull = run_recorded_pull(scenario, self.policy.act, belief, recording_path, self.behaviour)
         return Outcome(pull.success, pull.final_object_to_goal, pull.error)
 
 

@@ -325,7 +325,7 @@ def sweep(
     else:
         settings = {
             "algos": algos if algos is not None else ["ppo"],
-            "envs": envs if envs is not None else ["drake_tooluse/ToolPush-v0"],
+            "envs": envs if envs is not None else ["drake_tooluse/ToolPush-v1"],
             "seeds": seeds if seeds is not None else [0],
             "timesteps": timesteps if timesteps is not None else 300_000,
             "overrides": overrides,

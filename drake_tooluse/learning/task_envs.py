@@ -8,30 +8,9 @@ is a package of its own that registers its ids.
 
 from __future__ import annotations
 
-import gymnasium as gym
-from gymnasium.envs.registration import load_env_creator
+from drake_tooluse.tasks.contract import check_env_id, env_class, task_env_ids
 
-from drake_tooluse.tasks.contract import ENV_NAMESPACE, TaskEnv
-
-
-def task_env_ids() -> list[str]:
-    """The registered ids of the project's namespace (registered on `import drake_tooluse`)."""
-    return [i for i in gym.registry if i.startswith(ENV_NAMESPACE + "/")]
-
-
-def check_env_id(env_id) -> str:
-    if not isinstance(env_id, str) or env_id not in task_env_ids():
-        raise ValueError(f"unknown env {env_id!r}; choose one of {task_env_ids()}")
-    return env_id
-
-
-def env_class(env_id: str) -> type[TaskEnv]:
-    """The class a registered id makes (its module imported on first use)."""
-    entry_point = gym.spec(check_env_id(env_id)).entry_point
-    cls = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
-    if not (isinstance(cls, type) and issubclass(cls, TaskEnv)):
-        raise ValueError(f"env {env_id!r} ({entry_point!r}) does not follow the task contract")
-    return cls
+__all__ = ["check_env_id", "env_class", "task_env_ids"]
 
 
 def check_env_kwargs(env_id: str, kwargs, name: str = "env kwargs") -> dict:

@@ -259,7 +259,7 @@ def test_the_sweep_refuses_a_bad_value_of_any_cell_before_training(tmp_path, cap
 def test_a_refused_resume_names_the_keys_that_differ(tmp_path, capsys):
     run = tmp_path / "run"
     run.mkdir()
-    saved = resolve_config("drake_tooluse/ToolPush-v0", "ppo", 1000, 1, 0)
+    saved = resolve_config("drake_tooluse/ToolPush-v1", "ppo", 1000, 1, 0)
     (run / "config.json").write_text(json.dumps(asdict(saved)))
     line = assert_one_line_error(
         capsys,
@@ -286,7 +286,7 @@ def test_corrupt_run_files_name_the_file(tmp_path, capsys):
     assert_one_line_error(
         capsys, ["train", "--resume", run], r"corrupt run configuration '.*config.json'"
     )
-    saved = resolve_config("drake_tooluse/ToolPush-v0", "ppo", 1000, 1, 0)
+    saved = resolve_config("drake_tooluse/ToolPush-v1", "ppo", 1000, 1, 0)
     (run / "config.json").write_text(json.dumps(asdict(saved)))
     checkpoint = run / "checkpoints" / "ckpt-000000000512"
     checkpoint.mkdir(parents=True)

@@ -46,7 +46,7 @@ def test_train_refuses_a_started_run_in_the_library_and_cli_words(tmp_path, caps
 
     run = tmp_path / "run"
     (run / "final").mkdir(parents=True)
-    config = resolve_config("drake_tooluse/ToolPush-v0", "ppo", 1000, 1, 0)
+    config = resolve_config("drake_tooluse/ToolPush-v1", "ppo", 1000, 1, 0)
     (run / "config.json").write_text(json.dumps(asdict(config)))
     with pytest.raises(FileExistsError) as e:
         train(config, run)

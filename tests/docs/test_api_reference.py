@@ -144,7 +144,7 @@ def test_every_port_block_names_the_systems_ports():
 
     scenario = Scenario()
     hooked = validate_scenario(Scenario(tool=ToolConfig(kind="hook", length=0.25)))
-    pull = gym.make("drake_tooluse/ToolPull-v0")
+    pull = gym.make("drake_tooluse/ToolPull-v1")
     pull.reset(seed=0)
     diagrams = [
         build_policy_diagram(scenario, load_policy(TRANSFER_POLICY)).diagram,

@@ -5,6 +5,7 @@ one-line usage error; a stopped distillation goes on to the student it would hav
 import dataclasses as dc
 import re
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import torch
@@ -46,7 +47,7 @@ def test_the_widened_student_acts_as_its_teacher_and_turns_nothing(teacher):
 
 
 def test_the_expert_turns_the_tip_back_to_its_initial_orientation(teacher):
-    env = ToolPushEnv(action_mode="position_quaternion", continuous_quaternion=True)
+    env = ToolPushEnv(action_mode="position_quaternion")
     try:
         observation, _ = env.reset(seed=0)
         expert = Expert(teacher, "position_quaternion")
@@ -75,7 +76,7 @@ def test_one_round_writes_a_policy_that_loads_and_acts(teacher, tmp_path):
     assert logged == out["rounds"] and out["rounds"][-1]["samples"] == 200
     student = load_policy(tmp_path / "student")
     assert student.meta.action_shape == [7]
-    env = ToolPushEnv(**student.meta.env_kwargs)
+    env = gym.make(student.meta.env_id, **student.meta.env_kwargs)
     try:
         observation, _ = env.reset(seed=1)
         action = student.act(observation)

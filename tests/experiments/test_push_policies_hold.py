@@ -20,7 +20,7 @@ def _script():
         (["--policies", "no/such/policy"], "'no/such/policy' is not a policy directory"),
         (
             ["--policies", str(ROOT / "models" / "policies" / "ppo_toolpull")],
-            "is a policy for drake_tooluse/ToolPull-v0; this benchmark runs push policies",
+            "is a policy for drake_tooluse/ToolPull-v",
         ),
         (["--episodes", "0"], "--episodes=0 is outside the allowed range [1, 1000000]"),
         (["--tools", "0.9"], "tool length=0.9 m is outside the allowed range (0, 0.6] m"),

@@ -53,7 +53,7 @@ def test_the_rl_zoo3_file_holds_the_projects_ppo_hyperparameters():
 
 
 def test_the_readme_and_the_file_give_rl_zoo3_the_run_settings_as_flags():
-    hp = load_hyperparams("ppo", "drake_tooluse/ToolPush-v0")
+    hp = load_hyperparams("ppo", "drake_tooluse/ToolPush-v1")
     flags = " ".join(f"{flag} {hp[key]}" for key, flag in ZOO_FLAGS.items())
     readme = " ".join(README.read_text().split())
     commands = re.findall(r"python -m rl_zoo3\.train [^`\n]*", readme)
@@ -81,7 +81,7 @@ def test_the_readme_gives_rl_zoo3_the_files_env_kwargs_for_both_envs():
     # rl_zoo3 builds its evaluation env from the command line's env kwargs only: the README's
     # must be the file's, or its first evaluation meets the wrong action space.
     conf = yaml.safe_load(CONF.read_text())
-    assert _readme_env_kwargs() == conf["drake_tooluse/ToolPush-v0"]["env_kwargs"]
+    assert _readme_env_kwargs() == conf["drake_tooluse/ToolPush-v1"]["env_kwargs"]
 
 
 def test_rl_zoo3_reads_the_file_into_the_projects_run(tmp_path):
@@ -90,7 +90,7 @@ def test_rl_zoo3_reads_the_file_into_the_projects_run(tmp_path):
 
     import drake_tooluse  # noqa: F401  (registers the env ids, as --gym-packages does)
 
-    env_id = "drake_tooluse/ToolPush-v0"
+    env_id = "drake_tooluse/ToolPush-v1"
     manager = ExperimentManager(
         args=argparse.Namespace(),
         algo="ppo",
@@ -120,7 +120,7 @@ def test_rl_zoo3_trains_the_env_with_the_file(tmp_path):
         "--algo",
         "ppo",
         "--env",
-        "drake_tooluse/ToolPush-v0",
+        "drake_tooluse/ToolPush-v1",
         "--gym-packages",
         "drake_tooluse",
         "--conf-file",
@@ -152,9 +152,9 @@ def test_rl_zoo3_trains_the_env_with_the_file(tmp_path):
     assert f"Loading hyperparameters from: {CONF}" in done.stdout
     assert "Eval num_timesteps=" in done.stdout  # an evaluation ran, with the file's env kwargs
     (run,) = (tmp_path / "ppo").iterdir()
-    assert (run / "drake_tooluse-ToolPush-v0.zip").is_file()
+    assert (run / "drake_tooluse-ToolPush-v1.zip").is_file()
     # rl-zoo3 saves what it ran with as a tagged OrderedDict: read its pairs without the tag.
-    text = (run / "drake_tooluse-ToolPush-v0" / "config.yml").read_text()
+    text = (run / "drake_tooluse-ToolPush-v1" / "config.yml").read_text()
     (pairs,) = yaml.safe_load(text.split("\n", 1)[1])  # the OrderedDict(...) call's argument
     saved = dict(pairs)
     assert saved["learning_rate"] == 0.0003 and saved["n_epochs"] == 10 and saved["n_steps"] == 128

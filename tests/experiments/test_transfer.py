@@ -63,7 +63,7 @@ def test_delayed_arm_holds_still_at_the_start():
     import drake_tooluse  # noqa: F401
 
     env = gym.make(
-        "drake_tooluse/ToolPush-v0", scenario=SCENARIOS_DIR / "reality.yaml", action_mode="position"
+        "drake_tooluse/ToolPush-v1", scenario=SCENARIOS_DIR / "reality.yaml", action_mode="position"
     )
     obs, _ = env.reset(seed=0)
     for _ in range(5):

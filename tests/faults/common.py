@@ -13,7 +13,7 @@ import torch
 
 from drake_tooluse.learning.config import resolve_config
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 # Rollouts of 64 steps, a checkpoint every 2 of them, an evaluation (1 episode) every 4.
 TINY = {
     "n_steps": 64,

@@ -27,7 +27,7 @@ from drake_tooluse.validation import check_unit_quaternion
 from drake_tooluse.world.scenario import Scenario, with_tool_length
 from tests.faults.common import KILLED, TINY, die, run_killed
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 
 
 def one_line(capsys, argv, code=EXIT_USAGE) -> str:
@@ -122,7 +122,7 @@ def test_an_edited_sweep_config_is_refused_before_ray_starts(tmp_path, capsys, n
         "overrides": {**TINY, "n_envs": 1},
         "episodes": 1,
     }
-    run = out / "runs" / "ppo_ToolPush-v0_s0"
+    run = out / "runs" / "ppo_ToolPush-v1_s0"
     run.mkdir(parents=True)
     config = resolve_config(ENV, "ppo", 512, None, 0, overrides=settings_["overrides"])
     (run / "config.json").write_text(json.dumps({**asdict(config), "command": "x"}))
@@ -230,16 +230,16 @@ def test_resume_alone_continues_with_the_run_s_own_settings(tmp_path, monkeypatc
     run = tmp_path / "run"
     run.mkdir()
     saved = resolve_config(
-        "drake_tooluse/ToolPull-v0", "a2c", 1000, 1, 7, overrides={"learning_rate": 1e-4}
+        "drake_tooluse/ToolPull-v1", "a2c", 1000, 1, 7, overrides={"learning_rate": 1e-4}
     )
     (run / "config.json").write_text(json.dumps({**asdict(saved), "command": ""}))
     assert main(["train", "--resume", str(run), "--timesteps", "2000", "--json"]) == 0
-    assert asked[-1] == replace(saved, timesteps=2000)  # not the defaults (ToolPush-v0, ppo, 0)
+    assert asked[-1] == replace(saved, timesteps=2000)  # not the defaults (ToolPush-v1, ppo, 0)
     # Flags given with --resume are the settings asked (train compares them with the run's);
     # the env, algorithm and seed not given are the run's.
     assert main(["train", "--resume", str(run), "--n-envs", "2", "--json"]) == 0
     assert (asked[-1].env_id, asked[-1].algo, asked[-1].seed, asked[-1].n_envs) == (
-        "drake_tooluse/ToolPull-v0",
+        "drake_tooluse/ToolPull-v1",
         "a2c",
         7,
         2,

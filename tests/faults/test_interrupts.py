@@ -85,7 +85,7 @@ def test_ctrl_c_to_a_sweep_is_exit_130_and_lists_the_cell_as_interrupted(tmp_pat
         ["sweep", "--timesteps", "100000", "--out", out, "--num-cpus", "2", "--episodes", "1"]
         + ["--hyperparams", hp]
     )
-    cell = out / "runs" / "ppo_ToolPush-v0_s0"
+    cell = out / "runs" / "ppo_ToolPush-v1_s0"
     _wait_for(cell / "checkpoints" / "latest.json", proc)
     code, _, err = _interrupt(proc)
     assert code == EXIT_INTERRUPTED, err

@@ -1,7 +1,7 @@
 """Physical sanity as data: the push env reports, every step, how far the tool and the gripper
 are inside the table, the box's speed and the fastest arm joint's, and flags what is past the
 task's limits (`tasks.push.sanity`); evaluation counts the flagged episodes per flag; extreme
-actions that drive the tool into the table are what `bound_joint_speed` stops."""
+actions that drive the tool into the table are what the -v1 envs' bounded joint speed stops."""
 
 import json
 from pathlib import Path
@@ -23,7 +23,8 @@ from drake_tooluse.tasks.contract import PhysicalLimit
 from drake_tooluse.tasks.push import sanity
 from drake_tooluse.tasks.push.env import ToolPushEnv
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"  # joint targets bounded at Baxter's rated speeds
+UNBOUNDED_ENV = "drake_tooluse/ToolPush-v0"  # the earlier behaviour: unbounded
 FIGURES = [lim.info_key for lim in ToolPushEnv.PHYSICAL_LIMITS]
 FLAGS = [lim.flag for lim in ToolPushEnv.PHYSICAL_LIMITS]
 # Bang-bang actions (±1 in every component) from this generator seed drive the tool into the
@@ -31,8 +32,8 @@ FLAGS = [lim.flag for lim in ToolPushEnv.PHYSICAL_LIMITS]
 EXTREME_SEED, EXTREME_STEPS = 3, 120
 
 
-def extreme_run(**kwargs) -> list[dict]:
-    env = gym.make(ENV, **kwargs)
+def extreme_run(env_id: str) -> list[dict]:
+    env = gym.make(env_id)
     rng = np.random.default_rng(EXTREME_SEED)
     infos = [env.reset(seed=EXTREME_SEED)[1]]
     try:
@@ -46,7 +47,7 @@ def extreme_run(**kwargs) -> list[dict]:
 
 @pytest.fixture(scope="module")
 def unbounded():
-    return extreme_run()
+    return extreme_run(UNBOUNDED_ENV)
 
 
 def test_every_limit_is_a_named_constant_with_a_reason():
@@ -76,7 +77,7 @@ def test_extreme_actions_drive_the_tool_into_the_table_and_the_step_says_so(unbo
 
 
 def test_on_the_same_extreme_actions_the_bounded_arm_stays_out_of_the_table(unbounded):
-    bounded = extreme_run(bound_joint_speed=True)
+    bounded = extreme_run(ENV)
     deepest = max(i["tool_table_penetration"] for i in unbounded)
     assert deepest > sanity.TABLE_PENETRATION_LIMIT  # where the unbounded arm went in
     assert not any(i["tool_in_table"] or i["gripper_in_table"] for i in bounded)
@@ -201,6 +202,6 @@ def test_evaluate_json_shows_the_counts(capsys):
 
 def test_a_shipped_policys_episodes_stay_inside_the_limits():
     meta = json.loads((Path(SHIPPED_POLICY) / "policy.json").read_text())
-    assert meta["env_id"] == ENV
+    assert meta["env_id"] in (ENV, UNBOUNDED_ENV)
     result = evaluate(SHIPPED_POLICY, episodes=3, seed=0)
     assert result.flagged_episodes == dict.fromkeys(FLAGS, 0)

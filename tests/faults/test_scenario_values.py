@@ -74,7 +74,7 @@ def test_an_env_and_a_training_run_refuse_it_before_drake_does(tmp_path, capsys)
     path = tmp_path / "bad.yaml"
     path.write_text("plant:\n  stiction_tolerance: -1\n")
     with pytest.raises(ValueError, match="stiction_tolerance"):
-        gym.make("drake_tooluse/ToolPush-v0", scenario=str(path))
+        gym.make("drake_tooluse/ToolPush-v1", scenario=str(path))
     out = tmp_path / "run"
     code = main(["train", "--out", str(out), "--scenario", str(path), "--timesteps", "64"])
     assert code == EXIT_USAGE and "stiction_tolerance" in capsys.readouterr().err

@@ -51,7 +51,7 @@ def failing_advance(after: int, raises=True):
     "raises", [True, False, "step"], ids=["RuntimeError", "NaN state", "NaN inside the step"]
 )
 def test_a_failed_step_returns_the_last_finite_state(monkeypatch, raises):
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position").unwrapped
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position").unwrapped
     env.reset(seed=0)
     for _ in range(2):
         obs, reward, *_ = env.step(np.array([0.0, 0.5, 0.0]))
@@ -69,7 +69,7 @@ def test_a_failed_step_returns_the_last_finite_state(monkeypatch, raises):
 
 def test_a_simulation_failure_does_not_poison_the_normalisation(monkeypatch):
     def make():
-        return gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+        return gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
 
     venv = VecNormalize(DummyVecEnv([make]), norm_obs=True, norm_reward=True)
     venv.seed(0)

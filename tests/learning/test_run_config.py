@@ -14,7 +14,7 @@ from drake_tooluse.learning.config import read_run_config, resolve_config, write
 from drake_tooluse.learning.train import train
 from drake_tooluse.paths import SCENARIOS_DIR
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 TINY = {"n_steps": 64, "batch_size": 64, "n_epochs": 1, "checkpoint_freq": 64}
 TINY |= {"eval_freq": 10_000_000, "eval_episodes": 1}
 

@@ -124,7 +124,7 @@ def test_on_two_nodes_a_killed_worker_s_cell_continues_and_a_failed_cell_is_repo
     cluster.wait_for_nodes()
     head_id, worker_id = cluster.head_node.node_id, worker.node_id
     runs = tmp_path / "runs"
-    latest = [runs / f"a2c_ToolPush-v0_s{s}" / "checkpoints" / "latest.json" for s in (0, 1)]
+    latest = [runs / f"a2c_ToolPush-v1_s{s}" / "checkpoints" / "latest.json" for s in (0, 1)]
 
     saved = {}
 
@@ -168,7 +168,7 @@ def test_a_killed_sweep_resumes_keeping_finished_cells(tmp_path):
     cmd += ["--timesteps", "4000", "--out", str(out), "--num-cpus", "2", "--episodes", "1"]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([*cmd, "--hyperparams", hp], env=env, start_new_session=True)
-    cells = [out / "runs" / f"{algo}_ToolPush-v0_s0" for algo in ("a2c", "ppo")]
+    cells = [out / "runs" / f"{algo}_ToolPush-v1_s0" for algo in ("a2c", "ppo")]
     deadline = time.monotonic() + 240
     try:  # until one cell has finished and the other has a checkpoint
         while not any(

@@ -16,7 +16,7 @@ from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.train import train
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 TINY = {"eval_freq": 10_000_000, "checkpoint_freq": 512, "eval_episodes": 1}
 PER_ALGO = {
     "ppo": {"n_steps": 256, "batch_size": 64, "n_epochs": 1},
@@ -146,11 +146,11 @@ def test_evaluate_json_is_reproducible(tiny_policy, capsys):
 
 def test_mismatched_policy_is_a_clear_error(tiny_policy):
     with pytest.raises(ValueError, match=r"trained for observations \[30\] and actions \[3\]"):
-        evaluate(tiny_policy, episodes=1, env_kwargs={"action_mode": "paper"})
+        evaluate(tiny_policy, episodes=1, env_kwargs={"action_mode": "position_quaternion"})
 
 
 def test_init_from_a_policy_of_other_spaces_is_refused_before_training(tiny_policy, tmp_path):
-    overrides = {**TINY, **PER_ALGO["ppo"], "env_kwargs": {"action_mode": "paper"}}
+    overrides = {**TINY, **PER_ALGO["ppo"], "env_kwargs": {"action_mode": "position_quaternion"}}
     config = resolve_config(ENV, "ppo", 300, 1, 0, str(tiny_policy), overrides=overrides)
     with pytest.raises(
         ValueError,

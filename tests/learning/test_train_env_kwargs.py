@@ -7,7 +7,7 @@ from drake_tooluse.cli import main
 from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.paths import SHIPPED_POLICY
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 
 
 def test_env_kwargs_merge_over_the_yaml():

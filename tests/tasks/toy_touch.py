@@ -16,17 +16,17 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
-from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, LeafSystem
 
 from drake_tooluse.builders.control import add_tip_control, add_world_at_home
+from drake_tooluse.builders.task_gym_env import CountedClockGymEnv
 from drake_tooluse.learning.task_envs import task_env_ids
 from drake_tooluse.tasks.contract import EpisodeMetric, TaskEnv, TaskParts
 from drake_tooluse.world.scenario import Scenario, load_scenario
 from drake_tooluse.world.scene import home_tip_pose
 
-ENV_ID = "drake_tooluse/ToyTouch-v0"
+ENV_ID = "drake_tooluse/ToyTouch-v1"
 SUCCESS_DISTANCE = 0.02  # m
 
 
@@ -90,9 +90,10 @@ def add_touch_task(builder, scenario: Scenario, belief=None, target_offset=(0.0,
     return parts, outcome
 
 
-class ToyTouchEnv(TaskEnv, DrakeGymEnv):
+class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
     """The toy task as a Gymnasium env, made the Drake way: a reward port, a simulator monitor
-    for the episode's end, an info handler; DrakeGymEnv's own `step` and `reset`."""
+    for the episode's end, an info handler; DrakeGymEnv's `reset` and its `step` on a counted clock
+    (`CountedClockGymEnv`: one control update per step)."""
 
     EPISODE_METRICS = (EpisodeMetric("final_distance_m", "distance"),)
 

@@ -7,7 +7,7 @@ different hook (`robot.tool.HookTool`); the robot knows its hook's geometry.
   its reward;
 - `observation`: what the policy sees (`ToolPullObservation`);
 - `diagram`: the task wired into a builder (`add_pull_task`);
-- `env`: the Gymnasium env `drake_tooluse/ToolPull-v0` on `pydrake.gym.DrakeGymEnv`;
+- `env`: the Gymnasium env `drake_tooluse/ToolPull-v1` on `pydrake.gym.DrakeGymEnv`;
   `registration` registers its id (no Drake imported); `scripted`: a scripted reference pull.
 
 Its scenario is the top-level `diagrams/pull.yaml`.

@@ -16,7 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_tooluse.builders.control import add_tip_control, add_world_at_home, nominal_belief
+from drake_tooluse.builders.control import (
+    BEHAVIOUR_V1,
+    ControlBehaviour,
+    add_tip_control,
+    add_world_at_home,
+    nominal_belief,
+)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HOOK_CORNER, HookTool
 from drake_tooluse.systems.tip_target import Workspace
@@ -66,11 +72,17 @@ class PullTask(GoalTaskParts):
     belief: RobotBelief = None
 
 
-def add_pull_task(builder, scenario: Scenario, belief: RobotBelief | None = None) -> PullTask:
+def add_pull_task(
+    builder,
+    scenario: Scenario,
+    belief: RobotBelief | None = None,
+    behaviour: ControlBehaviour = BEHAVIOUR_V1,
+) -> PullTask:
     """The world holding the scenario's hook, at the home pose the robot computes for `belief`
     (default: `nominal_belief`, the scenario's hook), position control of the believed hook's
     inner corner, the task's observation and outcome (goal: the scenario's). The target's
-    `action` input is left unconnected."""
+    `action` input is left unconnected. `behaviour`: how the action reaches the joints
+    (`ControlBehaviour`; default the `-v1` envs')."""
     belief = nominal_belief(scenario) if belief is None else belief
     if not isinstance(belief.tool, HookTool):
         raise ValueError(
@@ -79,7 +91,14 @@ def add_pull_task(builder, scenario: Scenario, belief: RobotBelief | None = None
     home = home_corner_pose(scenario)
     world, ik, q0 = add_world_at_home(builder, scenario, belief, HOOK_CORNER, home)
     control = add_tip_control(
-        builder, world, ik, q0, "position", home, corner_workspace(scenario, belief.tool)
+        builder,
+        world,
+        ik,
+        q0,
+        "position",
+        home,
+        corner_workspace(scenario, belief.tool),
+        behaviour,
     )
     goal = goal_position(scenario)
     return PullTask.wire(

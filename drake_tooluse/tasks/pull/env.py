@@ -1,4 +1,4 @@
-"""The pull task as a Gymnasium env on DrakeGymEnv: `drake_tooluse/ToolPull-v0`.
+"""The pull task as a Gymnasium env on DrakeGymEnv: `drake_tooluse/ToolPull-v1`.
 
 ```
 action ──► TipTargetSystem ──X_WC*──► ToolTipIKSystem ──q*──► plant (in-plant PD) ──state──►
@@ -16,6 +16,7 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from drake_tooluse.builders.control import BEHAVIOUR_V0, BEHAVIOUR_V1, ControlBehaviour
 from drake_tooluse.builders.task_gym_env import TaskGymEnv
 from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
@@ -45,7 +46,7 @@ class PullEnvConfig:
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
     kwargs = dict(check_mapping(kwargs, name))
-    config = env_config(PullEnvConfig, kwargs, name, "drake_tooluse/ToolPull-v0")
+    config = env_config(PullEnvConfig, kwargs, name, "the pull env")
     if config.hook is not None:
         config.hook = check_hook(config.hook, "hook")
     check_bool(config.randomize, "randomize")
@@ -132,7 +133,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     ## Arguments
 
-    `gym.make("drake_tooluse/ToolPull-v0", hook=None, randomize=True, scenario=None,
+    `gym.make("drake_tooluse/ToolPull-v1", hook=None, randomize=True, scenario=None,
     render_mode=None)`: `hook` = (handle length m, hook length m, angle °) fixes every
     episode's hook (each in HookTool's range); `randomize` draws the start (above);
     `scenario` replaces diagrams/pull.yaml (a Scenario or a YAML file); `render_mode`
@@ -144,6 +145,14 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     (m, d(c, p_b)), `tool_touches_object`, `gripper_touches_object` (this step),
     `tool_touched_object_in_episode`, `gripper_touched_object_in_episode`, `hook` (handle m,
     hook m, angle °), `ik_ok` (the IK's last solve succeeded), `sim_error`.
+
+    ## Version History
+
+    - v1: every step advances to exactly the next multiple of the control period, counted in
+      integers (docs/CLOCK.md); the joint targets move at most at Baxter's rated joint speeds;
+      the action moves the target from the arm state the policy observed
+      (`builders.control.ControlBehaviour`).
+    - v0: the earlier behaviour (`ToolPullEnvV0`).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
@@ -158,6 +167,15 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def spaces(cls, kwargs) -> tuple[list, list]:
         _config(kwargs)
         return [OBSERVATION_SIZE], [ACTION_SIZE]
+
+    # How an action reaches the joints (`ControlBehaviour`: the -v1 envs' one behaviour).
+    BEHAVIOUR = BEHAVIOUR_V1
+
+    @classmethod
+    def control_behaviour(cls, kwargs) -> ControlBehaviour:
+        """What a deployed run of this env's policies builds (`run_pull`)."""
+        _config(kwargs)
+        return cls.BEHAVIOUR
 
     def __init__(self, **kwargs):
         config = _config(kwargs)
@@ -188,7 +206,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def _build(self, scenario: Scenario) -> None:
         self.scenario = scenario
         builder = DiagramBuilder()
-        task = add_pull_task(builder, scenario)
+        task = add_pull_task(builder, scenario, behaviour=self.BEHAVIOUR)
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control
@@ -275,3 +293,12 @@ def _finite(m) -> bool:
         and math.isfinite(m.object_travel)
         and math.isfinite(m.corner_to_behind)
     )
+
+
+class ToolPullEnvV0(ToolPullEnv):
+    """`drake_tooluse/ToolPull-v0`: the earlier behaviour (a summed clock, unbounded joint
+    targets, the target from the next plant step's state), kept only while the policy trained
+    on it is shipped."""
+
+    BEHAVIOUR = BEHAVIOUR_V0
+    DRIFTING_CLOCK = True

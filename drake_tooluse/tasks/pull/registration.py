@@ -3,9 +3,14 @@
 from drake_tooluse.tasks.contract import register_task_envs
 
 MAX_EPISODE_STEPS = 100
-ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
+ENV_IDS = {"drake_tooluse/ToolPull-v1": {}}
+# The earlier behaviour (`ToolPullEnvV0`), kept while the policy trained on it is shipped.
+LEGACY_ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
 
 
 def register_envs() -> None:
-    """Registers the id (idempotent); `gym.make` builds it lazily."""
+    """Registers the ids (idempotent); `gym.make` builds them lazily."""
     register_task_envs(ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnv", MAX_EPISODE_STEPS)
+    register_task_envs(
+        LEGACY_ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnvV0", MAX_EPISODE_STEPS
+    )

@@ -12,6 +12,7 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
 from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import RobotBelief
@@ -58,15 +59,17 @@ def run_pull(
     meshcat=None,
     recording_path=None,
     scene_camera: bool = False,
+    behaviour: ControlBehaviour = BEHAVIOUR_V1,
 ) -> PullRun:
     """Runs `controller` (called with each observation, giving a 3-d action in [-1, 1]; its
     `reset()` is called first if it has one) on the scenario's world from its default state,
     the robot's IK holding `belief` (default: the scenario's hook). A simulation failure ends
     the run flagged `sim_error`, judged at the last finite state. With `meshcat`, the run is
     recorded there and, with `recording_path`, written as a standalone HTML file. With `scene_camera`, the run keeps the scene camera's
-    image at the end (`final_image`, unless the simulation failed)."""
+    image at the end (`final_image`, unless the simulation failed). `behaviour`: how the
+    action reaches the joints (a policy's: its env's `control_behaviour`)."""
     builder = DiagramBuilder()
-    task = add_pull_task(builder, scenario, belief)
+    task = add_pull_task(builder, scenario, belief, behaviour)
     task.export(builder)
     visualizer = None
     if meshcat is not None:

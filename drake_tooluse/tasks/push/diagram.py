@@ -19,6 +19,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import (
+    BEHAVIOUR_V1,
+    ControlBehaviour,
     TipControl,
     add_tip_control,
     add_world_at_home,
@@ -27,13 +29,12 @@ from drake_tooluse.builders.control import (
 from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
 from drake_tooluse.builders.visualization import add_meshcat_visualizer
-from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.policy import PolicySystem
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.tasks.contract import GoalTaskParts
+from drake_tooluse.tasks.contract import GoalTaskParts, env_class
 from drake_tooluse.tasks.push.metrics import PushMetricsReader, PushOutcome
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
 from drake_tooluse.world.scenario import Scenario
@@ -57,18 +58,13 @@ def add_push_task(
     observation_mode: str,
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
-    max_joint_speed=None,
-    continuous_quaternion: bool = False,
-    target_from_observed_state: bool = False,
+    behaviour: ControlBehaviour = BEHAVIOUR_V1,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
-    `action` input is left unconnected. `max_joint_speed` (7, rad/s): the bound on the joint
-    targets' speed (`add_tip_control`; default None: none). `continuous_quaternion`: the
-    `position_quaternion` action's sign convention (`systems.tip_target`).
-    `target_from_observed_state`: the action moves the target from the state the policy
-    observed (`add_tip_control`)."""
+    `action` input is left unconnected. `behaviour`: how the action reaches the joints
+    (`ControlBehaviour`; default the `-v1` envs')."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief)
     control = add_tip_control(
@@ -77,9 +73,7 @@ def add_push_task(
         ik,
         q0,
         action_mode,
-        max_joint_speed=max_joint_speed,
-        continuous_quaternion=continuous_quaternion,
-        target_from_observed_state=target_from_observed_state,
+        behaviour=behaviour,
     )
     goal = goal_position(scenario)
     return PushTask.wire(
@@ -102,8 +96,8 @@ class PolicyDiagram:
     observation: ToolPushObservation
     policy_system: PolicySystem
     visualizer: object = None
-    # The policy was trained with the early end at success (`end_at_success`): its runs end
-    # there too; else they run to their step limit.
+    # The policy's env ends its episodes at success (the -v0 ids' `end_at_success`): its runs
+    # end there too; else they run to their step limit.
     end_at_success: bool = False
 
 
@@ -136,7 +130,8 @@ def build_policy_diagram(
     mode, include_length = policy_observation(policy)
     action_mode = policy.meta.env_kwargs.get("action_mode", "position_quaternion")
     builder = DiagramBuilder()
-    kwargs = policy.meta.env_kwargs  # the control it learned with, as its env built it
+    env = env_class(policy.meta.env_id)  # the control it learned with, as its env built it
+    kwargs = policy.meta.env_kwargs
     task = add_push_task(
         builder,
         scenario,
@@ -144,9 +139,7 @@ def build_policy_diagram(
         action_mode,
         mode,
         include_length,
-        max_joint_speed=V_MAX if kwargs.get("bound_joint_speed", False) else None,
-        continuous_quaternion=bool(kwargs.get("continuous_quaternion", False)),
-        target_from_observed_state=bool(kwargs.get("target_from_observed_state", False)),
+        behaviour=env.control_behaviour(kwargs),
     )
     action_input = task.control.target.GetInputPort("action")
     if action_input.size() != policy.meta.action_shape[0]:
@@ -171,7 +164,7 @@ def build_policy_diagram(
         task.observation,
         policy_system,
         visualizer,
-        end_at_success=bool(policy.meta.env_kwargs.get("end_at_success", False)),
+        end_at_success=env.ends_at_success(kwargs),
     )
 
 

@@ -20,6 +20,7 @@ from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
 from drake_tooluse.builders.task_gym_env import TaskGymEnv
 from drake_tooluse.builders.visualization import (
     GOAL_RADIUS,
@@ -27,7 +28,6 @@ from drake_tooluse.builders.visualization import (
     save_recording,
     show_task,
 )
-from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.camera import (
     SCENE_CAMERA_POSITION,
@@ -95,55 +95,36 @@ class EnvConfig:
     render_camera_position: tuple = SCENE_CAMERA_POSITION
     render_camera_target: tuple = SCENE_CAMERA_TARGET
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
-    # The earlier protocol: terminate at the first success (default: run to the step limit).
-    end_at_success: bool = False
-    # Bound the joint targets' speed at Baxter's rated joint speeds (`V_MAX`: 1.5 rad/s for the
-    # shoulder and elbow, 4.0 for the wrist): extreme actions then cannot fling the arm through
-    # the table, but the arm is slower than the policies trained without it expect. Off by
-    # default: the env's behaviour stays as it was.
-    bound_joint_speed: bool = False
-    # `position_quaternion`: add the action's change to the tip quaternion taken in the
-    # hemisphere of the initial one, not with Drake's sign, which jumps at this scene's home
-    # orientation (see systems.tip_target). Off by default: the earlier study and the policies
-    # trained with Drake's sign stay reproducible.
-    continuous_quaternion: bool = False
-    # Move the tip target from the arm state the policy observed, as Fetch's mocap moved the
-    # gripper from where the observation saw it. Off, the IK reads the plant's state one plant
-    # step (20 ms) after it (the plant's step runs first at the same time: `ToolTipIKSystem`):
-    # the `position_quaternion` action, which adds its change to the current orientation, then
-    # turns the tip by what it moved in those 20 ms too. Off by default: the earlier study and
-    # the policies trained so stay reproducible.
-    target_from_observed_state: bool = False
 
 
-# Values earlier versions wrote into policy files and run configurations, read as today's.
-LEGACY_VALUES = {
-    "action_mode": {"paper": "position_quaternion"},
-    "observation_mode": {"paper": "gripper_joints"},
+# Options of the -v0 ids that the -v1 envs no longer take: their corrected behaviour is the
+# one behaviour (`builders.control.ControlBehaviour`, the integer control clock, episodes to
+# the step limit). Each with what the -v1 envs do instead.
+RETIRED_OPTIONS = {
+    "end_at_success": "every episode runs to its step limit",
+    "bound_joint_speed": "joint targets always move at most at Baxter's rated speeds",
+    "continuous_quaternion": "the quaternion action is always kept in one hemisphere",
+    "target_from_observed_state": "the target always moves from the observed arm state",
 }
 
 
-def current_kwargs(kwargs: dict) -> dict:
-    """`kwargs` with the names of earlier versions replaced by today's: the modes once named
-    "paper", and `ik_mode`, a keyword with the one value "full" (the exact IK, always on)."""
-    kwargs = dict(kwargs)
-    for key, renamed in LEGACY_VALUES.items():
-        value = kwargs.get(key)
-        if isinstance(value, str) and value in renamed:
-            kwargs[key] = renamed[value]
-    if "ik_mode" in kwargs:
-        if kwargs["ik_mode"] != "full":
+def check_retired(kwargs: dict, env: str) -> None:
+    """A ValueError naming the first option of `RETIRED_OPTIONS` in `kwargs`, and why."""
+    for name, instead in RETIRED_OPTIONS.items():
+        if name in kwargs:
             raise ValueError(
-                f"ik_mode={kwargs['ik_mode']!r} is retired: the env always runs the exact "
-                "tool-tip IK; leave ik_mode out"
+                f"{name}={kwargs[name]!r} is not an option of {env}: {instead} "
+                "(the -v0 ids kept the earlier behaviour)"
             )
-        del kwargs["ik_mode"]
-    return kwargs
 
 
-def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
-    kwargs = current_kwargs(check_mapping(kwargs, name))
-    config = env_config(EnvConfig, kwargs, name, "a drake_tooluse env")
+def _config(kwargs, name: str = "env kwargs", config_class=EnvConfig) -> EnvConfig:
+    """`kwargs` as a `config_class` (the -v1 ids' `EnvConfig`; the -v0 ids' adds their
+    options: `tasks.push.legacy`), names and values checked."""
+    kwargs = dict(check_mapping(kwargs, name))
+    if config_class is EnvConfig:
+        check_retired(kwargs, "the push envs")
+    config = env_config(config_class, kwargs, name, "a drake_tooluse env")
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
@@ -154,10 +135,6 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
     check_bool(config.randomize, "randomize")
-    check_bool(config.end_at_success, "end_at_success")
-    check_bool(config.bound_joint_speed, "bound_joint_speed")
-    check_bool(config.continuous_quaternion, "continuous_quaternion")
-    check_bool(config.target_from_observed_state, "target_from_observed_state")
     if config.tool_length is not None:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
@@ -325,9 +302,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     | id | paper | reward_type | reward |
     | --- | --- | --- | --- |
-    | `drake_tooluse/ToolPush-v0` | Env1 | tool_and_box | −(d(x, x*) + d(x, y)) |
-    | `drake_tooluse/ToolPushBoxReward-v0` | Env2 | box | −d(x, x*) |
-    | `drake_tooluse/ToolPushFar-v0` | Env3 | tool_and_box | −(d(x, x*) + d(x, y)), the goal 0.10 m further (`goal_extra`) |
+    | `drake_tooluse/ToolPush-v1` | Env1 | tool_and_box | −(d(x, x*) + d(x, y)) |
+    | `drake_tooluse/ToolPushBoxReward-v1` | Env2 | box | −d(x, x*) |
+    | `drake_tooluse/ToolPushFar-v1` | Env3 | tool_and_box | −(d(x, x*) + d(x, y)), the goal 0.10 m further (`goal_extra`) |
 
     Success (`info["is_success"]`, every step, for every id): d(x, x*) + d(x, y) ≤ 0.05 m.
 
@@ -336,7 +313,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     The arm starts at the home configuration the robot's IK computes for the tool it believes
     it holds: the tip at (0.62, −0.30) m, 0.10 m above the table's top, pointing down. The
     box starts at (0.70, −0.25) m on the table, yaw 0; the goal is 0.20 m along +y from it
-    (plus `goal_extra`: ToolPushFar-v0's 0.30 m). These are the scenario's (`scenario`;
+    (plus `goal_extra`: ToolPushFar-v1's 0.30 m). These are the scenario's (`scenario`;
     default diagrams/push.yaml's values, a 0.175 m tool).
 
     With `randomize=True`, each reset draws uniformly, from the env's generator seeded by
@@ -353,8 +330,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     - Truncation: at the step limit of every registered id, 100 steps (4 s); episodes run
       to it and are judged where they end, as Gymnasium-Robotics' Fetch envs do — a policy
       must bring the box to the goal and hold it there.
-    - Termination: only with `end_at_success=True` (the earlier protocol), at the first step
-      that succeeds, judged once per control step.
+    - Termination: none; an episode is judged where it ends.
     - A simulation failure (a `RuntimeError` from Drake, or a state no longer finite)
       truncates the episode with `info["sim_error"] = True` and finite values: the last
       finite observation, reward, metrics and physical figures.
@@ -381,10 +357,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | render_camera_position | (1.8, -1.1, 0.6) | `rgb_array`'s camera position (W, m) |
     | render_camera_target | (0.4, -0.1, 0.1) | the point `rgb_array`'s camera looks at (W, m) |
     | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
-    | end_at_success | False | terminate at the first success (Episode End) |
-    | bound_joint_speed | False | joint targets move at most at Baxter's rated speeds (shoulder, elbow 1.5 rad/s; wrist 4.0): slower pushes |
-    | continuous_quaternion | False | `position_quaternion`: the change is added in the initial quaternion's hemisphere (systems.tip_target) |
-    | target_from_observed_state | False | the action moves the tip target from the observed arm state, not the next plant step's (tool_tip_ik) |
 
     ### Info
 
@@ -413,6 +385,17 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     The last eight are the task's physical sanity (`tasks.push.sanity`: the limits and why);
     `drake-tooluse evaluate` counts the episodes with a step past each limit.
+
+    ### Version History
+
+    - v1: every step advances to exactly the next multiple of the control period, counted in
+      integers (docs/CLOCK.md); the joint targets move at most at Baxter's rated joint speeds
+      (shoulder, elbow 1.5 rad/s; wrist 4.0); the `position_quaternion` action is added in the
+      initial quaternion's hemisphere (`systems.tip_target`); the action moves the target from
+      the arm state the policy observed (`systems.tool_tip_ik`); episodes run to the step limit
+      (`builders.control.ControlBehaviour`).
+    - v0: the earlier behaviour (a summed clock, unbounded joint targets, Drake's quaternion
+      sign, the target from the next plant step's state; options for each fix).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
@@ -421,24 +404,38 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
-        config = _config(kwargs, name)
+        config = cls._config(kwargs, name)
         if config.actuation_delay_range is not None:  # its choices depend on the scenario's
             _delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
-        return current_kwargs(kwargs or {})
+        return dict(kwargs or {})
+
+    # The dataclass of the env's keyword arguments (the -v0 ids' adds their options).
+    CONFIG = EnvConfig
 
     @classmethod
-    def ends_at_success(cls, kwargs) -> bool:
-        return _config(kwargs).end_at_success
+    def _config(cls, kwargs, name: str = "env kwargs") -> EnvConfig:
+        return _config(kwargs, name, cls.CONFIG)
+
+    @classmethod
+    def control_behaviour(cls, kwargs) -> ControlBehaviour:
+        """How an action of the env these keyword arguments make reaches the joints: what a
+        deployed diagram of its policies builds (`build_policy_diagram`)."""
+        return cls._behaviour_of(cls._config(kwargs))
+
+    @classmethod
+    def _behaviour_of(cls, config) -> ControlBehaviour:
+        return BEHAVIOUR_V1
 
     @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:
-        config = _config(kwargs)
+        config = cls._config(kwargs)
         n_obs = OBSERVATION_SIZES[config.observation_mode] + int(config.include_tool_length)
         return [n_obs], [ACTION_MODES[config.action_mode]]
 
     def __init__(self, **kwargs):
-        config = _config(kwargs)
+        config = self._config(kwargs)
         self.config = config
+        self._ends_at_success = getattr(config, "end_at_success", False)
         self.scenario = self._base_scenario = _scenario(config)
         self.diagram = None
         self._delays = None
@@ -472,9 +469,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.observation_mode,
             config.include_tool_length,
             config.reward_type,
-            max_joint_speed=V_MAX if config.bound_joint_speed else None,
-            continuous_quaternion=config.continuous_quaternion,
-            target_from_observed_state=config.target_from_observed_state,
+            behaviour=self._behaviour_of(config),
         )
         task.export(builder)
         self.task = task
@@ -537,8 +532,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         """DrakeGymEnv's step, but for three things it cannot do: it would evaluate the
         observation before advancing too (a second evaluation each step, for its failure
         path), it keeps no last finite state (NaN would reach the learner), and it checks no
-        action. With `end_at_success` the episode ends at success, judged once per control
-        step: a simulator monitor would run every plant step and end an episode mid-period.
+        action. Where the env's episodes end at success (the -v0 ids' `end_at_success`), that
+        is judged once per control step: a simulator monitor would run every plant step and
+        end an episode mid-period.
 
         The plant's state is read once: its finiteness check and the observation (the
         `observation` port's, `ToolPushObservation` of the same state and goal) share it."""
@@ -560,7 +556,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             self._last = (observation, m)
             self._sanity = self._sanity_reader.read(self._plant_context, x)
             self._last_reward = reward(m, self.config.reward_type)
-            terminated = self.config.end_at_success and m.is_success
+            terminated = self._ends_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
 
     def render(self):

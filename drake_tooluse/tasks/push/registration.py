@@ -4,12 +4,17 @@ from drake_tooluse.tasks.contract import register_task_envs
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {
-    "drake_tooluse/ToolPush-v0": {"reward_type": "tool_and_box", "goal_extra": 0.0},
-    "drake_tooluse/ToolPushBoxReward-v0": {"reward_type": "box", "goal_extra": 0.0},
-    "drake_tooluse/ToolPushFar-v0": {"reward_type": "tool_and_box", "goal_extra": 0.10},
+    "drake_tooluse/ToolPush-v1": {"reward_type": "tool_and_box", "goal_extra": 0.0},
+    "drake_tooluse/ToolPushBoxReward-v1": {"reward_type": "box", "goal_extra": 0.0},
+    "drake_tooluse/ToolPushFar-v1": {"reward_type": "tool_and_box", "goal_extra": 0.10},
 }
+# The earlier behaviour (`tasks.push.legacy`), kept while policies trained on it are shipped.
+LEGACY_ENV_IDS = {env_id.replace("-v1", "-v0"): kwargs for env_id, kwargs in ENV_IDS.items()}
 
 
 def register_envs() -> None:
-    """Registers the three ids (idempotent); `gym.make` builds them lazily."""
+    """Registers the ids (idempotent); `gym.make` builds them lazily."""
     register_task_envs(ENV_IDS, "drake_tooluse.tasks.push.env:ToolPushEnv", MAX_EPISODE_STEPS)
+    register_task_envs(
+        LEGACY_ENV_IDS, "drake_tooluse.tasks.push.legacy:ToolPushEnvV0", MAX_EPISODE_STEPS
+    )

@@ -1,4 +1,4 @@
-"""drake_tooluse/ToolPull-v0: registered on import, a Gymnasium and an SB3 env, its docstring
+"""drake_tooluse/ToolPull-v1: registered on import, a Gymnasium and an SB3 env, its docstring
 its spec, a hook drawn per episode (or fixed), a success that needs the cube moved, a reward as
 documented, and a scripted pull that succeeds."""
 
@@ -23,7 +23,7 @@ from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import initial_box_pose
 
-ENV_ID = "drake_tooluse/ToolPull-v0"
+ENV_ID = "drake_tooluse/ToolPull-v1"
 FIXED_HOOK = (0.25, 0.05, 90.0)
 
 

@@ -8,7 +8,7 @@ from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.train import train
 from tests.tasks.toy_touch import TINY_PPO
 
-ENV_ID = "drake_tooluse/ToolPull-v0"
+ENV_ID = "drake_tooluse/ToolPull-v1"
 
 
 def test_the_pull_entry_of_the_hyperparameters_resolves():

@@ -28,7 +28,7 @@ def policy_dir(tmp_path_factory):
         "env_kwargs": {"action_mode": "position"},
     }
     train(
-        resolve_config("drake_tooluse/ToolPush-v0", "ppo", 512, 1, 0, overrides=overrides),
+        resolve_config("drake_tooluse/ToolPush-v1", "ppo", 512, 1, 0, overrides=overrides),
         out,
         progress_bar=False,
     )
@@ -44,17 +44,21 @@ def test_policy_system_acts_as_the_policy(policy_dir):
     np.testing.assert_allclose(system.get_output_port().Eval(context), policy.act(obs))
 
 
-@pytest.mark.parametrize("bound_joint_speed", [False, True])
-def test_policy_diagram_matches_the_env_rollout(policy_dir, bound_joint_speed):
-    """The diagram controls the arm as the policy's env did, its speed bound included."""
+@pytest.mark.parametrize(
+    "env_id, kwargs",
+    [("drake_tooluse/ToolPush-v1", {}), ("drake_tooluse/ToolPush-v0", {})],
+)
+def test_policy_diagram_matches_the_env_rollout(policy_dir, env_id, kwargs):
+    """The diagram controls the arm as the policy's env did: -v1's speed bound, -v0's none."""
     policy = load_policy(policy_dir)
-    kwargs = {"action_mode": "position", "bound_joint_speed": bound_joint_speed}
-    policy.meta = dc.replace(policy.meta, env_kwargs={**policy.meta.env_kwargs, **kwargs})
+    kwargs = {"action_mode": "position", **kwargs}
+    env_kwargs = {**policy.meta.env_kwargs, **kwargs}
+    policy.meta = dc.replace(policy.meta, env_id=env_id, env_kwargs=env_kwargs)
     built = build_policy_diagram(Scenario(), policy)
     run = run_policy(built, max_steps=20)
-    env = gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+    env = gym.make(env_id, **kwargs)
     ours, envs = built.control.ik_system.max_joint_speed, env.unwrapped.ik_system.max_joint_speed
-    if bound_joint_speed:
+    if env_id.endswith("-v1"):
         np.testing.assert_allclose(ours, envs)
     else:
         assert ours is None and envs is None
@@ -74,9 +78,9 @@ def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
     other = tmp_path / "other"
     shutil.copytree(policy_dir, other)
     meta = json.loads((other / "policy.json").read_text())
-    meta["env_kwargs"]["action_mode"] = "paper"
+    meta["env_kwargs"]["action_mode"] = "position_quaternion"
     (other / "policy.json").write_text(json.dumps(meta))
-    # Refused where it is loaded: its metadata contradict themselves (3 actions, paper mode).
+    # Refused where it is loaded: its metadata contradict themselves (3 actions, a 7-d mode).
     with pytest.raises(ValueError, match=r"action_shape \[3\] do not fit its env_kwargs"):
         load_policy(other)
 
@@ -96,7 +100,7 @@ def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
         },
     }
     train(
-        resolve_config("drake_tooluse/ToolPush-v0", "ppo", 128, 1, 0, overrides=overrides),
+        resolve_config("drake_tooluse/ToolPush-v1", "ppo", 128, 1, 0, overrides=overrides),
         out,
         progress_bar=False,
     )

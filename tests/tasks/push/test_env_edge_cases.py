@@ -35,6 +35,22 @@ def test_a_step_before_reset_is_refused():
         ({"scenario": 5}, r"scenario=5 must be a Scenario, a YAML file name or None"),
         ({"meshcat": 3}, r"meshcat=3 must be a pydrake.geometry.Meshcat .* or None"),
         ({"meshcat": "localhost:7000"}, r"meshcat='localhost:7000' must be a pydrake"),
+        (
+            {"bound_joint_speed": False},
+            r"bound_joint_speed=False is not an option of the push envs: joint targets always",
+        ),
+        ({"end_at_success": True}, r"end_at_success=True is not .* runs to its step limit"),
+        ({"colour": "red"}, r"unknown argument\(s\) \['colour'\]"),
+    ],
+)
+def test_bad_kwargs_name_the_argument(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        gym.make("drake_tooluse/ToolPush-v1", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
         ({"bound_joint_speed": "on"}, r"bound_joint_speed='on' must be True or False"),
         ({"continuous_quaternion": 1}, r"continuous_quaternion=1 must be True or False"),
         (
@@ -44,7 +60,7 @@ def test_a_step_before_reset_is_refused():
         ({"colour": "red"}, r"unknown argument\(s\) \['colour'\]"),
     ],
 )
-def test_bad_kwargs_name_the_argument(kwargs, message):
+def test_the_v0_ids_options_are_checked(kwargs, message):
     with pytest.raises(ValueError, match=message):
         gym.make("drake_tooluse/ToolPush-v0", **kwargs)
 
@@ -84,7 +100,7 @@ def test_rebuilding_envs_does_not_grow_memory():
     2-3 MB per rebuild before (50+ MB over these 20)."""
 
     def cycle():
-        env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+        env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
         env.reset(seed=0)
         env.step(np.zeros(3))
         env.close()

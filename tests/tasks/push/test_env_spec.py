@@ -34,6 +34,7 @@ SECTIONS = [
     "Episode End",
     "Arguments",
     "Info",
+    "Version History",
 ]
 
 
@@ -127,7 +128,7 @@ def test_a_built_env_has_the_spaces_its_class_gives(
         "observation_mode": observation_mode,
         "include_tool_length": include_tool_length,
     }
-    env = gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+    env = gym.make("drake_tooluse/ToolPush-v1", **kwargs)
     try:
         obs, act = ToolPushEnv.spaces(kwargs)
         assert env.observation_space.shape == tuple(obs)
@@ -158,7 +159,7 @@ def test_the_rewards_name_every_registered_id_with_its_reward_type():
         env_id: kwargs["reward_type"] for env_id, kwargs in ENV_IDS.items()
     }
     assert f"≤ {SUCCESS_DISTANCE:g} m" in SPEC["Rewards"]
-    far = ENV_IDS["drake_tooluse/ToolPushFar-v0"]["goal_extra"]
+    far = ENV_IDS["drake_tooluse/ToolPushFar-v1"]["goal_extra"]
     assert f"the goal {far:.2f} m further" in SPEC["Rewards"]
 
 
@@ -184,7 +185,7 @@ def test_the_episode_end_and_the_starting_state_quote_the_code():
 
 def test_the_info_keys_are_a_steps_info_keys_and_the_flags_quote_their_limits():
     rows = table(SPEC["Info"])
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
     try:
         _, reset_info = env.reset(seed=0)
         info = env.step(np.zeros(3, np.float32))[-1]

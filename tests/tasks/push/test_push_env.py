@@ -23,12 +23,12 @@ def test_registered_ids_pass_gymnasium_and_sb3_checkers(env_id):
 
 
 def test_full_ik_env_passes_the_checker():
-    check_env(gym.make("drake_tooluse/ToolPush-v0").unwrapped, skip_render_check=True)
+    check_env(gym.make("drake_tooluse/ToolPush-v1").unwrapped, skip_render_check=True)
 
 
 @pytest.mark.parametrize("mode, size", [("position_quaternion", 7), ("pose", 6), ("position", 3)])
 def test_action_modes(mode, size):
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode=mode, include_tool_length=True)
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode=mode, include_tool_length=True)
     assert env.action_space.shape == (size,)
     obs, _ = env.reset(seed=1)
     assert obs.shape == (31,) and obs[30] == pytest.approx(0.175)
@@ -48,10 +48,10 @@ def _rollout(env, seed, actions):
 def test_same_seed_same_actions_give_bit_identical_observations():
     actions = np.random.default_rng(0).uniform(-1, 1, (15, 7))
     kwargs = {"randomize": True}
-    a = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
-    b = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 3, actions)
+    a = _rollout(gym.make("drake_tooluse/ToolPush-v1", **kwargs), 3, actions)
+    b = _rollout(gym.make("drake_tooluse/ToolPush-v1", **kwargs), 3, actions)
     np.testing.assert_array_equal(a, b)
-    c = _rollout(gym.make("drake_tooluse/ToolPush-v0", **kwargs), 4, actions)
+    c = _rollout(gym.make("drake_tooluse/ToolPush-v1", **kwargs), 4, actions)
     assert not np.array_equal(a[0], c[0])  # randomized start differs with the seed
 
 
@@ -62,11 +62,11 @@ def test_rewards_of_env1_env2_env3():
         obs, info = env.reset(seed=0)
         goal, box = obs[0:3], obs[3:6]
         _, reward, *_, info = env.step(action)
-        if env_id.endswith("BoxReward-v0"):
+        if "BoxReward" in env_id:
             assert reward == pytest.approx(-info["box_to_goal"])
         else:
             assert reward == pytest.approx(-(info["box_to_goal"] + info["tip_to_box"]))
-        far = env_id.endswith("Far-v0")
+        far = "Far" in env_id
         assert goal[1] - box[1] == pytest.approx(0.30 if far else 0.20)
         assert goal[0] == pytest.approx(box[0]) and goal[2] == pytest.approx(box[2])
 
@@ -94,7 +94,7 @@ def test_scripted_push_reaches_the_goal_and_terminates_in_the_early_end_protocol
 def test_episodes_run_to_the_step_limit_by_default_reporting_success_every_step():
     """The paper's protocol: no early end; `is_success` says, each step, whether the box is
     at the goal now (the scripted push arrives, drifts off and comes back)."""
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
     policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
     obs, _ = env.reset(seed=0)
     successes, terminated, truncated = [], False, False
@@ -123,7 +123,7 @@ def test_scripted_push_works_with_short_and_long_tools(tool_length):
 
 
 def test_nan_action_is_an_error_naming_it():
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     env.reset(seed=0)
     with pytest.raises(ValueError, match="NaN or infinite"):
         env.step(np.array([0, np.nan, 0, 0, 0, 0, 0]))
@@ -132,8 +132,8 @@ def test_nan_action_is_an_error_naming_it():
 
 
 def test_out_of_bounds_actions_are_clipped():
-    a = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
-    b = gym.make("drake_tooluse/ToolPush-v0", action_mode="position")
+    a = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
+    b = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
     a.reset(seed=0)
     b.reset(seed=0)
     np.testing.assert_array_equal(
@@ -149,30 +149,38 @@ def test_out_of_bounds_actions_are_clipped():
             {"action_mode": "joint"},
             r"action_mode='joint' is not allowed; choose one of \['position_quaternion', 'pose', 'position'\]",
         ),
-        (
-            {"ik_mode": "fast"},
-            r"ik_mode='fast' is retired: the env always runs the exact tool-tip IK",
-        ),
-        (
-            {"ik_mode": "differential"},
-            r"ik_mode='differential' is retired",
-        ),
+        ({"ik_mode": "full"}, r"unknown argument\(s\) \['ik_mode'\]"),
         ({"tool_length": 0.9}, r"tool_length=0.9 m is outside the allowed range \(0, 0.6\]"),
     ],
 )
 def test_bad_kwargs_list_what_is_allowed(kwargs, message):
     with pytest.raises((TypeError, ValueError), match=message):
+        gym.make("drake_tooluse/ToolPush-v1", **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        (
+            {"ik_mode": "fast"},
+            r"ik_mode='fast' is retired: the env always runs the exact tool-tip IK",
+        ),
+        ({"ik_mode": "differential"}, r"ik_mode='differential' is retired"),
+    ],
+)
+def test_the_v0_ids_name_what_earlier_policy_files_held(kwargs, message):
+    with pytest.raises(ValueError, match=message):
         gym.make("drake_tooluse/ToolPush-v0", **kwargs)
 
 
 def test_reset_options_are_refused():
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     with pytest.raises(ValueError, match="not supported"):
         env.reset(options={"goal": 1})
 
 
 def test_rgb_array_render_from_the_camera():
-    env = gym.make("drake_tooluse/ToolPush-v0", render_mode="rgb_array")
+    env = gym.make("drake_tooluse/ToolPush-v1", render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
     assert frame.shape == (480, 640, 3) and frame.dtype == np.uint8  # 640 x 480 by default
@@ -182,7 +190,7 @@ def test_rgb_array_render_from_the_camera():
 def test_episode_recorded_to_meshcat_html(tmp_path):
     from drake_tooluse.builders.visualization import start_meshcat
 
-    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=start_meshcat())
+    env = gym.make("drake_tooluse/ToolPush-v1", meshcat=start_meshcat())
     env.reset(seed=0)
     env.unwrapped.start_recording()
     for _ in range(5):
@@ -194,7 +202,7 @@ def test_episode_recorded_to_meshcat_html(tmp_path):
 def _make(rank):
     def thunk():
         # Workers start fresh (forkserver): "module:id" makes Gymnasium import the package.
-        return gym.make("drake_tooluse:drake_tooluse/ToolPush-v0")
+        return gym.make("drake_tooluse:drake_tooluse/ToolPush-v1")
 
     return thunk
 
@@ -221,7 +229,7 @@ def test_tip_observation_is_the_same_for_any_tool():
     observations = {}
     for length in (0.125, 0.175):
         env = gym.make(
-            "drake_tooluse/ToolPush-v0",
+            "drake_tooluse/ToolPush-v1",
             observation_mode="tip",
             action_mode="position",
             tool_length=length,
@@ -240,7 +248,7 @@ def test_tip_observation_is_the_same_for_any_tool():
 
 def test_unknown_observation_mode_is_refused():
     with pytest.raises(ValueError, match="observation_mode='joint'.*gripper_joints.*tip"):
-        gym.make("drake_tooluse/ToolPush-v0", observation_mode="joint")
+        gym.make("drake_tooluse/ToolPush-v1", observation_mode="joint")
 
 
 def test_the_recorded_goal_marker_is_this_episodes_goal():
@@ -249,7 +257,7 @@ def test_the_recorded_goal_marker_is_this_episodes_goal():
     from drake_tooluse.experiments.screenshots import scene_commands
 
     meshcat = start_meshcat()
-    env = gym.make("drake_tooluse/ToolPush-v0", meshcat=meshcat, randomize=True)
+    env = gym.make("drake_tooluse/ToolPush-v1", meshcat=meshcat, randomize=True)
     for seed in (3, 4):
         env.reset(seed=seed)
         moves = [
@@ -265,7 +273,7 @@ def test_a_tool_length_range_draws_each_episodes_tool_from_the_seed():
     """One env, a distribution of tools: each episode's world and belief hold a tool drawn
     from the range with the env's seeded generator; the observation carries its length."""
     env = gym.make(
-        "drake_tooluse/ToolPush-v0",
+        "drake_tooluse/ToolPush-v1",
         action_mode="position",
         observation_mode="tip",
         include_tool_length=True,
@@ -294,7 +302,7 @@ def test_a_tool_length_range_draws_each_episodes_tool_from_the_seed():
 )
 def test_bad_tool_length_ranges_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
-        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+        gym.make("drake_tooluse/ToolPush-v1", **kwargs)
 
 
 def test_an_actuation_delay_range_draws_each_episodes_delay_from_the_seed():
@@ -302,7 +310,7 @@ def test_an_actuation_delay_range_draws_each_episodes_delay_from_the_seed():
     delay drawn from the plant-step multiples in the range, from the env's seeded generator,
     and the arm then answers an action that much later."""
     env = gym.make(
-        "drake_tooluse/ToolPush-v0", action_mode="position", actuation_delay_range=[0, 0.06]
+        "drake_tooluse/ToolPush-v1", action_mode="position", actuation_delay_range=[0, 0.06]
     )
     delays = {}
     for seed in range(8):
@@ -314,7 +322,7 @@ def test_an_actuation_delay_range_draws_each_episodes_delay_from_the_seed():
     env.close()
 
     def tip_after_one_step(**kwargs):
-        env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", **kwargs)
+        env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position", **kwargs)
         obs0, _ = env.reset(seed=0)
         obs, *_ = env.step(np.array([0.0, 1.0, 0.0]))
         env.close()
@@ -336,4 +344,4 @@ def test_an_actuation_delay_range_draws_each_episodes_delay_from_the_seed():
 )
 def test_bad_actuation_delay_ranges_are_refused(kwargs, message):
     with pytest.raises(ValueError, match=message):
-        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
+        gym.make("drake_tooluse/ToolPush-v1", **kwargs)

@@ -8,7 +8,7 @@ from pydrake.math import RotationMatrix
 
 from drake_tooluse.robot.kinematics import fk_jacobian
 from drake_tooluse.systems.tip_target import MAX_QUATERNION_STEP
-from drake_tooluse.tasks.push.env import ToolPushEnv
+from drake_tooluse.tasks.push.legacy import ToolPushEnvV0
 
 STEPS = 25
 
@@ -26,7 +26,7 @@ def target_quaternions(continuous: bool, hold: bool) -> tuple[np.ndarray, list, 
     """The initial target's quaternion, the targets' quaternions and the tip's orientation
     error (rad) over STEPS steps of a push. The position moves towards the box; the quaternion
     part is zero, or (`hold`) the change back to the initial orientation."""
-    env = ToolPushEnv(action_mode="position_quaternion", continuous_quaternion=continuous)
+    env = ToolPushEnvV0(action_mode="position_quaternion", continuous_quaternion=continuous)
     try:
         observation, _ = env.reset(seed=3)
         held = env.target_system.initial_quaternion

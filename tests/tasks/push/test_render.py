@@ -9,7 +9,7 @@ from pydrake.geometry import Meshcat
 import drake_tooluse  # noqa: F401  (registers the ids)
 from drake_tooluse.systems.camera import GOAL_RGB
 
-ENV = "drake_tooluse/ToolPush-v0"
+ENV = "drake_tooluse/ToolPush-v1"
 
 
 @pytest.fixture(scope="module")

@@ -6,13 +6,13 @@ unrestricted update, runs before the IK's discrete update at the same time), so 
 import numpy as np
 import pytest
 
-from drake_tooluse.tasks.push.env import ToolPushEnv
+from drake_tooluse.tasks.push.legacy import ToolPushEnvV0
 
 
 def commanded_vs_observed(observed_state: bool) -> float:
     """How far (m) the target a zero action commands lies from the tip at the observed
     state, on the robot model, with the arm moving."""
-    env = ToolPushEnv(
+    env = ToolPushEnvV0(
         action_mode="position", observation_mode="tip", target_from_observed_state=observed_state
     )
     try:
@@ -40,7 +40,7 @@ def test_a_zero_action_holds_the_target_at_the_observed_tip_only_with_the_option
 def first_motion(observed_state: bool, delay: float) -> float:
     """When (s) the arm first moves after an action fixed at reset, plant step by plant step."""
     kwargs = {} if delay == 0 else {"actuation_delay_range": [delay, delay + 1e-3]}
-    env = ToolPushEnv(action_mode="position", target_from_observed_state=observed_state, **kwargs)
+    env = ToolPushEnvV0(action_mode="position", target_from_observed_state=observed_state, **kwargs)
     try:
         env.reset(seed=0)
         context = env.simulator.get_mutable_context()
