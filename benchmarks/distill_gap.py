@@ -69,18 +69,20 @@ def rollouts(act, env_kwargs: dict, env_id: str, episodes: int, seed: int) -> di
                 action = act(env.unwrapped, observation)
                 observation, _, _, truncated, info = env.step(np.clip(action, -1, 1))
                 reached |= info["is_success"]
-            ends.append((info["is_success"], reached, info["box_to_goal"], info["tip_to_box"]))
+            ends.append(
+                (info["is_success"], reached, info["object_to_goal"], info["tip_to_object"])
+            )
     finally:
         env.close()
     success = np.array([e[0] for e in ends])
     misses = [e for e in ends if not e[0] and e[1]]
     return {
         "success": success.mean(),
-        "box_to_goal": np.mean([e[2] for e in ends]),
+        "object_to_goal": np.mean([e[2] for e in ends]),
         "failures": int((~success).sum()),
         "near_misses": len(misses),
-        "miss_box_to_goal": np.mean([e[2] for e in misses]) if misses else float("nan"),
-        "miss_tip_to_box": np.mean([e[3] for e in misses]) if misses else float("nan"),
+        "miss_object_to_goal": np.mean([e[2] for e in misses]) if misses else float("nan"),
+        "miss_tip_to_object": np.mean([e[3] for e in misses]) if misses else float("nan"),
     }
 
 
@@ -130,8 +132,8 @@ def main() -> int:
             r = rollouts(act, kwargs, student.meta.env_id, args.episodes, args.seed)
             print(
                 f"| {delay * 1000:g} | {who} | {r['success'] * 100:.0f} % | "
-                f"{r['box_to_goal'] * 100:.2f} | {r['failures']} | {r['near_misses']} | "
-                f"{cm(r['miss_box_to_goal'])} | {cm(r['miss_tip_to_box'])} | "
+                f"{r['object_to_goal'] * 100:.2f} | {r['failures']} | {r['near_misses']} | "
+                f"{cm(r['miss_object_to_goal'])} | {cm(r['miss_tip_to_object'])} | "
                 f"{time.perf_counter() - start:.0f} |",
                 flush=True,
             )

@@ -49,15 +49,15 @@ def time_steps(episodes: int) -> list:
                 obs, _, terminated, truncated, info = env.step(policy(obs))
                 if terminated or truncated:
                     break
-            rows.append((terminated, steps, info["box_to_goal"], info["box_travel"]))
+            rows.append((terminated, steps, info["object_to_goal"], info["object_travel"]))
         r = np.array(rows, float)
         out.append(
             {
                 "time_step_s": dt,
                 "success_rate": float(r[:, 0].mean()),
                 "steps_mean": float(r[:, 1].mean()),
-                "final_box_to_goal_mean_m": float(r[:, 2].mean()),
-                "box_travel_mean_m": float(r[:, 3].mean()),
+                "final_object_to_goal_mean_m": float(r[:, 2].mean()),
+                "object_travel_mean_m": float(r[:, 3].mean()),
             }
         )
     return out
@@ -76,8 +76,8 @@ def main() -> None:
     for r in steps:
         print(
             f"| {r['time_step_s'] * 1e3:g} | {r['success_rate'] * 100:.0f} % | "
-            f"{r['steps_mean']:.1f} | {r['final_box_to_goal_mean_m'] * 100:.2f} | "
-            f"{r['box_travel_mean_m'] * 100:.2f} |"
+            f"{r['steps_mean']:.1f} | {r['final_object_to_goal_mean_m'] * 100:.2f} | "
+            f"{r['object_travel_mean_m'] * 100:.2f} |"
         )
     atomic_write_json(
         out,

@@ -1,6 +1,6 @@
 """Physical sanity under extreme actions: the largest penetration of the tool and the gripper into
 the table, box speed and arm joint speed over N steps of the push env, as its `info` reports them
-(`drake_tooluse.tasks.push.sanity`), and how many steps were past each limit.
+(`drake_tooluse.tasks.sanity`), and how many steps were past each limit.
 
     python benchmarks/env_sanity.py [--steps 2000] [--actions extreme|uniform] [--seed 0]
         [--env-id drake_tooluse/ToolPush-v0] [--env-kwargs '{"action_mode": "pose"}'] [--json]

@@ -274,12 +274,12 @@ def study(args) -> None:
                     dxy = p_WBox_xy - nominal_box[:2]
                     replay = shifted(kept, dxy) if v.box_frame else kept
                     run = run_open_loop(scenario, replay, belief)
-                    moved = run.box_path[-1] - run.box_path[0]
+                    moved = run.object_path[-1] - run.object_path[0]
                     runs[world].append(
                         {
                             "success": bool(run.success),
-                            "box_travel_m": float(run.box_travel),
-                            "final_box_to_goal_m": float(run.final_box_to_goal),
+                            "object_travel_m": float(run.object_travel),
+                            "final_object_to_goal_m": float(run.final_object_to_goal),
                             "box_dx_m": float(moved[0]),  # across the push (+y)
                             "sim_error": bool(run.sim_error),
                         }
@@ -299,9 +299,9 @@ def study(args) -> None:
                 row[world] = {
                     "at_goal": sum(r["success"] for r in rs),
                     "runs": len(rs),
-                    "box_travel_mean_m": float(np.mean([r["box_travel_m"] for r in rs])),
-                    "final_box_to_goal_mean_m": float(
-                        np.mean([r["final_box_to_goal_m"] for r in rs])
+                    "object_travel_mean_m": float(np.mean([r["object_travel_m"] for r in rs])),
+                    "final_object_to_goal_mean_m": float(
+                        np.mean([r["final_object_to_goal_m"] for r in rs])
                     ),
                     "box_across_mean_abs_m": float(np.mean([abs(r["box_dx_m"]) for r in rs])),
                     "per_run": rs,
@@ -311,8 +311,8 @@ def study(args) -> None:
             print(
                 f"{row['row']} {tool} m (tilt {tilt_deg}°, joints at a limit: "
                 f"{', '.join(row['joints_at_limit']) or 'none'}): at the goal {n['at_goal']}/{n['runs']} nominal, "
-                f"{r['at_goal']}/{r['runs']} reality; travel {n['box_travel_mean_m'] * 100:.1f}"
-                f" / {r['box_travel_mean_m'] * 100:.1f} cm",
+                f"{r['at_goal']}/{r['runs']} reality; travel {n['object_travel_mean_m'] * 100:.1f}"
+                f" / {r['object_travel_mean_m'] * 100:.1f} cm",
                 flush=True,
             )
     atomic_write_json(
@@ -348,13 +348,15 @@ def study(args) -> None:
     for row in rows:
         n, r = row["nominal"], row["reality"]
         pair = [
-            x["reality"]["box_travel_mean_m"]
+            x["reality"]["object_travel_mean_m"]
             for x in rows
             if x["row"] == row["row"] and x["tool_length_m"] in PAPER_TOOL_LENGTHS
         ]
         differ = f"{(max(pair) - min(pair)) * 100:.2f}" if len(pair) == 2 else "—"
-        nominal_travel = n["box_travel_mean_m"]
-        ratio = f"{r['box_travel_mean_m'] / nominal_travel * 100:.0f} %" if nominal_travel else "—"
+        nominal_travel = n["object_travel_mean_m"]
+        ratio = (
+            f"{r['object_travel_mean_m'] / nominal_travel * 100:.0f} %" if nominal_travel else "—"
+        )
         label = row["row"]
         if row["tilt_deg"] and not label.startswith(f"{row['variant']} at"):  # the tilt it chose
             label += f" ({row['tilt_deg']}°)"
@@ -365,9 +367,9 @@ def study(args) -> None:
             label += " (the IK jumps)"
         print(
             f"| {label} | {row['tool_length_m']:.3f} | {n['at_goal']} / {r['at_goal']} of "
-            f"{r['runs']} | {n['box_travel_mean_m'] * 100:.1f} / {r['box_travel_mean_m'] * 100:.1f}"
+            f"{r['runs']} | {n['object_travel_mean_m'] * 100:.1f} / {r['object_travel_mean_m'] * 100:.1f}"
             f" | {ratio} | "
-            f"{r['final_box_to_goal_mean_m'] * 100:.1f} | {r['box_across_mean_abs_m'] * 100:.1f} | "
+            f"{r['final_object_to_goal_mean_m'] * 100:.1f} | {r['box_across_mean_abs_m'] * 100:.1f} | "
             f"{differ} |"
         )
     print(f"\nwrote {args.out} ({(time.perf_counter() - start) / 60:.1f} min)")

@@ -75,7 +75,7 @@ def measure(policy: Path, args) -> dict:
     sim = evaluate(policy, episodes=args.episodes, seed=args.seed, env_kwargs=PAPER_TASK)
     real = run_transfer(policy, tools=args.tools, runs=args.runs, seed=args.reality_seed, log=quiet)
     reality = [t["reality"]["success_rate"] for t in real["tools"]]  # in the order of --tools
-    distance = sim.metrics["final_box_to_goal_mean_m"]
+    distance = sim.metrics["final_object_to_goal_mean_m"]
     return {
         "distance": distance,
         "success": sim.success_rate,

@@ -122,7 +122,7 @@ def main() -> None:
             "evaluation": metrics,
         },
     )
-    # The task's headline figure's mean (final_box_to_goal_mean_m, final_object_to_goal_…).
+    # The task's headline figure's mean (final_object_to_goal_mean_m, final_object_to_goal_…).
     mean_key = next(iter(episode_metrics(meta["env_id"])[0].summary([0.0])))
     print(
         f"shipped {source} -> {target}: {mean_key} "

@@ -125,9 +125,9 @@ def table(results: dict) -> str:
             lines.append(
                 f"| {name} | {mode} | {t['tool_length_m']:.3f} | "
                 f"{t['measured_length_mean_m'] * 1000:.2f} ± {t['measured_length_std_m'] * 1000:.2f}"
-                f" | {n['box_travel_mean_m'] * 100:.1f} ± {n['box_travel_std_m'] * 100:.1f} | "
-                f"{re_['box_travel_mean_m'] * 100:.1f} ± {re_['box_travel_std_m'] * 100:.1f} | "
-                f"{ratio} | {re_['final_box_to_goal_mean_m'] * 100:.1f} | "
+                f" | {n['object_travel_mean_m'] * 100:.1f} ± {n['object_travel_std_m'] * 100:.1f} | "
+                f"{re_['object_travel_mean_m'] * 100:.1f} ± {re_['object_travel_std_m'] * 100:.1f} | "
+                f"{ratio} | {re_['final_object_to_goal_mean_m'] * 100:.1f} | "
                 f"{n['success_rate'] * 100:.0f} % / {re_['success_rate'] * 100:.0f} % | "
                 f"{'–' if diff is None else f'{diff * 100:.2f}'} |"
             )

@@ -144,9 +144,10 @@ def test_no_import_cycle():
 
 
 def _is_task(module: str) -> bool:
-    """A module of a task package (`drake_tooluse.tasks.<task>…`), not the task contract."""
+    """A module of a task package (`drake_tooluse.tasks.<task>…`, a subpackage), not one of
+    what every task shares (`tasks.contract`, `tasks.sanity`: modules of `tasks` itself)."""
     parts = module.split(".")
-    return len(parts) >= 3 and parts[1] == "tasks" and parts[2] != "contract"
+    return len(parts) >= 3 and parts[1] == "tasks" and (PACKAGE / "tasks" / parts[2]).is_dir()
 
 
 # Layers that may import a task: the experiments, the command line, the tasks themselves and

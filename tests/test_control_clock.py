@@ -9,6 +9,7 @@ import pytest
 import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import PULL_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.tasks import rollout
 from drake_tooluse.tasks.pull import run as pull_run
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 from drake_tooluse.tasks.push import diagram as push_diagram
@@ -138,8 +139,8 @@ def test_every_step_of_the_deployed_push_diagram_is_on_the_grid(monkeypatch):
     built = push_diagram.build_policy_diagram(scenario, load_policy(TRANSFER_POLICY))
     counter = SolveCounter()
     counter.wrap(built.control.ik_system.ik)
-    recorder = _AdvanceRecorder(push_diagram.advance, scenario.control.control_period, counter)
-    monkeypatch.setattr(push_diagram, "advance", recorder)
+    recorder = _AdvanceRecorder(rollout.advance, scenario.control.control_period, counter)
+    monkeypatch.setattr(rollout, "advance", recorder)
     run = push_diagram.run_push(built.diagram, built.world, built.control, STEPS, False)
     assert run.steps == recorder.k == STEPS and not run.sim_error
 
@@ -155,7 +156,7 @@ def test_every_step_of_the_deployed_pull_diagram_is_on_the_grid(monkeypatch):
         return task
 
     monkeypatch.setattr(pull_run, "add_pull_task", counted_task)
-    recorder = _AdvanceRecorder(pull_run.advance, scenario.control.control_period, counter)
-    monkeypatch.setattr(pull_run, "advance", recorder)
+    recorder = _AdvanceRecorder(rollout.advance, scenario.control.control_period, counter)
+    monkeypatch.setattr(rollout, "advance", recorder)
     run = pull_run.run_pull(scenario, ScriptedPull(scenario.table.top_z), max_steps=STEPS)
     assert run.steps == recorder.k == STEPS and not run.sim_error

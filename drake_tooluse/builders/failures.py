@@ -53,3 +53,21 @@ def finite_state_vector(plant, plant_context) -> np.ndarray | None:
     # A finite dot product proves every value finite in one C call (`all_finite`'s sum goes
     # through numpy's Python code); only where it is not does `all_finite` decide.
     return x if math.isfinite(x.dot(x)) or all_finite(x) else None
+
+
+# m/s: the arm moves the tool's target at most 0.5 m/s; an object faster than this between two
+# control steps was flung by a contact solve that diverged (forced steep tool tilts do it), and
+# its "travel" would be metres of nonsense. Every task's env and deployed run end there.
+MAX_OBJECT_SPEED = 5.0
+
+
+def object_diverged(p_before, p_after, period: float, step: int) -> str | None:
+    """The failure's message where the object moved from `p_before` to `p_after` (W, m) in one
+    control `period` (s) faster than MAX_OBJECT_SPEED, else None."""
+    speed = math.dist(p_before, p_after) / period
+    if speed <= MAX_OBJECT_SPEED:
+        return None
+    return (
+        f"the object flew off at {speed:.1f} m/s at step {step} (more than "
+        f"{MAX_OBJECT_SPEED:g} m/s, which the arm never moves it): the simulation diverged"
+    )

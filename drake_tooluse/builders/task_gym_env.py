@@ -18,7 +18,7 @@ import numpy as np
 from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import SimulatorStatus
 
-from drake_tooluse.builders.failures import advance, finite_state_vector
+from drake_tooluse.builders.failures import advance, finite_state_vector, object_diverged
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_target import check_action
 from drake_tooluse.validation import check_seed
@@ -67,9 +67,9 @@ class CountedClockGymEnv(DrakeGymEnv):
 
     def _next_step_time(self) -> float:
         """The time the next step ends at (the step is counted)."""
+        self._steps_done += 1
         if self.DRIFTING_CLOCK:
             return self.simulator.get_context().get_time() + self.time_step
-        self._steps_done += 1
         return self._steps_done * self.time_step
 
     def step(self, action):
@@ -149,6 +149,7 @@ class TaskGymEnv(CountedClockGymEnv):
         start = initial_box_pose(s).translation()
         goal = start + np.asarray(s.goal_offset, float)
         self.task.set_episode(context, goal, start)
+        self._object_position = start.tolist()
         self._episode = {
             "goal": goal,
             "start": start,
@@ -173,7 +174,8 @@ class TaskGymEnv(CountedClockGymEnv):
     def _advance(self, action, action_mode: str):
         """Checks `action` (of `action_mode`), fixes it on the `action` input and advances one
         control period. Returns the plant's state vector, or None where the simulation failed
-        (Drake raised, or the state is no longer finite: `builders.failures`)."""
+        (Drake raised, the state is no longer finite, or the object flew off:
+        `builders.failures`)."""
         self._check_open()
         if self._last is None:
             raise gym.error.ResetNeeded("call reset() before step()")
@@ -193,7 +195,14 @@ class TaskGymEnv(CountedClockGymEnv):
             vector.SetFromVector(action)
         if advance(self.simulator, self._next_step_time()) is not None:
             return None
-        return finite_state_vector(self.world.plant, self._plant_context)
+        x = finite_state_vector(self.world.plant, self._plant_context)
+        if x is None:
+            return None
+        p_object = self.world.box.EvalPoseInWorld(self._plant_context).translation().tolist()
+        before, self._object_position = self._object_position, p_object
+        if object_diverged(before, p_object, self.time_step, self._steps_done) is not None:
+            return None
+        return x
 
     def close(self) -> None:
         """Frees the diagram (pydrake would keep its Python systems, and with them the whole

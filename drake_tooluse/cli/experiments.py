@@ -366,7 +366,7 @@ def cmd_record_video(args) -> dict:
 
 
 def format_record_video(out: dict) -> str:
-    box = out.get("final_box_to_goal_m")
+    box = out.get("final_object_to_goal_m")
     where = "" if box is None else f", the box {box * 100:.1f} cm from the goal at the end"
     return (
         f"{out['video']}: {out['frames']} frames of {out['size_px'][0]} x {out['size_px'][1]} px "

@@ -341,7 +341,7 @@ def format_flagged(out: dict) -> str:
 
 def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
-    if "final_box_to_goal_mean_m" not in out:  # another task: its figures as they are
+    if "final_object_to_goal_mean_m" not in out:  # another task: its figures as they are
         skip = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
         skip += ("flagged_episodes",)
         figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
@@ -351,10 +351,10 @@ def format_evaluate(out: dict) -> str:
         )
     return (
         f"{out['episodes']} episodes from seed {out['seed']}{ends}: final box-goal distance "
-        f"mean {out['final_box_to_goal_mean_m'] * 100:.2f} cm, median "
-        f"{out['final_box_to_goal_median_m'] * 100:.2f} cm, std "
-        f"{out['final_box_to_goal_std_m'] * 100:.2f} cm; success "
-        f"{out['success_rate'] * 100:.0f} %; box travel {out['box_travel_mean_m'] * 100:.1f}"
+        f"mean {out['final_object_to_goal_mean_m'] * 100:.2f} cm, median "
+        f"{out['final_object_to_goal_median_m'] * 100:.2f} cm, std "
+        f"{out['final_object_to_goal_std_m'] * 100:.2f} cm; success "
+        f"{out['success_rate'] * 100:.0f} %; box travel {out['object_travel_mean_m'] * 100:.1f}"
         f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
         f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
         f"{out['gripper_touched_rate'] * 100:.0f} %"

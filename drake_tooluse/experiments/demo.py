@@ -88,7 +88,7 @@ def tool_crop(shape, view, aspect: float = 4 / 3) -> tuple[slice, slice]:
 
 def _plot_top(ax, run, scenario) -> None:
     """Tool tip and box seen from above, with the box's start and the goal."""
-    tip, box = run.tip_path, run.box_path
+    tip, box = run.tip_path, run.object_path
     goal = goal_position(scenario)
     start = initial_box_pose(scenario).translation()
     ax.plot(tip[:, 1], tip[:, 0], color="tab:red", lw=1.5, label="tool tip")
@@ -118,7 +118,7 @@ def _plot_time(ax, run, scenario) -> None:
     )
     ax.plot(
         t,
-        np.linalg.norm(run.box_path[:, :2] - start[:2], axis=1),
+        np.linalg.norm(run.object_path[:, :2] - start[:2], axis=1),
         color="tab:brown",
         label="box travel",
     )
@@ -305,8 +305,8 @@ def push_text(push: dict) -> str:
     arrived = "never at the goal" if first is None else f"first at the goal at step {first}"
     end = "at the goal" if push["success"] else "not at the goal"
     return (
-        f"box {end} after {push['steps']} steps, {push['final_box_to_goal_m'] * 100:.1f} cm "
-        f"from it ({arrived}); it moved {push['box_travel_m'] * 100:.1f} cm"
+        f"box {end} after {push['steps']} steps, {push['final_object_to_goal_m'] * 100:.1f} cm "
+        f"from it ({arrived}); it moved {push['object_travel_m'] * 100:.1f} cm"
     )
 
 

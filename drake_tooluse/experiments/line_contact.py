@@ -277,7 +277,7 @@ def nominal_replays(trajectory, tool: float, scenario: Scenario, draws: int, see
         replay = shifted(trajectory, initial_box_pose(world).translation()[:2] - p_WB[:2])
         push = run_open_loop(world, replay, RobotBelief(tool, (0.0, world.tool.grasp_offset_along)))
         at_goal += push.success and not push.sim_error
-        distances.append(push.final_box_to_goal)
+        distances.append(push.final_object_to_goal)
     return at_goal, float(np.mean(distances))
 
 

@@ -336,11 +336,13 @@ def run_one(study: Study, cell: str, seed: int, results: dict) -> dict:
             return {**result, command_key: shlex.join(cmd), "error": error}  # done stays
         e = json.loads(finished.stdout)
         episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
-        e["per_episode"] = {k: [r[k] for r in episodes] for k in ("final_box_to_goal_m", "success")}
+        e["per_episode"] = {
+            k: [r[k] for r in episodes] for k in ("final_object_to_goal_m", "success")
+        }
         result[command_key], result[key] = shlex.join(cmd), e
         log(
             f"{cell} seed {seed} ({key}): final box-goal mean "
-            f"{e['final_box_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f}"
+            f"{e['final_object_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f}"
             f" %, {summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min"
         )
     return result

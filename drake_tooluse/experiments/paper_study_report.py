@@ -68,7 +68,7 @@ def interval_estimates(entries: dict, evaluation: str = "evaluate_best") -> dict
             "the study's statistics need rliable: install the bench extra (pip install '.[bench]')"
         ) from None
     runs = [e[evaluation]["per_episode"] for e in entries.values()]
-    distance = np.array([[np.mean(r["final_box_to_goal_m"]) * 100] for r in runs])  # (seeds, 1)
+    distance = np.array([[np.mean(r["final_object_to_goal_m"]) * 100] for r in runs])  # (seeds, 1)
     success = np.array([[np.mean(r["success"]) * 100] for r in runs])
 
     def estimates(scores, aggregates):
@@ -144,7 +144,7 @@ def study_table(results: dict, cells: dict) -> str:
         stats = cell_stats(results, cell)
         evals = [e["evaluate_best"] for e in done.values()]
         per_seed = ", ".join(
-            f"s{s}: {e['evaluate_best']['final_box_to_goal_mean_m'] * 100:.2f} / "
+            f"s{s}: {e['evaluate_best']['final_object_to_goal_mean_m'] * 100:.2f} / "
             f"{e['evaluate_best']['success_rate'] * 100:.0f} %"
             for s, e in sorted(done.items())
         )
@@ -153,7 +153,7 @@ def study_table(results: dict, cells: dict) -> str:
         lines.append(
             head + f" {steps} | {wall:.0f} | {_ci(stats['distance_cm'], 'mean', 2)} | "
             f"{_ci(stats['distance_cm'], 'iqm', 2)} | {_ci(stats['success_pct'], 'mean', 0)} | "
-            f"{per_seed} | {np.mean([e['box_travel_mean_m'] for e in evals]) * 100:.1f} | "
+            f"{per_seed} | {np.mean([e['object_travel_mean_m'] for e in evals]) * 100:.1f} | "
             f"{np.mean([e['tool_touched_rate'] for e in evals]) * 100:.0f} % / "
             f"{np.mean([e['gripper_touched_rate'] for e in evals]) * 100:.0f} % | "
             f"{_at_limit(results, cell)} | {paper} |"
@@ -207,9 +207,9 @@ def earlier_runs(path: Path) -> str:
     for name, r in json.loads(path.read_text()).items():
         e, t = r["evaluate_best"], r["train"]
         lines.append(
-            f"| {name} | {t['timesteps']} | {e['final_box_to_goal_mean_m'] * 100:.2f} / "
-            f"{e['final_box_to_goal_median_m'] * 100:.2f} | {e['success_rate'] * 100:.0f} % | "
-            f"{e['box_travel_mean_m'] * 100:.1f} | {e['tool_touched_rate'] * 100:.0f} % / "
+            f"| {name} | {t['timesteps']} | {e['final_object_to_goal_mean_m'] * 100:.2f} / "
+            f"{e['final_object_to_goal_median_m'] * 100:.2f} | {e['success_rate'] * 100:.0f} % | "
+            f"{e['object_travel_mean_m'] * 100:.1f} | {e['tool_touched_rate'] * 100:.0f} % / "
             f"{e['gripper_touched_rate'] * 100:.0f} % |"
         )
     return "\n".join(lines) + "\n"
@@ -462,7 +462,7 @@ def env2_paragraph(results: dict) -> str:
     if not done:
         return ""
     seeds = [
-        f"s{s}: {e['evaluate_best']['final_box_to_goal_mean_m'] * 100:.2f} cm, tool "
+        f"s{s}: {e['evaluate_best']['final_object_to_goal_mean_m'] * 100:.2f} cm, tool "
         f"{e['evaluate_best']['tool_touched_rate'] * 100:.0f} % / gripper "
         f"{e['evaluate_best']['gripper_touched_rate'] * 100:.0f} % of episodes"
         for s, e in sorted(done.items())

@@ -212,7 +212,7 @@ class PushTipPolicy:
 
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
         push = run_closed_loop(scenario, self.policy, belief, recording_path)
-        return Outcome(push.success, push.final_box_to_goal, push.error)
+        return Outcome(push.success, push.final_object_to_goal, push.error)
 
 
 def run_recorded_pull(

@@ -155,7 +155,7 @@ class _PoseRecorder:
             plant_context = u.world.plant.GetMyContextFromRoot(u.simulator.get_context())
             self.p_WB = u.world.box.EvalPoseInWorld(plant_context).translation().copy()
         self.rows.append(_pose_row(self.env))
-        if step > 0 and self.contact is None and info["tool_touches_box"]:
+        if step > 0 and self.contact is None and info["tool_touches_object"]:
             self.contact = len(self.rows) - 1
 
 

@@ -170,8 +170,8 @@ def _stats(runs: list[TransferRun]) -> dict:
     """Travel and distance over the runs that completed; success over all (a failed run is
     not a success); the failures counted."""
     done = [r for r in runs if not r.failed]
-    travel = np.array([r.push.box_travel for r in done])
-    final = np.array([r.push.final_box_to_goal for r in done])
+    travel = np.array([r.push.object_travel for r in done])
+    final = np.array([r.push.final_object_to_goal for r in done])
 
     def stat(values, f):
         return float(f(values)) if len(values) else None
@@ -181,10 +181,10 @@ def _stats(runs: list[TransferRun]) -> dict:
         "completed_runs": len(done),
         "failed_runs": len(runs) - len(done),
         "sim_errors": sum(r.push is not None and r.push.sim_error for r in runs),
-        "box_travel_mean_m": stat(travel, np.mean),
-        "box_travel_std_m": stat(travel, np.std),
-        "final_box_to_goal_mean_m": stat(final, np.mean),
-        "final_box_to_goal_std_m": stat(final, np.std),
+        "object_travel_mean_m": stat(travel, np.mean),
+        "object_travel_std_m": stat(travel, np.std),
+        "final_object_to_goal_mean_m": stat(final, np.mean),
+        "final_object_to_goal_std_m": stat(final, np.std),
         "success_rate": float(np.mean([r.push is not None and r.push.success for r in runs])),
         "per_run": [r.as_dict() for r in runs],
     }
@@ -202,7 +202,7 @@ def attempt(run, *args, **kwargs) -> tuple[object, str | None]:
 def _travel_text(run: TransferRun) -> str:
     if run.push is None:
         return "failed"
-    return f"{run.push.box_travel * 100:.1f} cm" + (" (sim error)" if run.push.sim_error else "")
+    return f"{run.push.object_travel * 100:.1f} cm" + (" (sim error)" if run.push.sim_error else "")
 
 
 def check_same_task(nominal: Scenario, reality: Scenario) -> None:
@@ -364,8 +364,8 @@ def run_transfer(
             ),
             **{w: _stats(results[w]) for w in WORLDS},
         }
-        nominal_travel = entry["nominal"]["box_travel_mean_m"]
-        reality_travel = entry["reality"]["box_travel_mean_m"]
+        nominal_travel = entry["nominal"]["object_travel_mean_m"]
+        reality_travel = entry["reality"]["object_travel_mean_m"]
         entry["travel_ratio"] = (
             reality_travel / nominal_travel
             if nominal_travel is not None and reality_travel is not None and nominal_travel > 0
@@ -373,7 +373,7 @@ def run_transfer(
         )
         per_tool.append(entry)
     ratios = [t["travel_ratio"] for t in per_tool]
-    travels = [t["reality"]["box_travel_mean_m"] for t in per_tool]
+    travels = [t["reality"]["object_travel_mean_m"] for t in per_tool]
     difference = (
         float(max(travels) - min(travels)) if len(travels) > 1 and None not in travels else None
     )
@@ -425,7 +425,7 @@ def transfer_figure(result: dict) -> Figure:
     for i, tool in enumerate(result["tools"]):
         marker, hatch = TOOL_MARKERS[i % len(TOOL_MARKERS)], TOOL_HATCHES[i % len(TOOL_HATCHES)]
         for j, (world, color) in enumerate(WORLD_COLORS.items()):
-            values = [r["box_travel_m"] * 100 for r in tool[world]["per_run"] if not r["failed"]]
+            values = [r["object_travel_m"] * 100 for r in tool[world]["per_run"] if not r["failed"]]
             x = 3 * i + j
             if len(values) >= MIN_RUNS_FOR_BOXES:
                 parts = ax.boxplot(
@@ -677,15 +677,15 @@ def format_transfer(out: dict) -> str:
         failed = n["failed_runs"] + r["failed_runs"]
         lines.append(
             f"  tool {t['tool_length_m'] * 1000:.0f} mm (camera {measured}): box travel nominal "
-            f"{spread(n['box_travel_mean_m'], n['box_travel_std_m'], done['nominal'])}, reality "
-            f"{spread(r['box_travel_mean_m'], r['box_travel_std_m'], done['reality'])} "
+            f"{spread(n['object_travel_mean_m'], n['object_travel_std_m'], done['nominal'])}, reality "
+            f"{spread(r['object_travel_mean_m'], r['object_travel_std_m'], done['reality'])} "
             f"({ratio} of nominal){tilt}"
             + (f"; {failed} run(s) failed (see per_run errors)" if failed else "")
         )
         lines.append(
             f"    box at the goal (the env's success) in {n['success_rate'] * 100:.0f} % of "
             f"nominal and {r['success_rate'] * 100:.0f} % of reality runs; final box-goal "
-            f"distance in reality {cm(r['final_box_to_goal_mean_m'])}"
+            f"distance in reality {cm(r['final_object_to_goal_mean_m'])}"
         )
     g = out["goals"]
     lines.append("  the experiment's criteria (the skill transfers; not the box at the goal):")

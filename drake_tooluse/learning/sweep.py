@@ -573,7 +573,7 @@ def _check_same_run(run_dir: Path, config) -> None:
 
 def _headline(row: dict) -> str:
     """The task's headline metric of a finished cell, lengths (`_m`) in cm."""
-    key = row.get("headline", "final_box_to_goal_mean_m")  # rows written before it was named
+    key = row.get("headline", "final_object_to_goal_mean_m")  # rows written before it was named
     value = row["evaluation"][key]
     if key.endswith("_m"):
         return f"{key[:-2]} {value * 100:.2f} cm"

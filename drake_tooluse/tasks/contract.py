@@ -78,8 +78,8 @@ def env_class(env_id: str) -> type[TaskEnv]:
 class EpisodeMetric:
     """One figure of an episode, read from its last step's `info[info_key]`.
 
-    A number with a unit suffix (`name` "final_box_to_goal_m") is summarized over episodes as
-    mean, median and std ("final_box_to_goal_mean_m", …) or as its mean alone (`mean_only`);
+    A number with a unit suffix (`name` "final_object_to_goal_m") is summarized over episodes as
+    mean, median and std ("final_object_to_goal_mean_m", …) or as its mean alone (`mean_only`);
     a flag (`flag`) as the rate of episodes it was true in ("tool_touched_rate")."""
 
     name: str

@@ -18,7 +18,7 @@ def test_an_episode_becomes_a_gif(capsys, tmp_path):
     # The shipped tip policy runs to the 100-step limit: a frame at steps 0, 25, 50, 75, 100.
     assert result["steps"] == 100 and result["frames"] == 5 and result["size_px"] == [64, 48]
     assert result["fps"] == 1.0 and result["bytes"] == out.stat().st_size
-    assert 0 <= result["final_box_to_goal_m"] < 1
+    assert 0 <= result["final_object_to_goal_m"] < 1
     with Image.open(out) as gif:
         assert gif.format == "GIF" and gif.size == (64, 48) and gif.n_frames == 5
         gif.seek(4)

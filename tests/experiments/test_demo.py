@@ -25,7 +25,7 @@ def test_demo_end_to_end(tmp_path, capsys, monkeypatch):
         "box_mass_scale",
     }
     push = metrics["push"]
-    assert 1 <= push["steps"] <= 100 and push["final_box_to_goal_m"] >= 0
+    assert 1 <= push["steps"] <= 100 and push["final_object_to_goal_m"] >= 0
     html = (out / "recording.html").read_text()
     assert "meshcat" in html.lower() and len(html) > 100_000  # the scene and its animation
     for name in (

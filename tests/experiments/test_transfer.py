@@ -109,8 +109,8 @@ def test_transfer_closed_loop_json(tmp_path, capsys, monkeypatch):
     for world in ("nominal", "reality"):
         (run,) = tool[world]["per_run"]
         assert run["world"] == world and run["seed"] == 0
-        assert 0.0 <= run["box_travel_m"] < 0.5 and run["final_box_to_goal_m"] >= 0.0
-        assert tool[world]["box_travel_mean_m"] == run["box_travel_m"]
+        assert 0.0 <= run["object_travel_m"] < 0.5 and run["final_object_to_goal_m"] >= 0.0
+        assert tool[world]["object_travel_mean_m"] == run["object_travel_m"]
     assert tool["nominal"]["per_run"][0]["believed_length_m"] == 0.15
     assert tool["reality"]["per_run"][0]["believed_length_m"] == tool["measured_length_mean_m"]
     # The camera's grasp estimate is in the robot's model, within a millimetre of the truth.
@@ -154,7 +154,7 @@ def test_transfer_open_loop_replays_a_trajectory_file(tmp_path):
     (tool,) = result["tools"]
     for world in ("nominal", "reality"):
         assert tool[world]["per_run"][0]["steps"] == int(np.ceil((1.96 + 1.0) / 0.04))
-    assert tool["nominal"]["box_travel_mean_m"] > 0.02  # the scripted sweep hit the box
+    assert tool["nominal"]["object_travel_mean_m"] > 0.02  # the scripted sweep hit the box
 
 
 @pytest.mark.parametrize(
@@ -262,15 +262,15 @@ def _fake_result(runs: int, tools=(0.15, 0.3)) -> dict:
 
     def world(travel):
         per_run = [
-            {"box_travel_m": travel + 0.002 * rng.standard_normal(), "failed": False}
+            {"object_travel_m": travel + 0.002 * rng.standard_normal(), "failed": False}
             for _ in range(runs)
         ]
-        values = [r["box_travel_m"] for r in per_run]
+        values = [r["object_travel_m"] for r in per_run]
         return {
             "per_run": per_run,
-            "box_travel_mean_m": float(np.mean(values)),
-            "box_travel_std_m": float(np.std(values)),
-            "final_box_to_goal_mean_m": 0.05,
+            "object_travel_mean_m": float(np.mean(values)),
+            "object_travel_std_m": float(np.std(values)),
+            "final_object_to_goal_mean_m": 0.05,
             "success_rate": 0.0,
             "failed_runs": 0,
         }
@@ -384,7 +384,9 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
     for world in ("nominal", "reality"):
         again, first = from_file["tools"][0][world], result["tools"][0][world]
         assert again["per_run"][0]["believed_box_xy_m"] == first["per_run"][0]["believed_box_xy_m"]
-        assert again["box_travel_mean_m"] == pytest.approx(first["box_travel_mean_m"], abs=1e-9)
+        assert again["object_travel_mean_m"] == pytest.approx(
+            first["object_travel_mean_m"], abs=1e-9
+        )
     # The paper's own: one trajectory for every tool, replayed as it is, of where the tip got.
     paper = transfer_experiment(
         tmp_path / "p", TRANSFER_POLICY, tools=[0.15], runs=1, mode="open-loop", episodes=1,

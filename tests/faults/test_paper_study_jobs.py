@@ -68,7 +68,7 @@ def started(monkeypatch) -> list[subprocess.Popen]:
 
 
 def _evaluated(summary: dict) -> dict:
-    episodes = {"per_episode": {"final_box_to_goal_m": [0.01], "success": [True]}}
+    episodes = {"per_episode": {"final_object_to_goal_m": [0.01], "success": [True]}}
     return {"train": summary, "evaluate_best": episodes, "evaluate_best_time_limit": episodes}
 
 

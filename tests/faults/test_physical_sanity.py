@@ -1,6 +1,6 @@
 """Physical sanity as data: the push env reports, every step, how far the tool and the gripper
 are inside the table, the box's speed and the fastest arm joint's, and flags what is past the
-task's limits (`tasks.push.sanity`); evaluation counts the flagged episodes per flag; extreme
+task's limits (`tasks.sanity`); evaluation counts the flagged episodes per flag; extreme
 actions that drive the tool into the table are what the -v1 envs' bounded joint speed stops."""
 
 import json
@@ -19,8 +19,8 @@ from drake_tooluse.robot.baxter_model import V_MAX
 from drake_tooluse.robot.ik import pose_to_vector
 from drake_tooluse.robot.model import TOOL_DOWN_RPY
 from drake_tooluse.systems.tool_tip_ik import ToolTipIKSystem
+from drake_tooluse.tasks import sanity
 from drake_tooluse.tasks.contract import PhysicalLimit
-from drake_tooluse.tasks.push import sanity
 from drake_tooluse.tasks.push.env import ToolPushEnv
 
 ENV = "drake_tooluse/ToolPush-v1"  # joint targets bounded at Baxter's rated speeds
@@ -51,10 +51,10 @@ def unbounded():
 
 
 def test_every_limit_is_a_named_constant_with_a_reason():
-    assert [lim.limit for lim in sanity.PUSH_PHYSICAL_LIMITS] == [
+    assert [lim.limit for lim in sanity.PHYSICAL_LIMITS] == [
         sanity.TABLE_PENETRATION_LIMIT,
         sanity.TABLE_PENETRATION_LIMIT,
-        sanity.BOX_SPEED_LIMIT,
+        sanity.OBJECT_SPEED_LIMIT,
         sanity.ARM_JOINT_SPEED_LIMIT,
     ]
     for lim in ToolPushEnv.PHYSICAL_LIMITS:
@@ -165,7 +165,7 @@ def test_the_speeds_are_the_plants():
         context = plant.GetMyContextFromRoot(env.simulator.get_context())
         v_box = env.world.box.EvalSpatialVelocityInWorld(context).translational()
         v_arm = [j.get_angular_rate(context) for j in env.world.arm_joints()]
-        assert info["box_speed"] == pytest.approx(np.linalg.norm(v_box), rel=1e-12, abs=1e-15)
+        assert info["object_speed"] == pytest.approx(np.linalg.norm(v_box), rel=1e-12, abs=1e-15)
         assert info["arm_joint_speed"] == pytest.approx(np.max(np.abs(v_arm)), rel=1e-12)
     finally:
         env.close()
@@ -175,20 +175,20 @@ def test_evaluation_counts_the_flagged_episodes_per_flag(monkeypatch):
     # A box speed limit of 0 m/s flags every episode in which the box moves.
     strict = tuple(
         PhysicalLimit(lim.flag, lim.info_key, 0.0, lim.unit, lim.why)
-        if lim.flag == "box_too_fast"
+        if lim.flag == "object_too_fast"
         else lim
-        for lim in sanity.PUSH_PHYSICAL_LIMITS
+        for lim in sanity.PHYSICAL_LIMITS
     )
-    monkeypatch.setattr(sanity, "PUSH_PHYSICAL_LIMITS", strict)
+    monkeypatch.setattr(sanity, "PHYSICAL_LIMITS", strict)
     result = evaluate(SHIPPED_POLICY, episodes=2, seed=1000).as_dict()
     assert result["flagged_episodes"] == {
         "tool_in_table": 0,
         "gripper_in_table": 0,
-        "box_too_fast": 2,
+        "object_too_fast": 2,
         "arm_too_fast": 0,
     }
     for row in result["per_episode"]:
-        assert row["box_too_fast"] is True and row["peak_box_speed"] > 0.0
+        assert row["object_too_fast"] is True and row["peak_object_speed"] > 0.0
         assert row["peak_tool_table_penetration"] < sanity.TABLE_PENETRATION_LIMIT
 
 

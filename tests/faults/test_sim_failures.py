@@ -89,7 +89,7 @@ def test_evaluate_counts_the_episodes_the_simulation_failed_in(monkeypatch):
     assert result.sim_errors == 2
     first = result.per_episode[0]
     assert first["sim_error"] and not first["success"] and first["length"] == 6
-    assert np.isfinite(result.metrics["final_box_to_goal_mean_m"]) and result.success_rate == 0.0
+    assert np.isfinite(result.metrics["final_object_to_goal_mean_m"]) and result.success_rate == 0.0
 
 
 def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatch, tmp_path):
@@ -127,7 +127,7 @@ def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatc
     runs = reality["per_run"]
     assert runs[0]["sim_error"] and runs[0]["failed"] and "simulation failed" in runs[0]["error"]
     assert runs[1]["failed"] and "no marker" in runs[1]["error"]
-    assert not runs[2]["failed"] and reality["box_travel_mean_m"] == runs[2]["box_travel_m"]
+    assert not runs[2]["failed"] and reality["object_travel_mean_m"] == runs[2]["object_travel_m"]
     assert tool["nominal"]["failed_runs"] == 0 and tool["nominal"]["completed_runs"] == 3
     written = json.loads((tmp_path / "t" / "transfer.json").read_text())
     assert written["tools"][0]["reality"]["failed_runs"] == 2
@@ -143,33 +143,61 @@ def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypa
     run = run_policy(built, max_steps=20)
     assert run.sim_error and run.steps == 5 and not run.success
     assert "step 5" in run.error
-    assert np.all(np.isfinite(run.tip_path)) and np.all(np.isfinite(run.box_path))
-    assert np.isfinite(run.final_box_to_goal) and run.as_dict()["sim_error"]
+    assert np.all(np.isfinite(run.tip_path)) and np.all(np.isfinite(run.object_path))
+    assert np.isfinite(run.final_object_to_goal) and run.as_dict()["sim_error"]
 
 
-def test_a_box_flung_by_a_diverged_solve_is_a_simulation_failure(monkeypatch):
-    """A blow-up that stays finite (the box thrown metres in one step) is flagged too, and its
-    travel is not counted as a push."""
-    from drake_tooluse.learning.policy_dir import load_policy
-    from drake_tooluse.tasks.push.diagram import MAX_BOX_SPEED, build_policy_diagram, run_policy
-    from drake_tooluse.world.scenario import Scenario
-
-    built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))
-    plant, box = built.world.plant, built.world.box
+def flinging_advance(world_now):
+    """`Simulator.AdvanceTo` that, after its third call, moves the object of `world_now()` 2 m
+    away: a blow-up that stays finite."""
     calls = {"n": 0}
 
-    def flinging_advance(self, t):
+    def advance(self, t):
         status = ADVANCE(self, t)
         calls["n"] += 1
-        if calls["n"] == 3:  # after the third step the box is 2 m away
+        if calls["n"] == 3:
+            world = world_now()
+            plant, box = world.plant, world.box
             context = plant.GetMyMutableContextFromRoot(self.get_mutable_context())
             X_WB = box.EvalPoseInWorld(context)
             X_WB.set_translation(X_WB.translation() + [2.0, 0.0, 0.0])
             plant.SetFreeBodyPose(context, box, X_WB)
         return status
 
-    monkeypatch.setattr(Simulator, "AdvanceTo", flinging_advance)
+    return advance
+
+
+def test_a_box_flung_by_a_diverged_solve_is_a_simulation_failure(monkeypatch):
+    """A blow-up that stays finite (the box thrown metres in one step) is flagged too, and its
+    travel is not counted as a push."""
+    from drake_tooluse.builders.failures import MAX_OBJECT_SPEED
+    from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
+    from drake_tooluse.world.scenario import Scenario
+
+    built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))
+    monkeypatch.setattr(Simulator, "AdvanceTo", flinging_advance(lambda: built.world))
     run = run_policy(built, max_steps=20)
     assert run.sim_error and run.steps == 3 and not run.success
-    assert f"more than {MAX_BOX_SPEED:g} m/s" in run.error and "step 3" in run.error
-    assert run.box_travel < 0.1 and np.linalg.norm(run.box_path[-1] - run.box_path[0]) < 0.1
+    assert f"more than {MAX_OBJECT_SPEED:g} m/s" in run.error and "step 3" in run.error
+    assert (
+        run.object_travel < 0.1 and np.linalg.norm(run.object_path[-1] - run.object_path[0]) < 0.1
+    )
+
+
+@pytest.mark.parametrize("env_id", ["drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1"])
+def test_every_env_judges_an_object_flung_by_a_diverged_solve_as_its_deployed_run_does(
+    env_id, monkeypatch
+):
+    """The object thrown metres in one step ends the env's episode as a simulation failure,
+    as it ends a deployed run (the same check: `builders.failures.object_diverged`)."""
+
+    env = gym.make(env_id)
+    inner = env.unwrapped
+    env.reset(seed=0)
+    monkeypatch.setattr(Simulator, "AdvanceTo", flinging_advance(lambda: inner.world))
+    action = np.zeros(env.action_space.shape, np.float32)
+    infos = [env.step(action) for _ in range(3)]
+    env.close()
+    assert [i[3] for i in infos] == [False, False, True]  # truncated at the third step
+    assert [i[4]["sim_error"] for i in infos] == [False, False, True]

@@ -36,12 +36,12 @@ class Env:
 
 
 INFO = {
-    "box_to_goal": 0.01,
+    "object_to_goal": 0.01,
     "is_success": True,
     "sim_error": False,
-    "box_travel": 0.2,
-    "tool_touched_box_in_episode": True,
-    "gripper_touched_box_in_episode": False,
+    "object_travel": 0.2,
+    "tool_touched_object_in_episode": True,
+    "gripper_touched_object_in_episode": False,
 }
 
 

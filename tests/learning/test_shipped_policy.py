@@ -33,7 +33,7 @@ SHIPPED = {  # name -> (env id, observation size, action size)
 
 def _headline(name) -> tuple[str, str]:
     """The task's headline figure: its per-episode key and its mean's key in the metrics
-    (final_box_to_goal_m and final_box_to_goal_mean_m for the push)."""
+    (final_object_to_goal_m and final_object_to_goal_mean_m for the push)."""
     metric = episode_metrics(SHIPPED[name][0])[0]
     return metric.name, next(iter(metric.summary([0.0])))
 
@@ -166,6 +166,6 @@ def test_to_the_time_limit_each_episode_runs_on_past_its_success():
     default = evaluate(tip, episodes=2, seed=1000)
     assert default.to_time_limit and default.per_episode == full.per_episode
     # Judged where it ends: the box is wherever the policy left it at the limit.
-    assert [r["final_box_to_goal_m"] for r in full.per_episode] != [
-        r["final_box_to_goal_m"] for r in ended.per_episode
+    assert [r["final_object_to_goal_m"] for r in full.per_episode] != [
+        r["final_object_to_goal_m"] for r in ended.per_episode
     ]

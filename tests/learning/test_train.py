@@ -134,11 +134,11 @@ def test_evaluate_json_is_reproducible(tiny_policy, capsys):
     assert main(argv) == 0
     assert json.loads(capsys.readouterr().out) == first
     for key in (
-        "final_box_to_goal_mean_m",
-        "final_box_to_goal_median_m",
-        "final_box_to_goal_std_m",
+        "final_object_to_goal_mean_m",
+        "final_object_to_goal_median_m",
+        "final_object_to_goal_std_m",
         "success_rate",
-        "box_travel_mean_m",
+        "object_travel_mean_m",
         "episode_length_mean",
     ):
         assert key in first

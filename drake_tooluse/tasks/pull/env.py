@@ -27,6 +27,8 @@ from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
+from drake_tooluse.tasks.rollout import step_info
+from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
@@ -144,7 +146,10 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     `is_success`, `object_to_goal` (m), `object_travel` (m, horizontal), `corner_to_behind`
     (m, d(c, p_b)), `tool_touches_object`, `gripper_touches_object` (this step),
     `tool_touched_object_in_episode`, `gripper_touched_object_in_episode`, `hook` (handle m,
-    hook m, angle °), `ik_ok` (the IK's last solve succeeded), `sim_error`.
+    hook m, angle °), `ik_ok` (the IK's last solve succeeded), `sim_error`, and the physical
+    sanity every task reports (`tasks.sanity`): `tool_table_penetration`,
+    `gripper_table_penetration` (m), `object_speed` (m/s), `arm_joint_speed` (rad/s) and their
+    flags `tool_in_table`, `gripper_in_table`, `object_too_fast`, `arm_too_fast`.
 
     ## Version History
 
@@ -157,6 +162,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PULL_EPISODE_METRICS
+    PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
@@ -217,6 +223,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         self.diagram = builder.Build()
         self.diagram.set_name("tool_pull_env")
         self._metrics_reader = PullMetricsReader(self.world)
+        self._sanity_reader = PhysicalSanityReader(self.world)
         self._simulator = Simulator(self.diagram)
 
     def _next_hook(self, generator) -> Simulator:
@@ -245,6 +252,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         else:
             r = reward(m)
             self._last = (observation, m, r)
+            self._sanity = self._sanity_reader.read(self._plant_context, x)
         return observation, r, False, sim_error, self._info(m, sim_error)
 
     def render(self):
@@ -268,22 +276,20 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         m = self._read_metrics()
         observation = np.asarray(self.observation_port.Eval(self._context), np.float32)
         self._last = (observation, m, reward(m))
+        x = self.world.plant.GetPositionsAndVelocities(self._plant_context)
+        self._sanity = self._sanity_reader.read(self._plant_context, x)
         return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
         hook = self.hook
         return {
-            "is_success": bool(m.is_success),
             "object_to_goal": m.object_to_goal,
             "object_travel": m.object_travel,
             "corner_to_behind": m.corner_to_behind,
-            "tool_touches_object": m.tool_touches_object,
-            "gripper_touches_object": m.gripper_touches_object,
-            "tool_touched_object_in_episode": self._episode["tool_touched"],
-            "gripper_touched_object_in_episode": self._episode["gripper_touched"],
             "hook": (hook.handle_length, hook.hook_length, hook.angle),
-            "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
-            "sim_error": sim_error,
+            **step_info(
+                m, self._episode, self.ik_system.ok(self._ik_context), sim_error, self._sanity
+            ),
         }
 
 

@@ -6,14 +6,12 @@ measured), for a number of control steps; judged where the cube ends (the env's 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.failures import advance, finite_state_vector
 from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera, scene_camera_view
@@ -21,6 +19,7 @@ from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.metrics import PullMetricsReader
 from drake_tooluse.tasks.pull.registration import MAX_EPISODE_STEPS
+from drake_tooluse.tasks.rollout import roll_out
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import goal_position, initial_box_pose
 
@@ -38,6 +37,9 @@ class PullRun:
     first_success_step: int | None = None  # the first step the cube was at the goal
     final_image: np.ndarray | None = None  # the scene camera's RGBA at the end, if asked for
     scene_view: object = None  # that camera (`systems.camera.SceneView`), to draw on its image
+    tool_path: np.ndarray | None = None  # (steps + 1, 3) the true tool's tip frame, W, m
+    object_path: np.ndarray | None = None  # (steps + 1, 3) the cube's centre, W, m
+    flagged: set = field(default_factory=set)  # the physical-sanity flags of any step
 
     def as_dict(self) -> dict:
         return {
@@ -78,56 +80,41 @@ def run_pull(
         add_scene_camera(builder, task.world, **CLOSE_UP_CAMERA)
     diagram = builder.Build()
     try:
-        simulator = Simulator(diagram)
-        root = simulator.get_mutable_context()
-        task.control.reset(root)
-        if visualizer is not None:
-            visualizer.StartRecording(False)
-        simulator.Initialize()
         if hasattr(controller, "reset"):
             controller.reset()
-        plant_context = task.world.plant.GetMyContextFromRoot(root)
-        reader = PullMetricsReader(task.world)
-        goal = goal_position(scenario)
-        start = initial_box_pose(scenario).translation()
-        action_port = diagram.GetInputPort("action")
-        observation_port = diagram.GetOutputPort("observation")
-        period = scenario.control.control_period
-        metrics = reader.read(plant_context, goal, start)
-        step, error, first = 0, None, None
-        for step in range(1, max_steps + 1):
-            observation = np.asarray(observation_port.Eval(root), float)
-            action_port.FixValue(root, np.asarray(controller(observation), float))
-            failure = advance(simulator, step * period)
-            if failure is not None:
-                error = f"simulation failed at step {step}: {failure}"
-                break
-            if finite_state_vector(task.world.plant, plant_context) is None:
-                error = f"the state is no longer finite at step {step}"
-                break
-            metrics = reader.read(plant_context, goal, start)
-            if first is None and metrics.is_success:
-                first = step
+        run = roll_out(
+            diagram,
+            task.world,
+            task.control,
+            PullMetricsReader(task.world),
+            goal_position(scenario),
+            initial_box_pose(scenario).translation(),
+            max_steps,
+            act=controller,
+            visualizer=visualizer,
+        )
         if visualizer is not None:
             if recording_path is not None:
                 save_recording(meshcat, visualizer, recording_path)
             else:
                 visualizer.StopRecording()
                 visualizer.PublishRecording()
-        image = view = None
-        if diagram.HasOutputPort("color_image") and error is None:
-            image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
+        view = None
+        if run.final_image is not None:
             view = scene_camera_view(diagram, task.world.plant)
         return PullRun(
-            step,
-            bool(metrics.is_success) and error is None,
-            float(metrics.object_to_goal),
-            float(metrics.object_travel),
-            sim_error=error is not None,
-            error=error,
-            first_success_step=first,
-            final_image=image,
+            run.steps,
+            run.success,
+            float(run.metrics.object_to_goal),
+            float(run.metrics.object_travel),
+            sim_error=run.error is not None,
+            error=run.error,
+            first_success_step=run.first_success_step,
+            final_image=run.final_image,
             scene_view=view,
+            tool_path=run.tool_path,
+            object_path=run.object_path,
+            flagged=run.flagged,
         )
     finally:
         release_diagram(diagram)  # its Python systems would keep it alive

@@ -12,10 +12,9 @@ plant ──state──► ToolPushObservation ──► PolicySystem ──acti
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import (
@@ -26,7 +25,6 @@ from drake_tooluse.builders.control import (
     add_world_at_home,
     nominal_belief,
 )
-from drake_tooluse.builders.failures import advance, finite_state
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
 from drake_tooluse.builders.visualization import add_meshcat_visualizer
 from drake_tooluse.robot.model import RobotBelief
@@ -37,6 +35,7 @@ from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.tasks.contract import GoalTaskParts, env_class
 from drake_tooluse.tasks.push.metrics import PushMetricsReader, PushOutcome
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
+from drake_tooluse.tasks.rollout import roll_out
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, goal_position, initial_box_pose
 
@@ -168,23 +167,18 @@ def build_policy_diagram(
     )
 
 
-# m/s: the arm's tip moves at most ~1 m/s; a box faster than this was flung by a diverged
-# contact solve (forced steep tool tilts do it), and its "travel" would be metres of nonsense.
-MAX_BOX_SPEED = 5.0
-
-
 @dataclass
 class PushRun:
     """What happened in one push, from the world's truth."""
 
     steps: int  # control steps simulated
     success: bool  # the box ended at the goal (within the env's threshold)
-    final_box_to_goal: float  # m
-    box_travel: float  # m, from its start to where it ended
+    final_object_to_goal: float  # m
+    object_travel: float  # m, from its start to where it ended
     tool_touched: bool
     gripper_touched: bool
     tip_path: np.ndarray  # (steps + 1, 3) true tool-tip positions at each control step
-    box_path: np.ndarray  # (steps + 1, 3) box centre
+    object_path: np.ndarray  # (steps + 1, 3) box centre
     final_image: np.ndarray | None = None  # RGBA at the end, if the diagram has a scene camera
     # The simulation failed (a RuntimeError from Drake, or a non-finite state) at `steps`; the
     # figures are those of the last finite state.
@@ -193,14 +187,15 @@ class PushRun:
     # The control step the box first reached the goal (None: never): with `success` at the
     # end, the push arrived then and held the box there.
     first_success_step: int | None = None
+    flagged: set = field(default_factory=set)  # the physical-sanity flags of any step
 
     def as_dict(self) -> dict:
         return {
             "steps": self.steps,
             "success": self.success,
             "first_success_step": self.first_success_step,
-            "final_box_to_goal_m": self.final_box_to_goal,
-            "box_travel_m": self.box_travel,
+            "final_object_to_goal_m": self.final_object_to_goal,
+            "object_travel_m": self.object_travel,
             "tool_touched": self.tool_touched,
             "gripper_touched": self.gripper_touched,
             "sim_error": self.sim_error,
@@ -219,75 +214,39 @@ def run_push(
 ) -> PushRun:
     """Simulates a push diagram from its default state one control period at a time, for
     `max_steps` or until the box reaches the goal (as the env terminates) if
-    `stop_at_success`. With a `visualizer`, the run is recorded. `on_step(step)` is called
-    after each control step (progress displays). A simulation failure (Drake raises, the state
-    is no longer finite, or the box flies faster than MAX_BOX_SPEED) ends the run flagged
-    `sim_error`, with the figures of the last sound state."""
+    `stop_at_success`: the task's one deployed rollout (`tasks.rollout.roll_out`), judged as
+    its env judges. With a `visualizer`, the run is recorded. `on_step(step)` is called after
+    each control step (progress displays). A simulation failure (Drake raises, the state is no
+    longer finite, or the box flies off) ends the run flagged `sim_error`, with the figures of
+    the last sound state."""
     s = world.scenario
-    simulator = Simulator(diagram)
-    root = simulator.get_mutable_context()
-    control.reset(root)
-    if visualizer is not None:
-        visualizer.StartRecording(False)
-    simulator.Initialize()
-    plant_context = world.plant.GetMyContextFromRoot(root)
-    reader = PushMetricsReader(world)
-    goal = goal_position(s)
-    box_start = initial_box_pose(s).translation()
-    tips, boxes = [], []
-    tool_touched = gripper_touched = False
-    period = s.control.control_period
-    metrics = reader.read(plant_context, goal, box_start)
-    tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
-    box = world.box.EvalPoseInWorld(plant_context).translation()
-    step, error, first_success = 0, None, None
-    for step in range(1, max_steps + 1):
-        tips.append(tip)
-        boxes.append(box)
-        failure = advance(simulator, step * period)
-        if failure is not None:
-            error = f"simulation failed at step {step}: {failure}"
-            break
-        if not finite_state(world.plant, plant_context):
-            error = f"the state is no longer finite at step {step}"
-            break
-        moved = world.box.EvalPoseInWorld(plant_context).translation()
-        speed = np.linalg.norm(moved - box) / period
-        if speed > MAX_BOX_SPEED:  # a contact solve that diverged flings the box: not a push
-            error = (
-                f"the box flew off at {speed:.1f} m/s at step {step} (more than "
-                f"{MAX_BOX_SPEED:g} m/s, which no push of the arm reaches): the simulation diverged"
-            )
-            break
-        metrics = reader.read(plant_context, goal, box_start)
-        tip = world.tip_frame.CalcPoseInWorld(plant_context).translation()
-        box = moved
-        tool_touched |= metrics.tool_touches_box
-        gripper_touched |= metrics.gripper_touches_box
-        if on_step is not None:
-            on_step(step)
-        if metrics.is_success and first_success is None:
-            first_success = step
-        if stop_at_success and metrics.is_success:
-            break
-    tips.append(tip)
-    boxes.append(box)
-    image = None
-    if diagram.HasOutputPort("color_image") and error is None:
-        image = diagram.GetOutputPort("color_image").Eval(root).data.copy()
+    run = roll_out(
+        diagram,
+        world,
+        control,
+        PushMetricsReader(world),
+        goal_position(s),
+        initial_box_pose(s).translation(),
+        max_steps,
+        stop_at_success=stop_at_success,
+        visualizer=visualizer,
+        on_step=on_step,
+    )
+    m = run.metrics
     return PushRun(
-        step,
-        bool(metrics.is_success) and error is None,
-        float(metrics.box_to_goal),
-        float(metrics.box_travel),
-        bool(tool_touched),
-        bool(gripper_touched),
-        np.array(tips),
-        np.array(boxes),
-        image,
-        sim_error=error is not None,
-        error=error,
-        first_success_step=first_success,
+        run.steps,
+        run.success,
+        float(m.object_to_goal),
+        float(m.object_travel),
+        bool(run.tool_touched),
+        bool(run.gripper_touched),
+        run.tool_path,
+        run.object_path,
+        run.final_image,
+        sim_error=run.error is not None,
+        error=run.error,
+        first_success_step=run.first_success_step,
+        flagged=run.flagged,
     )
 
 

@@ -48,11 +48,8 @@ from drake_tooluse.tasks.push.metrics import (
     reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
-from drake_tooluse.tasks.push.sanity import (
-    PUSH_PHYSICAL_LIMITS,
-    PhysicalSanityReader,
-    past_limits,
-)
+from drake_tooluse.tasks.rollout import step_info
+from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import (
     all_finite,
     check_bool,
@@ -364,26 +361,26 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     | key | meaning | unit |
     | --- | --- | --- |
+    | object_to_goal | d(x, x*) | m |
+    | tip_to_object | d(x, y), the true tip | m |
+    | object_travel | the box centre's distance in the table's plane from where it started | m |
     | is_success | d(x, x*) + d(x, y) ≤ 0.05 m | bool |
-    | box_to_goal | d(x, x*) | m |
-    | tip_to_box | d(x, y), the true tip | m |
-    | box_travel | the box centre's distance in the table's plane from where it started | m |
-    | tool_touches_box | the tool touches the box now | bool |
-    | gripper_touches_box | the robot (not the tool) touches the box now | bool |
-    | tool_touched_box_in_episode | the tool has touched the box in this episode | bool |
-    | gripper_touched_box_in_episode | the robot has touched the box in this episode | bool |
+    | tool_touches_object | the tool touches the box now | bool |
+    | gripper_touches_object | the robot (not the tool) touches the box now | bool |
+    | tool_touched_object_in_episode | the tool has touched the box in this episode | bool |
+    | gripper_touched_object_in_episode | the robot has touched the box in this episode | bool |
     | ik_ok | the IK's last solve succeeded (and the step did not fail) | bool |
     | sim_error | the simulation failed in this step (the episode is truncated) | bool |
     | tool_table_penetration | how far the tool's lowest point lies below the table's top, over the table | m |
     | gripper_table_penetration | the same for the gripper (hand, gripper base and fingers) | m |
-    | box_speed | the box centre's speed | m/s |
+    | object_speed | the box centre's speed | m/s |
     | arm_joint_speed | the largest of the 7 right-arm joint speeds | rad/s |
     | tool_in_table | tool_table_penetration past 0.005 m | bool |
     | gripper_in_table | gripper_table_penetration past 0.005 m | bool |
-    | box_too_fast | box_speed past 1 m/s | bool |
+    | object_too_fast | object_speed past 1 m/s | bool |
     | arm_too_fast | arm_joint_speed past 4 rad/s | bool |
 
-    The last eight are the task's physical sanity (`tasks.push.sanity`: the limits and why);
+    The last eight are the task's physical sanity (`tasks.sanity`: the limits and why);
     `drake-tooluse evaluate` counts the episodes with a step past each limit.
 
     ### Version History
@@ -400,7 +397,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
-    PHYSICAL_LIMITS = PUSH_PHYSICAL_LIMITS
+    PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
@@ -613,8 +610,8 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         episode = self._episode
         m = self._metrics_reader.read(self._plant_context, episode["goal"], episode["start"])
         if _finite(m):
-            self._episode["tool_touched"] |= m.tool_touches_box
-            self._episode["gripper_touched"] |= m.gripper_touches_box
+            self._episode["tool_touched"] |= m.tool_touches_object
+            self._episode["gripper_touched"] |= m.gripper_touches_object
         return m
 
     def _info_handler(self, simulator) -> dict:
@@ -627,24 +624,18 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         return self._info(m, sim_error=False)
 
     def _info(self, m, sim_error: bool) -> dict:
+        ik_ok = self.ik_system.ok(self._ik_context)
         return {
-            "is_success": bool(m.is_success),
-            "box_to_goal": m.box_to_goal,
-            "tip_to_box": m.tip_to_box,
-            "box_travel": m.box_travel,
-            "tool_touches_box": m.tool_touches_box,
-            "gripper_touches_box": m.gripper_touches_box,
-            "tool_touched_box_in_episode": self._episode["tool_touched"],
-            "gripper_touched_box_in_episode": self._episode["gripper_touched"],
-            "ik_ok": self.ik_system.ok(self._ik_context) and not sim_error,
-            "sim_error": sim_error,
-            # Physical sanity of the last finite state (`tasks.push.sanity`): figures, flags.
-            **self._sanity,
-            **past_limits(self._sanity),
+            "object_to_goal": m.object_to_goal,
+            "tip_to_object": m.tip_to_object,
+            "object_travel": m.object_travel,
+            **step_info(m, self._episode, ik_ok, sim_error, self._sanity),
         }
 
 
 def _finite(m) -> bool:
     return (
-        math.isfinite(m.box_to_goal) and math.isfinite(m.tip_to_box) and math.isfinite(m.box_travel)
+        math.isfinite(m.object_to_goal)
+        and math.isfinite(m.tip_to_object)
+        and math.isfinite(m.object_travel)
     )

@@ -25,24 +25,24 @@ REWARD_TYPES = ("tool_and_box", "box")
 
 # What an evaluation reports of each episode (`info` keys of the env's last step).
 PUSH_EPISODE_METRICS = (
-    EpisodeMetric("final_box_to_goal_m", "box_to_goal"),
-    EpisodeMetric("box_travel_m", "box_travel", mean_only=True),
-    EpisodeMetric("tool_touched", "tool_touched_box_in_episode", flag=True),
-    EpisodeMetric("gripper_touched", "gripper_touched_box_in_episode", flag=True),
+    EpisodeMetric("final_object_to_goal_m", "object_to_goal"),
+    EpisodeMetric("object_travel_m", "object_travel", mean_only=True),
+    EpisodeMetric("tool_touched", "tool_touched_object_in_episode", flag=True),
+    EpisodeMetric("gripper_touched", "gripper_touched_object_in_episode", flag=True),
 )
 
 
 @dataclass
 class PushMetrics:
-    box_to_goal: float  # d(x, x*), m
-    tip_to_box: float  # d(x, y), m (true tip)
-    box_travel: float  # distance of the box centre from where it started, m
-    tool_touches_box: bool
-    gripper_touches_box: bool
+    object_to_goal: float  # d(x, x*), m
+    tip_to_object: float  # d(x, y), m (true tip)
+    object_travel: float  # distance of the box centre from where it started, m
+    tool_touches_object: bool
+    gripper_touches_object: bool
 
     @property
     def is_success(self) -> bool:
-        return self.box_to_goal + self.tip_to_box <= SUCCESS_DISTANCE
+        return self.object_to_goal + self.tip_to_object <= SUCCESS_DISTANCE
 
 
 class PushMetricsReader(BoxAndToolPointReader):
@@ -56,11 +56,11 @@ class PushMetricsReader(BoxAndToolPointReader):
         p_box, p_tip = p_box.tolist(), p_tip.tolist()
         tool_touch, gripper_touch = self._touches(contacts)
         return PushMetrics(
-            box_to_goal=math.dist(p_box, _floats(goal)),
-            tip_to_box=math.dist(p_tip, p_box),
-            box_travel=math.dist(p_box[:2], _floats(box_start)[:2]),
-            tool_touches_box=tool_touch,
-            gripper_touches_box=gripper_touch,
+            object_to_goal=math.dist(p_box, _floats(goal)),
+            tip_to_object=math.dist(p_tip, p_box),
+            object_travel=math.dist(p_box[:2], _floats(box_start)[:2]),
+            tool_touches_object=tool_touch,
+            gripper_touches_object=gripper_touch,
         )
 
 
@@ -109,5 +109,5 @@ class PushOutcome(TaskOutcome, LeafSystem):
 def reward(metrics: PushMetrics, reward_type: str) -> float:
     """The paper's reward of one step (see REWARD_TYPES)."""
     if reward_type == "box":
-        return -float(metrics.box_to_goal)
-    return -float(metrics.box_to_goal + metrics.tip_to_box)
+        return -float(metrics.object_to_goal)
+    return -float(metrics.object_to_goal + metrics.tip_to_object)

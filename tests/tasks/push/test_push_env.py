@@ -63,9 +63,9 @@ def test_rewards_of_env1_env2_env3():
         goal, box = obs[0:3], obs[3:6]
         _, reward, *_, info = env.step(action)
         if "BoxReward" in env_id:
-            assert reward == pytest.approx(-info["box_to_goal"])
+            assert reward == pytest.approx(-info["object_to_goal"])
         else:
-            assert reward == pytest.approx(-(info["box_to_goal"] + info["tip_to_box"]))
+            assert reward == pytest.approx(-(info["object_to_goal"] + info["tip_to_object"]))
         far = "Far" in env_id
         assert goal[1] - box[1] == pytest.approx(0.30 if far else 0.20)
         assert goal[0] == pytest.approx(box[0]) and goal[2] == pytest.approx(box[2])
@@ -86,9 +86,9 @@ def test_scripted_push_reaches_the_goal_and_terminates_in_the_early_end_protocol
     env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", end_at_success=True)
     terminated, truncated, info = _scripted_episode(env)
     assert terminated and not truncated and info["is_success"]
-    assert info["box_to_goal"] + info["tip_to_box"] <= 0.05
-    assert info["box_travel"] > 0.15
-    assert info["tool_touched_box_in_episode"] and not info["gripper_touched_box_in_episode"]
+    assert info["object_to_goal"] + info["tip_to_object"] <= 0.05
+    assert info["object_travel"] > 0.15
+    assert info["tool_touched_object_in_episode"] and not info["gripper_touched_object_in_episode"]
 
 
 def test_episodes_run_to_the_step_limit_by_default_reporting_success_every_step():
@@ -119,7 +119,7 @@ def test_scripted_push_works_with_short_and_long_tools(tool_length):
         end_at_success=True,
     )
     _, _, info = _scripted_episode(env)
-    assert info["is_success"] and info["box_travel"] > 0.15
+    assert info["is_success"] and info["object_travel"] > 0.15
 
 
 def test_nan_action_is_an_error_naming_it():

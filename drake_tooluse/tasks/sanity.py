@@ -1,9 +1,10 @@
-"""Physical sanity of the push world, read every step: how far the tool and the gripper are inside
-the table, how fast the box and the arm's joints move, and which of these is past its limit.
+"""Physical sanity of a task's world, read every step: how far the tool and the gripper are inside
+the table, how fast the object (the push task's box, the pull task's cube) and the arm's joints
+move, and which of these is past its limit. Every task's env reports them (`PHYSICAL_LIMITS`).
 
 A policy that drives the simulation where its contact model no longer holds (a tool deep in the
 table, a box launched, a joint spinning) can still earn reward there; these figures let an
-evaluation count such episodes (`PUSH_PHYSICAL_LIMITS`, read by `learning.evaluate` through the
+evaluation count such episodes (`PHYSICAL_LIMITS`, read by `learning.evaluate` through the
 task contract) instead of trusting them.
 
 Penetration into the table: how far a body's lowest collision point lies below the table's top
@@ -24,14 +25,14 @@ from drake_tooluse.robot.baxter_model import RIGHT_ARM_JOINTS
 from drake_tooluse.tasks.contract import PhysicalLimit
 from drake_tooluse.world.scene import World
 
-# Limits: a step past one is flagged in `info` (the flag names are PUSH_PHYSICAL_LIMITS').
+# Limits: a step past one is flagged in `info` (the flag names are PHYSICAL_LIMITS').
 # Point contact lets a tool pressed onto the table sink in a few mm (the shipped policies'
 # episodes peak at 3.1 mm: `drake-tooluse evaluate --per-episode --json`, peak_* figures);
 # 5 mm in means the arm is overpowering the contact, not touching the table.
 TABLE_PENETRATION_LIMIT = 0.005  # m
-# The tool-tip target moves at most 0.02 m per 40 ms step (0.5 m/s): a box at twice that was
-# launched (struck by a flailing arm, or squeezed out of a penetrating contact), not pushed.
-BOX_SPEED_LIMIT = 1.0  # m/s
+# The tool's target moves at most 0.02 m per 40 ms step (0.5 m/s): an object at twice that was
+# launched (struck by a flailing arm, or squeezed out of a penetrating contact), not moved.
+OBJECT_SPEED_LIMIT = 1.0  # m/s
 # Baxter's fastest rated joints (the wrist's, 4.0 rad/s; the shoulder's and elbow's 1.5):
 # a joint past it moves faster than the real arm can.
 ARM_JOINT_SPEED_LIMIT = 4.0  # rad/s
@@ -40,7 +41,7 @@ ARM_JOINT_SPEED_LIMIT = 4.0  # rad/s
 # fingers; the tool is its own body).
 GRIPPER_BODIES = ("right_hand", "right_gripper_base", "right_gripper")
 
-PUSH_PHYSICAL_LIMITS = (
+PHYSICAL_LIMITS = (
     PhysicalLimit(
         "tool_in_table",
         "tool_table_penetration",
@@ -56,11 +57,11 @@ PUSH_PHYSICAL_LIMITS = (
         "the arm drives the gripper through the table's contact: a real table would stop it",
     ),
     PhysicalLimit(
-        "box_too_fast",
-        "box_speed",
-        BOX_SPEED_LIMIT,
+        "object_too_fast",
+        "object_speed",
+        OBJECT_SPEED_LIMIT,
         "m/s",
-        "the box was launched, not pushed: faster than twice the tool tip's commanded speed",
+        "the object was launched, not moved: faster than twice the tool's commanded speed",
     ),
     PhysicalLimit(
         "arm_too_fast",
@@ -158,10 +159,10 @@ class PhysicalSanityReader:
         gripper = [plant.GetBodyByName(name, world.baxter) for name in GRIPPER_BODIES]
         self._gripper = _TableDepth(plant, inspector, hand, gripper, footprint)
         nq = plant.num_positions()
-        # Indices into the plant's state [q, v]: the box's translational velocity (a floating
-        # body's v is [ω_WB, v_WB]) and the arm's joint velocities.
-        v_box = nq + world.box.floating_velocities_start_in_v() + 3
-        self._box_v = slice(v_box, v_box + 3)
+        # Indices into the plant's state [q, v]: the object's translational velocity (a
+        # floating body's v is [ω_WB, v_WB]) and the arm's joint velocities.
+        v_object = nq + world.box.floating_velocities_start_in_v() + 3
+        self._object_v = slice(v_object, v_object + 3)
         arm_v = [nq + plant.GetJointByName(n).velocity_start() for n in RIGHT_ARM_JOINTS]
         # A slice where they are contiguous (they are: one chain), else an index array.
         contiguous = arm_v == list(range(arm_v[0], arm_v[0] + len(arm_v)))
@@ -172,11 +173,11 @@ class PhysicalSanityReader:
         return {
             "tool_table_penetration": self._tool.depth(plant_context),
             "gripper_table_penetration": self._gripper.depth(plant_context),
-            "box_speed": math.hypot(*x[self._box_v].tolist()),
+            "object_speed": math.hypot(*x[self._object_v].tolist()),
             "arm_joint_speed": max(map(abs, x[self._arm_v].tolist())),
         }
 
 
 def past_limits(figures: dict) -> dict:
     """Each limit's flag: whether its figure in `figures` is past it."""
-    return {lim.flag: figures[lim.info_key] > lim.limit for lim in PUSH_PHYSICAL_LIMITS}
+    return {lim.flag: figures[lim.info_key] > lim.limit for lim in PHYSICAL_LIMITS}
