@@ -13,15 +13,34 @@ The env builds its diagram itself and keeps, as attributes: `config` (with `rand
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
+from pydrake.geometry import Meshcat
 from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import SimulatorStatus
 
 from drake_tooluse.builders.failures import advance, finite_state_vector, object_diverged
+from drake_tooluse.builders.visualization import (
+    GOAL_RADIUS,
+    add_meshcat_visualizer,
+    save_recording,
+    show_task,
+)
+from drake_tooluse.systems.camera import (
+    SCENE_CAMERA_POSITION,
+    SCENE_CAMERA_SIZE,
+    SCENE_CAMERA_TARGET,
+    SceneView,
+    add_scene_camera,
+    check_scene_camera,
+    draw_goal,
+)
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_target import check_action
-from drake_tooluse.validation import check_seed
+from drake_tooluse.validation import check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scene import initial_box_pose, set_randomized_state
 
@@ -90,6 +109,34 @@ class CountedClockGymEnv(DrakeGymEnv):
         return observation, reward, terminated, False, self.info_handler(self.simulator)
 
 
+@dataclass
+class ViewOptions:
+    """The view options every task's env takes (the first fields of its config dataclass)."""
+
+    render_mode: str | None = None
+    # `rgb_array`'s image: (width, height) px, each in [32, 2048], and the camera's position
+    # and the point it looks at (W, m); by default the whole task is in view.
+    render_size: tuple = SCENE_CAMERA_SIZE
+    render_camera_position: tuple = SCENE_CAMERA_POSITION
+    render_camera_target: tuple = SCENE_CAMERA_TARGET
+    meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
+
+
+def check_views(config, render_modes=(None, "rgb_array", "human")) -> None:
+    """The view options every task's env takes, checked (each a ValueError naming it):
+    `render_mode` (one of `render_modes`), `rgb_array`'s `render_size`,
+    `render_camera_position` and `render_camera_target`, and `meshcat`."""
+    check_one_of(config.render_mode, render_modes, "render_mode")
+    check_scene_camera(
+        config.render_size, config.render_camera_position, config.render_camera_target
+    )
+    if config.meshcat is not None and not isinstance(config.meshcat, Meshcat):
+        raise ValueError(
+            f"meshcat={config.meshcat!r} must be a pydrake.geometry.Meshcat (e.g. "
+            "start_meshcat()) or None"
+        )
+
+
 class TaskGymEnv(CountedClockGymEnv):
     """DrakeGymEnv with what every task's env does the same (see the module docstring)."""
 
@@ -127,8 +174,77 @@ class TaskGymEnv(CountedClockGymEnv):
         if self.diagram is not None:
             release_diagram(self.diagram)
 
+    def _add_views(self, builder, config) -> None:
+        """The views `config` asks for (`check_views`), added to the episode's diagram: the
+        `rgb_array` scene camera of `render_size` at `render_camera_position` looking at
+        `render_camera_target`, and Meshcat (`meshcat`: a live view, and recordings)."""
+        self._scene_view = None  # the rgb_array camera's, to draw the goal on its images
+        if config.render_mode == "rgb_array":
+            sensor = add_scene_camera(
+                builder,
+                self.world,
+                *config.render_size,
+                position=config.render_camera_position,
+                target=config.render_camera_target,
+            )
+            self._scene_view = SceneView.of_sensor(sensor)
+            self._scene_depth = sensor.depth_image_32F_output_port()  # what hides the goal
+        self.visualizer = None
+        if config.meshcat is not None:
+            self.visualizer = add_meshcat_visualizer(
+                builder, self.world.scene_graph, config.meshcat, self.scenario
+            )
+
     def _reset_handler(self, simulator, context, seed) -> None:
-        self._start_episode(context)
+        s = self._start_episode(context)
+        if self.visualizer is not None:  # the goal marker where this episode's goal is
+            show_task(self.config.meshcat, s)
+
+    def render(self):
+        """`rgb_array`: the scene camera's colour image, (H, W, 3) uint8, of `render_size`
+        (W, H), seen from `render_camera_position` looking at `render_camera_target` (by
+        default robot, tool, table, object and goal in view), with this episode's goal drawn
+        on it: a translucent green disc of radius GOAL_RADIUS on the table, behind what
+        stands in front of it (by the camera's depth image). The goal is drawn on the image
+        (`systems.camera.draw_goal`), not put in the scene graph, so an env renders or not
+        with the same physics."""
+        frame = super().render()
+        if self.render_mode != "rgb_array":
+            return frame
+        frame = np.asarray(frame)[:, :, :3]
+        goal = self._episode.get("goal")
+        if goal is None or self._scene_view is None:  # before the first reset
+            return frame.copy()
+        p_WG = [goal[0], goal[1], self.scenario.table.top_z]
+        depth = self._scene_depth.Eval(
+            self._scene_depth.get_system().GetMyContextFromRoot(self._context)
+        )
+        return draw_goal(frame, self._scene_view, p_WG, GOAL_RADIUS, depth.data)
+
+    def start_recording(self) -> None:
+        """Records what follows in Meshcat (the env must be made with `meshcat=`)."""
+        if self.visualizer is None:
+            raise ValueError("this env has no Meshcat; make it with meshcat=start_meshcat()")
+        self.visualizer.StartRecording(False)
+
+    def save_recording(self, path) -> Path:
+        """Writes the recording so far as one standalone HTML file."""
+        return save_recording(self.config.meshcat, self.visualizer, path)
+
+    def believed_poses(self):
+        """(X_WT, X_WG): the tool's working frame's pose (the push task's tip, the pull
+        task's hook corner) and the gripper's, in W, on the robot model (the believed tool)
+        at the arm's current joint angles — what the robot thinks."""
+        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
+        q = [joint.get_angle(plant_context) for joint in self.world.arm_joints()]
+        return self.control.ik.fk(q), self.control.ik.fk_gripper(q)
+
+    def commanded_tip_pose(self):
+        """X_WT: where the IK's joint targets put the tool's working frame on the robot
+        model — the pose the last step commanded (the arm lags it; `believed_poses` is where
+        it got)."""
+        context = self.ik_system.GetMyContextFromRoot(self.simulator.get_context())
+        return self.control.ik.fk(self.ik_system.q_desired(context))
 
     def _start_episode(self, context):
         """The start of an episode (DrakeGymEnv's reset calls `_reset_handler`, which calls

@@ -92,6 +92,23 @@ def pose_dict(X) -> dict:
     }
 
 
+def serving_policy_arg(path, command: str, option: str = "--policy") -> Path:
+    """A policy directory (`policy_dir_arg`) whose task serves `command`, read from its
+    policy.json before any work: a task that does not serve it is a usage error saying what
+    the command needs (`tasks.contract.check_serves`)."""
+    from drake_tooluse.files import read_json
+    from drake_tooluse.tasks.contract import check_serves
+
+    path = policy_dir_arg(path, option)
+    meta = read_json(path / "policy.json", "policy metadata")
+    env_id = meta.get("env_id") if isinstance(meta, dict) else None
+    try:
+        check_serves(env_id, command)
+    except ValueError as e:
+        raise UsageError(f"{option} {str(path)!r}: {e}") from None
+    return path
+
+
 def parse_json_arg(text: str | None, name: str) -> dict | None:
     """A JSON object option's value (None if not given); bad JSON, or JSON that is not an
     object of names to values, is a usage error naming the option."""

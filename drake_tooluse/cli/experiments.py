@@ -19,6 +19,7 @@ from drake_tooluse.cli.common import (
     output_file_arg,
     policy_dir_arg,
     seed_arg,
+    serving_policy_arg,
     tool_length_arg,
 )
 from drake_tooluse.experiments.choices import (
@@ -46,6 +47,7 @@ def cmd_trajectory(args) -> dict:
     count_arg(args.window, "--window", 1, 999)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
+    serving_policy_arg(args.policy, "trajectory")
     from drake_tooluse.experiments.choices import EXTRACTION_RECORDS
     from drake_tooluse.experiments.line_contact import line_contact_for_task
     from drake_tooluse.experiments.trajectory_extraction import extract, save_extraction
@@ -183,6 +185,7 @@ def cmd_transfer(args) -> dict:
     seed_arg(args.seed, "--seed", runs)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
+    serving_policy_arg(args.policy, "transfer")
     from drake_tooluse.experiments.transfer import transfer_experiment
 
     return transfer_experiment(
@@ -342,7 +345,7 @@ def cmd_record_video(args) -> dict:
     seed_arg(args.seed)
     count_arg(args.every, "--every", 1, 100)
     count_arg(args.colors, "--colors", 2, 256)
-    policy_dir_arg(args.policy, "--policy")
+    serving_policy_arg(args.policy, "record-video")
     env_kwargs = {  # checked by the env, by these names (`render_size=...`)
         name: value
         for name, value in (

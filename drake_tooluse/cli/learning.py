@@ -20,10 +20,12 @@ from drake_tooluse.cli.common import (
     parse_json_arg,
     policy_dir_arg,
     seed_arg,
+    serving_policy_arg,
     tool_length_arg,
 )
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.task_envs import task_env_ids
+from drake_tooluse.tasks.contract import check_serves, env_class
 from drake_tooluse.validation import check_in_range
 
 MAX_TIMESTEPS = 10**10
@@ -188,6 +190,13 @@ def cmd_evaluate(args) -> dict:
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
+    if args.meshcat and args.env is None:
+        serving_policy_arg(args.policy, "evaluate --meshcat")
+    elif args.meshcat:
+        try:
+            check_serves(args.env, "evaluate --meshcat")
+        except ValueError as e:
+            raise UsageError(f"--env {args.env}: {e}") from None
     from drake_tooluse.learning.evaluate import evaluate
 
     meshcat = open_meshcat(args)
@@ -207,7 +216,15 @@ def cmd_evaluate(args) -> dict:
         result.pop("per_episode")
     if meshcat is not None:
         result["meshcat_url"] = meshcat.web_url()
+    result["env_id"] = env_id = args.env or _policy_env_id(args.policy)
+    result["object_name"] = env_class(env_id).TASK.object_name  # the word the text prints
     return result
+
+
+def _policy_env_id(policy) -> str:
+    from drake_tooluse.files import read_json
+
+    return read_json(Path(policy) / "policy.json", "policy metadata")["env_id"]
 
 
 def cmd_convert_policy(args) -> dict:
@@ -287,7 +304,7 @@ def _distill_config(args):
         **{k: v for k, v in given.items() if v is not None},
         env_kwargs=parse_json_arg(args.env_kwargs, "--env-kwargs") or {},
     )
-    policy_dir_arg(args.teacher, "--teacher")
+    serving_policy_arg(args.teacher, "distill", "--teacher")
     output_dir_arg(args.out, "--out")
     count_arg(config.rounds, "--rounds", 1, 1000)
     count_arg(config.episodes, "--episodes", 1, MAX_EPISODES)
@@ -343,19 +360,21 @@ def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
     if "final_object_to_goal_mean_m" not in out:  # another task: its figures as they are
         skip = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
-        skip += ("flagged_episodes",)
+        skip += ("flagged_episodes", "env_id", "object_name")
         figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
         return (
             f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
             + format_flagged(out)
         )
+    thing = out.get("object_name", "object")
     return (
-        f"{out['episodes']} episodes from seed {out['seed']}{ends}: final box-goal distance "
+        f"{out['episodes']} episodes from seed {out['seed']}{ends}: final {thing}-goal distance "
         f"mean {out['final_object_to_goal_mean_m'] * 100:.2f} cm, median "
         f"{out['final_object_to_goal_median_m'] * 100:.2f} cm, std "
         f"{out['final_object_to_goal_std_m'] * 100:.2f} cm; success "
-        f"{out['success_rate'] * 100:.0f} %; box travel {out['object_travel_mean_m'] * 100:.1f}"
-        f" cm; episode length {out['episode_length_mean']:.1f}; tool touched the box in "
+        f"{out['success_rate'] * 100:.0f} %; {thing} travel "
+        f"{out['object_travel_mean_m'] * 100:.1f} cm; episode length "
+        f"{out['episode_length_mean']:.1f}; tool touched the {thing} in "
         f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
         f"{out['gripper_touched_rate'] * 100:.0f} %"
         + (f"; {out['sim_errors']} simulation failure(s)" if out.get("sim_errors") else "")

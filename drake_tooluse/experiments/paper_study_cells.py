@@ -13,6 +13,7 @@ from pathlib import Path
 from drake_tooluse.files import read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.paths import PAPER_STUDY_CELLS
+from drake_tooluse.tasks.contract import check_serves
 from drake_tooluse.validation import check_int, check_mapping, check_one_of, check_seed, shown
 
 RESULTS_NAME = "paper_study.json"
@@ -98,6 +99,10 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
             )
         if not isinstance(c["env"], str):
             raise ValueError(f"{at}: env={shown(c['env'])} must be an env id")
+        try:  # a registered id whose task the study serves (its cells' figures are the push's)
+            check_serves(c["env"], "study")
+        except ValueError as e:
+            raise ValueError(f"{at}: {e}") from None
         check_one_of(c["algo"], ALGOS, f"{at}: algo")
         check_int(c["timesteps"], 1, MAX_TIMESTEPS, f"{at}: timesteps")
         if not isinstance(c["seeds"], list) or not 1 <= len(c["seeds"]) <= MAX_SEEDS:

@@ -40,11 +40,47 @@ from gymnasium.envs.registration import load_env_creator
 ENV_NAMESPACE = "drake_tooluse"
 
 
-def register_task_envs(env_ids: dict, entry_point: str, max_episode_steps: int) -> None:
+# What each command needs of a task beyond the contract (an env class following `TaskEnv`:
+# `train`, `evaluate`, `sweep` and `train --init-from` need nothing more). A task's
+# `TaskDeclaration.serves` names those it gives; any other command refuses its policies and
+# envs before any work, saying what the task lacks (`check_serves`).
+COMMAND_NEEDS = {
+    "trajectory": "a tool-tip trajectory from the policy's episodes to replay open loop",
+    "transfer": "tools of other lengths to run the policy with and a reality to judge them in",
+    "distill": "a tool-tip position teacher whose actions a student on the paper's "
+    "observation can learn",
+    "record-video": "an rgb_array render of its env",
+    "evaluate --meshcat": "a Meshcat view of its env",
+    "study": "the paper's study cells",
+}
+
+
+@dataclass(frozen=True)
+class TaskDeclaration:
+    """What a task declares for the commands, in one place: its env classes' `TASK`.
+
+    `name` is the task as commands name it ("push"); `object_name` the word they print for
+    what it moves ("box"); `serves` the commands of COMMAND_NEEDS it gives."""
+
+    name: str
+    object_name: str = "object"
+    serves: frozenset = frozenset()
+
+
+# The declarations of the registered ids (`register_task_envs`).
+_DECLARATIONS: dict = {}
+
+
+def register_task_envs(
+    env_ids: dict, entry_point: str, max_episode_steps: int, task: TaskDeclaration | None = None
+) -> None:
     """Registers each id of `env_ids` ({id: its keyword arguments}) with Gymnasium, made by
     `entry_point` ("module:Class") and truncated at `max_episode_steps` (idempotent: an id
-    already registered is left as it is); `gym.make` builds them lazily."""
+    already registered is left as it is); `gym.make` builds them lazily. `task`: what the
+    task declares for the commands (read without importing the env's module)."""
     for env_id, kwargs in env_ids.items():
+        if task is not None:
+            _DECLARATIONS[env_id] = task
         if env_id not in gym.registry:
             gym.register(
                 env_id,
@@ -72,6 +108,26 @@ def env_class(env_id: str) -> type[TaskEnv]:
     if not (isinstance(cls, type) and issubclass(cls, TaskEnv)):
         raise ValueError(f"env {env_id!r} ({entry_point!r}) does not follow the task contract")
     return cls
+
+
+def declaration(env_id: str) -> TaskDeclaration:
+    """What `env_id`'s task declares: as registered (`register_task_envs`, no env module
+    imported), else its env class's `TASK`."""
+    task = _DECLARATIONS.get(check_env_id(env_id))
+    return task if task is not None else env_class(env_id).TASK
+
+
+def check_serves(env_id: str, command: str) -> TaskDeclaration:
+    """The declaration of `env_id`'s task, where its task serves `command` (a key of
+    COMMAND_NEEDS); else a ValueError naming the command, what it needs and the task."""
+    task = declaration(env_id)
+    if command not in task.serves:
+        serves = ", ".join(sorted(task.serves)) or "only train, evaluate and sweep"
+        raise ValueError(
+            f"{command} needs {COMMAND_NEEDS[command]}, which the {task.name} task "
+            f"({env_id}) does not give; it serves: {serves}"
+        )
+    return task
 
 
 @dataclass(frozen=True)
@@ -143,6 +199,9 @@ class TaskEnv:
     # The physical-sanity figures every step reports, with their limits (an evaluation counts
     # the episodes in which any step was past each).
     PHYSICAL_LIMITS: tuple[PhysicalLimit, ...] = ()
+    # What the task gives the commands (`TaskDeclaration`); a task that declares nothing is
+    # served by train, evaluate and sweep.
+    TASK: TaskDeclaration = TaskDeclaration("unnamed")
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:

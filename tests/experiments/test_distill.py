@@ -91,7 +91,7 @@ def test_a_teacher_it_cannot_widen_is_refused(capsys, tmp_path):
     assert_one_line_error(
         capsys,
         ["distill", "--teacher", POLICIES_DIR / "ppo_toolpull", "--out", tmp_path / "s"],
-        r"--teacher '.*ppo_toolpull': the teacher must be a push policy of action_mode 'pos",
+        r"--teacher '.*ppo_toolpull': distill needs a tool-tip position teacher .* the pull task",
     )
     assert_one_line_error(
         capsys,

@@ -17,33 +17,33 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V0, BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.task_gym_env import TaskGymEnv
+from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views
 from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
-from drake_tooluse.systems.camera import add_scene_camera
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
+from drake_tooluse.tasks.pull.registration import TASK
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
-from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of
+from drake_tooluse.validation import all_finite, check_bool, check_mapping
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
 ACTION_SIZE = ACTION_MODES["position"]
 
 
 @dc.dataclass
-class PullEnvConfig:
-    """The keyword arguments of `ToolPullEnv` (and of `gym.make`)."""
+class PullEnvConfig(ViewOptions):
+    """The keyword arguments of `ToolPullEnv` (and of `gym.make`): the views every task's env
+    takes (`ViewOptions`), then the pull task's."""
 
     scenario: object = None  # a Scenario, a YAML path, or None for diagrams/pull.yaml
     # (handle length m, hook length m, angle °): every episode's hook; None: drawn per episode.
     hook: tuple | None = None
     randomize: bool = True  # the cube's start, mass, friction and the grasp (`randomization`)
-    render_mode: str | None = None
 
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
@@ -52,7 +52,7 @@ def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
     if config.hook is not None:
         config.hook = check_hook(config.hook, "hook")
     check_bool(config.randomize, "randomize")
-    check_one_of(config.render_mode, (None, "rgb_array"), "render_mode")
+    check_views(config, (None, "rgb_array"))
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
@@ -136,10 +136,12 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     ## Arguments
 
     `gym.make("drake_tooluse/ToolPull-v1", hook=None, randomize=True, scenario=None,
-    render_mode=None)`: `hook` = (handle length m, hook length m, angle °) fixes every
-    episode's hook (each in HookTool's range); `randomize` draws the start (above);
+    render_mode=None, meshcat=None)`: `hook` = (handle length m, hook length m, angle °) fixes
+    every episode's hook (each in HookTool's range); `randomize` draws the start (above);
     `scenario` replaces diagrams/pull.yaml (a Scenario or a YAML file); `render_mode`
-    "rgb_array" renders a fixed scene camera.
+    "rgb_array" renders a scene camera framed by `render_size`, `render_camera_position` and
+    `render_camera_target` (as the push env's, with the goal drawn); `meshcat` draws the
+    episodes in a Meshcat (a live view; `start_recording`, `save_recording`).
 
     ## Info
 
@@ -162,6 +164,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PULL_EPISODE_METRICS
+    TASK = TASK
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
@@ -218,8 +221,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         self.world, self.control = task.world, task.control
         self.ik_system = task.control.ik_system
         self.hook = task.belief.tool
-        if self.config.render_mode == "rgb_array":
-            add_scene_camera(builder, self.world)
+        self._add_views(builder, self.config)
         self.diagram = builder.Build()
         self.diagram.set_name("tool_pull_env")
         self._metrics_reader = PullMetricsReader(self.world)
@@ -254,13 +256,6 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
             self._last = (observation, m, r)
             self._sanity = self._sanity_reader.read(self._plant_context, x)
         return observation, r, False, sim_error, self._info(m, sim_error)
-
-    def render(self):
-        """`rgb_array`: the fixed scene camera's colour image, (H, W, 3) uint8."""
-        frame = super().render()
-        if self.render_mode == "rgb_array":
-            return np.asarray(frame)[:, :, :3].copy()
-        return frame
 
     def _read_metrics(self):
         episode = self._episode

@@ -1,6 +1,9 @@
 """Gymnasium registration of the pull env; imports nothing heavy (no pydrake)."""
 
-from drake_tooluse.tasks.contract import register_task_envs
+from drake_tooluse.tasks.contract import TaskDeclaration, register_task_envs
+
+# No tool-tip trajectory to replay, no transfer tools, no distillation, no study cells yet.
+TASK = TaskDeclaration("pull", "cube", frozenset({"record-video", "evaluate --meshcat"}))
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {"drake_tooluse/ToolPull-v1": {}}
@@ -10,7 +13,7 @@ LEGACY_ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
 
 def register_envs() -> None:
     """Registers the ids (idempotent); `gym.make` builds them lazily."""
-    register_task_envs(ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnv", MAX_EPISODE_STEPS)
+    register_task_envs(ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnv", MAX_EPISODE_STEPS, TASK)
     register_task_envs(
-        LEGACY_ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnvV0", MAX_EPISODE_STEPS
+        LEGACY_ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnvV0", MAX_EPISODE_STEPS, TASK
     )

@@ -16,28 +16,12 @@ import math
 from pathlib import Path
 
 import numpy as np
-from pydrake.geometry import Meshcat
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.task_gym_env import TaskGymEnv
-from drake_tooluse.builders.visualization import (
-    GOAL_RADIUS,
-    add_meshcat_visualizer,
-    save_recording,
-    show_task,
-)
+from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views
 from drake_tooluse.robot.tool import check_tool_length
-from drake_tooluse.systems.camera import (
-    SCENE_CAMERA_POSITION,
-    SCENE_CAMERA_SIZE,
-    SCENE_CAMERA_TARGET,
-    SceneView,
-    add_scene_camera,
-    check_scene_camera,
-    draw_goal,
-)
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
@@ -48,6 +32,7 @@ from drake_tooluse.tasks.push.metrics import (
     reward,
 )
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
+from drake_tooluse.tasks.push.registration import TASK
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import (
@@ -67,8 +52,9 @@ from drake_tooluse.world.scenario import (
 
 
 @dc.dataclass
-class EnvConfig:
-    """The keyword arguments of `ToolPushEnv` (and of `gym.make`)."""
+class EnvConfig(ViewOptions):
+    """The keyword arguments of `ToolPushEnv` (and of `gym.make`): the views every task's env
+    takes (`ViewOptions`), then the push task's."""
 
     scenario: object = None  # a Scenario, a YAML path, or None for diagrams/push.yaml defaults
     tool_length: float | None = None  # overrides the scenario's (m)
@@ -85,13 +71,6 @@ class EnvConfig:
     include_tool_length: bool = False
     observation_mode: str = "gripper_joints"  # or "tip" (see tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
-    render_mode: str | None = None
-    # `rgb_array`'s image: (width, height) px, each in [32, 2048], and the camera's position
-    # and the point it looks at (W, m); by default the whole task is in view.
-    render_size: tuple = SCENE_CAMERA_SIZE
-    render_camera_position: tuple = SCENE_CAMERA_POSITION
-    render_camera_target: tuple = SCENE_CAMERA_TARGET
-    meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
 
 
 # Options of the -v0 ids that the -v1 envs no longer take: their corrected behaviour is the
@@ -124,10 +103,7 @@ def _config(kwargs, name: str = "env kwargs", config_class=EnvConfig) -> EnvConf
     config = env_config(config_class, kwargs, name, "a drake_tooluse env")
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
-    check_one_of(config.render_mode, (None, "rgb_array", "human"), "render_mode")
-    check_scene_camera(
-        config.render_size, config.render_camera_position, config.render_camera_target
-    )
+    check_views(config)
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
@@ -138,11 +114,6 @@ def _config(kwargs, name: str = "env kwargs", config_class=EnvConfig) -> EnvConf
         config.tool_length_range = _check_length_range(config)
     if config.actuation_delay_range is not None:
         config.actuation_delay_range = _check_delay_range(config.actuation_delay_range)
-    if config.meshcat is not None and not isinstance(config.meshcat, Meshcat):
-        raise ValueError(
-            f"meshcat={config.meshcat!r} must be a pydrake.geometry.Meshcat (e.g. "
-            "start_meshcat()) or None"
-        )
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
@@ -339,6 +310,11 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     | argument | default | meaning |
     | --- | --- | --- |
+    | render_mode | None | None, "rgb_array" (a scene camera's colour image: the task in view, the goal drawn) or "human" |
+    | render_size | (640, 480) | `rgb_array`'s image (width, height) px, each in [32, 2048] |
+    | render_camera_position | (1.8, -1.1, 0.6) | `rgb_array`'s camera position (W, m) |
+    | render_camera_target | (0.4, -0.1, 0.1) | the point `rgb_array`'s camera looks at (W, m) |
+    | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
     | scenario | None | a Scenario, or a scenario YAML file; None: the default scenario (diagrams/push.yaml's values) |
     | tool_length | None | the tool's length (m, in (0, 0.60]), over the scenario's |
     | tool_length_range | None | [lo, hi] m: each episode's tool length drawn uniformly (not with tool_length) |
@@ -349,11 +325,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | include_tool_length | False | the believed tool length as the observation's last value |
     | observation_mode | "gripper_joints" | "gripper_joints" or "tip" (Observation Space) |
     | randomize | False | draw the starting state per reset (Starting State) |
-    | render_mode | None | None, "rgb_array" (a scene camera's colour image: the task in view, the goal drawn) or "human" |
-    | render_size | (640, 480) | `rgb_array`'s image (width, height) px, each in [32, 2048] |
-    | render_camera_position | (1.8, -1.1, 0.6) | `rgb_array`'s camera position (W, m) |
-    | render_camera_target | (0.4, -0.1, 0.1) | the point `rgb_array`'s camera looks at (W, m) |
-    | meshcat | None | a pydrake.geometry.Meshcat to draw the episodes in (recordings); else None |
 
     ### Info
 
@@ -397,6 +368,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
+    TASK = TASK
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
@@ -473,22 +445,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self.world, self.control = task.world, task.control
         self.ik_system, self.target_system = task.control.ik_system, task.control.target
         self.observation_system = task.observation
-        self._scene_view = None  # the rgb_array camera's, to draw the goal on its images
-        if config.render_mode == "rgb_array":
-            sensor = add_scene_camera(
-                builder,
-                self.world,
-                *config.render_size,
-                position=config.render_camera_position,
-                target=config.render_camera_target,
-            )
-            self._scene_view = SceneView.of_sensor(sensor)
-            self._scene_depth = sensor.depth_image_32F_output_port()  # what hides the goal
-        self.visualizer = None
-        if config.meshcat is not None:
-            self.visualizer = add_meshcat_visualizer(
-                builder, self.world.scene_graph, config.meshcat, self.scenario
-            )
+        self._add_views(builder, config)
         self.diagram = builder.Build()
         self.diagram.set_name("tool_push_env")
         # The step reads the task's metrics from the plant with the reader `task.outcome`
@@ -515,11 +472,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------
-    def _reset_handler(self, simulator, context, seed) -> None:
-        s = self._start_episode(context)
-        if self.visualizer is not None:  # the goal marker where this episode's goal is
-            show_task(self.config.meshcat, s)
-
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         observation, info = super().reset(seed=seed, options=options)
         self._last_reward = reward(self._last[1], self.config.reward_type)
@@ -555,51 +507,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             self._last_reward = reward(m, self.config.reward_type)
             terminated = self._ends_at_success and m.is_success
         return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
-
-    def render(self):
-        """`rgb_array`: the scene camera's colour image, (H, W, 3) uint8, of `render_size`
-        (W, H), seen from `render_camera_position` looking at `render_camera_target` (by
-        default robot, tool, table, box and goal in view), with this episode's goal drawn on
-        it: a translucent green disc of radius GOAL_RADIUS on the table, behind what stands
-        in front of it (the box, the tool: by the camera's depth image). The goal is drawn on
-        the image (`systems.camera.draw_goal`), not put in the scene graph, so an env renders
-        or not with the same physics."""
-        frame = super().render()
-        if self.render_mode != "rgb_array":
-            return frame
-        frame = np.asarray(frame)[:, :, :3]
-        goal = self._episode.get("goal")
-        if goal is None or self._scene_view is None:  # before the first reset
-            return frame.copy()
-        p_WG = [goal[0], goal[1], self.scenario.table.top_z]
-        depth = self._scene_depth.Eval(
-            self._scene_depth.get_system().GetMyContextFromRoot(self._context)
-        )
-        return draw_goal(frame, self._scene_view, p_WG, GOAL_RADIUS, depth.data)
-
-    # -- Meshcat recordings ---------------------------------------------------------------
-    def start_recording(self) -> None:
-        """Records what follows in Meshcat (the env must be made with `meshcat=`)."""
-        if self.visualizer is None:
-            raise ValueError("this env has no Meshcat; make it with meshcat=start_meshcat()")
-        self.visualizer.StartRecording(False)
-
-    def save_recording(self, path) -> Path:
-        """Writes the recording so far as one standalone HTML file."""
-        return save_recording(self.config.meshcat, self.visualizer, path)
-
-    def believed_poses(self):
-        """(X_WT, X_WG): the tool tip's and the gripper's poses in W on the robot model (the
-        believed tool) at the arm's current joint angles — what the robot thinks."""
-        plant_context = self.world.plant.GetMyContextFromRoot(self.simulator.get_context())
-        q = [joint.get_angle(plant_context) for joint in self.world.arm_joints()]
-        return self.control.ik.fk(q), self.control.ik.fk_gripper(q)
-
-    def commanded_tip_pose(self):
-        """X_WT: where the IK's joint targets put the tool tip on the robot model — the pose
-        the last step commanded (the arm lags it; `believed_poses` is where it got)."""
-        context = self.ik_system.GetMyContextFromRoot(self.simulator.get_context())
-        return self.control.ik.fk(self.ik_system.q_desired(context))
 
     def _read_metrics(self):
         """The task's metrics of the current state, the episode's touches kept. They are the

@@ -1,6 +1,9 @@
 """Gymnasium registration of the push envs; imports nothing heavy (no pydrake)."""
 
-from drake_tooluse.tasks.contract import register_task_envs
+from drake_tooluse.tasks.contract import COMMAND_NEEDS, TaskDeclaration, register_task_envs
+
+# The paper's task: every command serves it.
+TASK = TaskDeclaration("push", "box", frozenset(COMMAND_NEEDS))
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {
@@ -14,7 +17,7 @@ LEGACY_ENV_IDS = {env_id.replace("-v1", "-v0"): kwargs for env_id, kwargs in ENV
 
 def register_envs() -> None:
     """Registers the ids (idempotent); `gym.make` builds them lazily."""
-    register_task_envs(ENV_IDS, "drake_tooluse.tasks.push.env:ToolPushEnv", MAX_EPISODE_STEPS)
+    register_task_envs(ENV_IDS, "drake_tooluse.tasks.push.env:ToolPushEnv", MAX_EPISODE_STEPS, TASK)
     register_task_envs(
-        LEGACY_ENV_IDS, "drake_tooluse.tasks.push.legacy:ToolPushEnvV0", MAX_EPISODE_STEPS
+        LEGACY_ENV_IDS, "drake_tooluse.tasks.push.legacy:ToolPushEnvV0", MAX_EPISODE_STEPS, TASK
     )

@@ -144,7 +144,7 @@ def test_out_of_bounds_actions_are_clipped():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['scenario'"),
+        ({"colour": "red"}, r"unknown argument\(s\) \['colour'\].*allowed: \['render_mode'"),
         (
             {"action_mode": "joint"},
             r"action_mode='joint' is not allowed; choose one of \['position_quaternion', 'pose', 'position'\]",

@@ -5,6 +5,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from pydrake.geometry import Meshcat
+from pydrake.gym import DrakeGymEnv
 
 import drake_tooluse  # noqa: F401  (registers the ids)
 from drake_tooluse.systems.camera import GOAL_RGB
@@ -18,7 +19,7 @@ def rendered():
     env = gym.make(ENV, render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
-    raw = np.asarray(super(type(env.unwrapped), env.unwrapped).render())[:, :, :3]
+    raw = np.asarray(DrakeGymEnv.render(env.unwrapped))[:, :, :3]
     yield env.unwrapped, frame, raw
     env.close()
 
@@ -49,7 +50,7 @@ def test_the_border_check_sees_a_cut_robot():
     )
     env.reset(seed=0)
     e = env.unwrapped
-    assert not _borders_are_sky(np.asarray(super(type(e), e).render())[:, :, :3])
+    assert not _borders_are_sky(np.asarray(DrakeGymEnv.render(e))[:, :, :3])
     env.close()
 
 
@@ -89,7 +90,7 @@ def test_what_stands_in_front_of_the_goal_stays_in_front():
     env = gym.make(ENV, render_mode="rgb_array", render_size=(320, 240))
     env.reset(seed=0)
     e = env.unwrapped
-    raw = np.asarray(super(type(e), e).render())[:, :, :3]
+    raw = np.asarray(DrakeGymEnv.render(e))[:, :, :3]
     depth = e._scene_depth.Eval(e._scene_depth.get_system().GetMyContextFromRoot(e._context)).data
     box = e.world.box.EvalPoseInWorld(e.world.plant.GetMyContextFromRoot(e._context))
     p_box = box.translation()

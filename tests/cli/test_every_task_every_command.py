@@ -1,0 +1,91 @@
+"""Every command, with a policy of each task (the push task's, the pull task's, and the toy task
+of tests/tasks/toy_touch.py): it works, or it exits 2 before any work, saying what the task
+lacks (`tasks.contract.COMMAND_NEEDS`, the task's `TaskDeclaration`)."""
+
+import pytest
+
+from drake_tooluse.cli import main
+from drake_tooluse.learning.config import resolve_config
+from drake_tooluse.learning.train import train
+from drake_tooluse.paths import PULL_POLICY, TRANSFER_POLICY
+from drake_tooluse.tasks.contract import COMMAND_NEEDS
+from tests.tasks import toy_touch
+
+
+@pytest.fixture(scope="module")
+def toy_policy(tmp_path_factory):
+    toy_touch.register()
+    out = tmp_path_factory.mktemp("toy") / "run"
+    overrides = {"env_kwargs": {}, **toy_touch.TINY_PPO}
+    config = resolve_config(toy_touch.ENV_ID, "ppo", 256, 1, 0, overrides=overrides)
+    train(config, out, progress_bar=False)
+    return out / "final"
+
+
+def _argv(command: str, policy, tmp_path) -> list[str]:
+    """The command line of `command` with `policy`, as small as it runs."""
+    out = str(tmp_path / "out")
+    return {
+        "trajectory": ["trajectory", "--policy", policy, "--episodes", "1", "--out", out],
+        "transfer": ["transfer", "--policy", policy, "--runs", "1", "--out", out],
+        "distill": ["distill", "--teacher", policy, "--out", out, "--rounds", "1"],
+        "record-video": ["record-video", "--policy", policy, "--out", out + ".gif"],
+        "evaluate --meshcat": ["evaluate", "--policy", policy, "--episodes", "1", "--meshcat"],
+    }[command]
+
+
+def _refused_before_work(capsys, argv, tmp_path, command, task):
+    code = main([*argv, "--json"] if argv[0] != "record-video" else argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert f"{command} needs {COMMAND_NEEDS[command]}, which the {task} task" in err
+    assert not any(tmp_path.iterdir())  # no work: nothing written
+
+
+@pytest.mark.parametrize(
+    "command", ["trajectory", "transfer", "distill", "record-video", "evaluate --meshcat"]
+)
+def test_the_toy_task_is_refused_before_any_work(command, toy_policy, tmp_path, capsys):
+    argv = _argv(command, str(toy_policy), tmp_path)
+    _refused_before_work(capsys, argv, tmp_path, command, "unnamed")
+
+
+@pytest.mark.parametrize("command", ["trajectory", "transfer", "distill"])
+def test_the_pull_task_is_refused_before_any_work(command, tmp_path, capsys):
+    argv = _argv(command, str(PULL_POLICY), tmp_path)
+    _refused_before_work(capsys, argv, tmp_path, command, "pull")
+
+
+def test_the_pull_policy_records_a_video_framed_as_asked(tmp_path, capsys):
+    out = tmp_path / "pull.gif"
+    argv = ["record-video", "--policy", str(PULL_POLICY), "--out", str(out)]
+    code = main([*argv, "--render-size", "64", "48", "--every", "10", "--json"])
+    assert code == 0 and out.is_file(), capsys.readouterr().err
+
+
+def test_the_pull_policy_is_evaluated_in_meshcat(monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdin", open("/dev/null"))  # the view closes at once
+    code = main(["evaluate", "--policy", str(PULL_POLICY), "--episodes", "1", "--meshcat"])
+    out = capsys.readouterr().out
+    assert code == 0 and "final cube-goal distance" in out
+
+
+def test_the_push_task_serves_every_command():
+    from drake_tooluse.learning.policy_dir import load_policy
+    from drake_tooluse.tasks.contract import check_serves
+
+    env_id = load_policy(TRANSFER_POLICY).meta.env_id
+    for command in COMMAND_NEEDS:
+        assert check_serves(env_id, command).name == "push"
+
+
+def test_a_study_cell_of_the_pull_task_is_refused_before_any_work(tmp_path, capsys):
+    cells = tmp_path / "cells.yaml"
+    cells.write_text(
+        "cells:\n  pull:\n    env: drake_tooluse/ToolPull-v1\n    algo: ppo\n"
+        "    timesteps: 256\n    seeds: [0]\n"
+    )
+    code = main(["study", "--cells", str(cells), "--out", str(tmp_path / "study")])
+    err = capsys.readouterr().err
+    assert code == 2 and "cell 'pull': study needs the paper's study cells" in err
+    assert not (tmp_path / "study").exists()
