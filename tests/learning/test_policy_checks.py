@@ -50,11 +50,15 @@ def test_inconsistent_metadata_is_refused(policy, changes, message):
 
 
 def test_weights_of_other_spaces_are_refused(policy):
-    """A 3-action policy's weights under metadata that says 7 actions (paper mode)."""
+    """A 3-action policy's weights under metadata that says 7 actions (the 7-d mode)."""
     _edit(
         policy,
         action_shape=[7],
-        env_kwargs={"action_mode": "paper", "observation_mode": "tip", "randomize": True},
+        env_kwargs={
+            "action_mode": "position_quaternion",
+            "observation_mode": "tip",
+            "randomize": True,
+        },
     )
     with pytest.raises(ValueError, match=r"says action_shape \[7\] but .* was saved for \[3\]"):
         load_policy(policy)
@@ -100,10 +104,13 @@ def test_an_observation_of_the_wrong_size_is_a_clear_error():
     [
         (["--env-kwargs", '{"colour": 1}'], r"unknown argument\(s\) \['colour'\]"),
         (
-            ["--env-kwargs", '{"action_mode": "paper"}'],
+            ["--env-kwargs", '{"action_mode": "position_quaternion"}'],
             r"trained for observations \[12\] and actions \[3\]",
         ),
-        (["--env-kwargs", '{"observation_mode": "paper"}'], r"this env has observations \[30\]"),
+        (
+            ["--env-kwargs", '{"observation_mode": "gripper_joints"}'],
+            r"this env has observations \[30\]",
+        ),
         (["--env", "Nope-v0"], r"unknown env 'Nope-v0'"),
     ],
 )

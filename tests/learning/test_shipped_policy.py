@@ -4,8 +4,8 @@
 - ppo_toolpush_tip: the tool-tip observation (12 values), the transfer and demo policy;
 - ppo_toolpush_paper_action: the paper's observation and its 7-d action (tip position change
   + quaternion change);
-- ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v0);
-- ppo_toolpush_tip_far: ppo_toolpush_tip fine-tuned on the goal 0.10 m further (ToolPushFar-v0),
+- ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v1);
+- ppo_toolpush_tip_far: ppo_toolpush_tip fine-tuned on the goal 0.10 m further (ToolPushFar-v1),
   tool choice's push-far policy.
 """
 
@@ -21,13 +21,13 @@ from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.task_envs import episode_metrics
 
 POLICIES = Path(__file__).resolve().parents[2] / "models" / "policies"
-PUSH, PULL = "drake_tooluse/ToolPush-v0", "drake_tooluse/ToolPull-v0"
+PUSH, PULL = "drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1"
 SHIPPED = {  # name -> (env id, observation size, action size)
     "ppo_toolpush": (PUSH, 30, 3),
     "ppo_toolpush_tip": (PUSH, 12, 3),
     "ppo_toolpush_paper_action": (PUSH, 30, 7),
     "ppo_toolpull": (PULL, 16, 3),
-    "ppo_toolpush_tip_far": ("drake_tooluse/ToolPushFar-v0", 12, 3),
+    "ppo_toolpush_tip_far": ("drake_tooluse/ToolPushFar-v1", 12, 3),
 }
 
 
@@ -155,15 +155,16 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
 
 
 def test_to_the_time_limit_each_episode_runs_on_past_its_success():
-    tip = POLICIES / "ppo_toolpush_tip"
+    """On the -v0 ids' early end (`end_at_success`), which the -v1 envs no longer have."""
+    tip, v0 = POLICIES / "ppo_toolpush_tip", "drake_tooluse/ToolPush-v0"
     early_end = {"end_at_success": True}
-    ended = evaluate(tip, episodes=2, seed=1000, env_kwargs=early_end)
+    ended = evaluate(tip, v0, episodes=2, seed=1000, env_kwargs=early_end)
     assert ended.success_rate == 1.0 and all(r["length"] < 100 for r in ended.per_episode)
     assert not ended.to_time_limit
-    full = evaluate(tip, episodes=2, seed=1000, env_kwargs=early_end, to_time_limit=True)
+    full = evaluate(tip, v0, episodes=2, seed=1000, env_kwargs=early_end, to_time_limit=True)
     assert full.to_time_limit and [r["length"] for r in full.per_episode] == [100, 100]
-    # The default env runs to its limit: the same episodes, judged the same way.
-    default = evaluate(tip, episodes=2, seed=1000)
+    # The env without the early end runs to its limit: the same episodes, judged the same way.
+    default = evaluate(tip, v0, episodes=2, seed=1000)
     assert default.to_time_limit and default.per_episode == full.per_episode
     # Judged where it ends: the box is wherever the policy left it at the limit.
     assert [r["final_object_to_goal_m"] for r in full.per_episode] != [
