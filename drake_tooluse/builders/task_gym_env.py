@@ -207,7 +207,14 @@ class TaskGymEnv(CountedClockGymEnv):
         on it: a translucent green disc of radius GOAL_RADIUS on the table, behind what
         stands in front of it (by the camera's depth image). The goal is drawn on the image
         (`systems.camera.draw_goal`), not put in the scene graph, so an env renders or not
-        with the same physics."""
+        with the same physics. Without a render mode it warns and returns None, as
+        Gymnasium's own envs do."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() without a render mode: make the env with render_mode='rgb_array' "
+                "(or 'human', where the env offers it)"
+            )
+            return None
         frame = super().render()
         if self.render_mode != "rgb_array":
             return frame

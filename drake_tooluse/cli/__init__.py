@@ -237,10 +237,17 @@ def main(argv=None) -> int:
     for w in raised:  # the command succeeded: its warnings, after the work
         sys.stderr.write(warnings.formatwarning(w.message, w.category, w.filename, w.lineno))
     show = getattr(args, "show", None)
-    if args.json or show is None:
-        print(json.dumps(_strict(out), indent=2, allow_nan=False))
-    else:
-        print(show(out))
+    text = (
+        json.dumps(_strict(out), indent=2, allow_nan=False)
+        if args.json or show is None
+        else show(out)
+    )
+    try:
+        print(text)
+        sys.stdout.flush()
+    except BrokenPipeError:  # the reader left (`| head -1`): the work is done, quietly
+        # Python would report the pipe again when it flushes stdout at exit: point it nowhere.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     keep_open = getattr(args, "keep_open", None)  # --meshcat: the view stays until the user
     if keep_open is not None:  # is done with it
         sys.stdout.flush()  # the result shows while the view stays open, in a pipe too

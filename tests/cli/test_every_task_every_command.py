@@ -89,3 +89,29 @@ def test_a_study_cell_of_the_pull_task_is_refused_before_any_work(tmp_path, caps
     err = capsys.readouterr().err
     assert code == 2 and "cell 'pull': study needs the paper's study cells" in err
     assert not (tmp_path / "study").exists()
+
+
+def test_a_reader_that_leaves_the_pipe_ends_no_command_in_a_traceback():
+    """`drake-tooluse ... --json | head -1`: the reader closes the pipe before the result."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen(
+        [sys.executable, "-m", "drake_tooluse.cli", "measure-box", "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    child.stdout.close()  # the reader is gone before anything is written
+    err = child.stderr.read().decode()
+    assert child.wait() == 0 and "Traceback" not in err and "BrokenPipe" not in err
+
+
+def test_render_without_a_render_mode_warns_and_returns_none():
+    import gymnasium as gym
+
+    for env_id in ("drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1"):
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        with pytest.warns(UserWarning, match="render\\(\\) without a render mode"):
+            assert env.unwrapped.render() is None
+        env.close()
