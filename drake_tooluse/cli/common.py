@@ -58,9 +58,14 @@ def add_scenario_args(p: argparse.ArgumentParser) -> None:
 
 def scenario_from_args(args):
     """The scenario of `add_scenario_args`' options, validated."""
-    from drake_tooluse.world.scenario import load_scenario, with_tool_length
+    from drake_tooluse.world.scenario import load_scenario, with_tool, with_tool_length
 
     scenario = load_scenario(args.scenario)
+    if getattr(args, "tool_kind", None) == "straight" and scenario.tool.kind != "straight":
+        # A straight tool in a world made for another (the pull world's hook): its length is
+        # a straight tool's, not the hook handle's.
+        length = scenario.tool.length if args.tool_length is None else args.tool_length
+        return with_tool(scenario, tool_length_arg(length))
     if args.tool_length is not None:
         scenario = with_tool_length(scenario, args.tool_length)
     return scenario

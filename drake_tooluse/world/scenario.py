@@ -436,7 +436,15 @@ def _load_layers(path: Path, seen: tuple, roots: tuple = ()) -> Scenario:
     except (RuntimeError, ValueError, TypeError, AssertionError, KeyError) as e:
         # Drake's loader names an unknown key; the types were checked above.
         raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
-    model = ((raw or {}).get("tool") or {}).get("model")
+    tool = (raw or {}).get("tool") or {}
+    hook_fields = [k for k in ("hook_length", "hook_angle") if k in tool]
+    if hook_fields and scenario.tool.kind != "hook":  # (the CLI refuses the same combination)
+        raise ValueError(
+            f"invalid scenario {str(path)!r}: tool.{hook_fields[0]}={shown(tool[hook_fields[0]])} "
+            f"describes a hook, but tool.kind is {scenario.tool.kind!r}; set kind: hook, or "
+            f"leave out {' and '.join(hook_fields)}"
+        )
+    model = tool.get("model")
     if model and not str(model).startswith("package://"):  # relative to the file naming it
         scenario.tool.model = str((path.parent / model).resolve())
         _check_inside(Path(scenario.tool.model), roots, f"{str(path)!r}: tool.model")

@@ -183,3 +183,17 @@ def test_a_fuzzed_scenario_is_valid_for_drake_or_a_value_error(tmp_path_factory,
         assert math.isfinite(v) and abs(v) <= WORKSPACE
     goal = [b + g for b, g in zip(s.box.position, s.goal_offset)]
     assert all(abs(v) <= WORKSPACE for v in goal)
+
+
+@pytest.mark.parametrize(
+    "tool_yaml, field",
+    [
+        ("  kind: straight\n  hook_length: 0.05\n  hook_angle: 90\n", "hook_length"),
+        ("  hook_angle: 75\n", "hook_angle"),  # kind left out: straight
+    ],
+)
+def test_a_straight_tool_with_a_hooks_fields_is_refused_naming_them(tmp_path, tool_yaml, field):
+    path = tmp_path / "s.yaml"
+    path.write_text("tool:\n" + tool_yaml)
+    with pytest.raises(ValueError, match=rf"tool\.{field}=.* describes a hook, but tool\.kind"):
+        load_scenario(path)

@@ -234,3 +234,14 @@ def test_the_belief_holds_the_measured_hook_where_the_camera_saw_the_grasp(monke
     assert belief.grasp_offset == (0.0, 0.0061)
     nominal, _ = hook_measurement.measure_hook_belief(Scenario(), use_grasp_estimate=False)
     assert nominal.tool == belief.tool and nominal.grasp_offset == (0.0, 0.0)
+
+
+def test_a_straight_tool_measured_in_the_pull_world_takes_a_straight_tools_length(capsys):
+    """`--tool-kind straight` in the pull world (which holds a hook): 0.5 m is a valid straight
+    tool, not a hook's handle outside [0.15, 0.35] m."""
+    from drake_tooluse.paths import PULL_SCENARIO
+
+    argv = ["measure", "--tool-kind", "straight", "--scenario", str(PULL_SCENARIO)]
+    code = main([*argv, "--tool-length", "0.5", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["tool_length_m"] == pytest.approx(0.5, abs=0.005)
