@@ -84,10 +84,13 @@ def cmd_train(args) -> dict:
             args.env or (own.env_id if own else DEFAULT_ENV),
             args.algo or (own.algo if own else DEFAULT_ALGO),
             timesteps,
-            args.n_envs,
+            # Not given with --resume: the run's own (not the YAML's default).
+            args.n_envs if args.n_envs is not None or own is None else own.n_envs,
             args.seed if args.seed is not None else (own.seed if own else 0),
             init_from=str(args.init_from) if args.init_from else None,
-            overrides=overrides,
+            # With --resume, what is not given is the run's own (its hyperparameters, not the
+            # YAML's): the flags given must match the run, the rest is taken from it.
+            overrides=overrides if own is None else {**own.hyperparams, **(overrides or {})},
             env_kwargs=env_kwargs,
         )
     # One torch thread: the env processes are the parallelism (2 cores here).
@@ -107,6 +110,13 @@ def cmd_train(args) -> dict:
         if args.resume is not None:
             raise
         raise in_cli_words(e, out_dir, "run") from None
+    except KeyboardInterrupt:
+        if not (Path(out_dir) / "checkpoints" / "latest.json").is_file():
+            raise  # no checkpoint yet: nothing to go on from
+        raise KeyboardInterrupt(
+            f"the run so far is saved in {str(out_dir)!r} (its last checkpoint); go on with "
+            f"`drake-tooluse train --resume {shlex.quote(str(out_dir))}`"
+        ) from None
     except Exception:
         if new_dir:  # a run refused before it began leaves no directory (its lock only)
             _remove_if_only_lock(Path(out_dir))

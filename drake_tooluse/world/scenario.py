@@ -437,8 +437,13 @@ def _load_layers(path: Path, seen: tuple, roots: tuple = ()) -> Scenario:
         # Drake's loader names an unknown key; the types were checked above.
         raise ValueError(f"invalid scenario {str(path)!r}: {e}") from None
     tool = (raw or {}).get("tool") or {}
-    hook_fields = [k for k in ("hook_length", "hook_angle") if k in tool]
-    if hook_fields and scenario.tool.kind != "hook":  # (the CLI refuses the same combination)
+    # A hook's field set on a straight tool would be dropped unseen (the CLI refuses the same
+    # combination). A whole scenario written out (a run's copy) holds their defaults: allowed.
+    default = ToolConfig()
+    hook_fields = [
+        k for k in ("hook_length", "hook_angle") if k in tool and tool[k] != getattr(default, k)
+    ]
+    if hook_fields and scenario.tool.kind != "hook":
         raise ValueError(
             f"invalid scenario {str(path)!r}: tool.{hook_fields[0]}={shown(tool[hook_fields[0]])} "
             f"describes a hook, but tool.kind is {scenario.tool.kind!r}; set kind: hook, or "

@@ -159,3 +159,22 @@ def test_envs_close_in_bounded_time_after_a_ctrl_c_between_two_step_results():
     assert time.monotonic() - start < 10.0
     assert venv.unwrapped.closed
     assert not any(process.is_alive() for process in venv.unwrapped.processes)
+
+
+def test_an_interrupted_training_says_how_to_go_on(tmp_path, monkeypatch, capsys):
+    """Ctrl-C in `train` (of any task) after a checkpoint: exit 130 with the command that
+    resumes the run (it printed only "interrupted")."""
+    import drake_tooluse.learning.train as training
+    from drake_tooluse.cli import main
+
+    def interrupted(config, out, **kwargs):
+        (Path(out) / "checkpoints").mkdir(parents=True)
+        (Path(out) / "checkpoints" / "latest.json").write_text("{}")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(training, "train", interrupted)
+    out = tmp_path / "run"
+    argv = ["train", "--env", "drake_tooluse/ToolPull-v1", "--timesteps", "256", "--out", str(out)]
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert f"go on with `drake-tooluse train --resume {out}`" in err

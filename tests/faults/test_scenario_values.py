@@ -188,7 +188,7 @@ def test_a_fuzzed_scenario_is_valid_for_drake_or_a_value_error(tmp_path_factory,
 @pytest.mark.parametrize(
     "tool_yaml, field",
     [
-        ("  kind: straight\n  hook_length: 0.05\n  hook_angle: 90\n", "hook_length"),
+        ("  kind: straight\n  hook_length: 0.06\n  hook_angle: 75\n", "hook_length"),
         ("  hook_angle: 75\n", "hook_angle"),  # kind left out: straight
     ],
 )

@@ -192,3 +192,16 @@ def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
 def test_train_and_evaluate_bad_input(argv, message, capsys):
     assert main(argv) == 2
     assert message in capsys.readouterr().err
+
+
+def test_resume_with_flags_that_match_the_run_takes_the_rest_from_it(tmp_path, capsys):
+    """`train --resume RUN --algo ppo --env ITS_ENV`: the settings not given are the run's
+    (it was refused, "hyperparams.n_envs: saved 1, asked 2", for a value never given)."""
+    from drake_tooluse.cli import main
+
+    out = str(tmp_path / "run")
+    hyperparams = json.dumps({**TINY, **PER_ALGO["ppo"]})
+    first = ["train", "--env", ENV, "--algo", "ppo", "--timesteps", "256", "--n-envs", "1"]
+    assert main([*first, "--hyperparams", hyperparams, "--out", out, "--no-progress"]) == 0
+    again = ["train", "--resume", out, "--algo", "ppo", "--env", ENV, "--timesteps", "512"]
+    assert main([*again, "--no-progress"]) == 0, capsys.readouterr().err
