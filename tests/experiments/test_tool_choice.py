@@ -144,17 +144,14 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
 
 
 @pytest.mark.parametrize("pull", [ScriptedPullPolicy(), None], ids=["scripted", "shipped"])
-def test_choose_pull_picks_the_hook_and_the_shipped_policy_succeeds_in_reality(pull):
+def test_choose_pull_succeeds_in_reality(pull):
     rack = ["straight:0.3", "hook:0.25,0.05,90"]
     policies = Policies(pull=pull)  # None: the shipped hook policy
     out = choose_tool("pull", rack, 1, seed=0, oracle=True, policies=policies, delay_margin=0.0)
     assert out["candidates"][1]["rollouts"][0]["actuation_delay_s"] == 0.0
     assert out["chosen"] == "hook:0.25,0.05,90"
     assert out["candidates"][1]["predicted_success"] == 1.0
-    # The scripted reference is not held to reality: on the -v1 arm (its target moved from
-    # the observed state) it ended this reality's pull 5.3 cm from the goal (5 cm to succeed).
-    if pull is None:
-        assert out["success"] and out["oracle_success"]
+    assert out["success"] and out["oracle_success"]
     assert out["candidates"][0]["reality"] == {
         "success": False,
         "final_distance_m": None,
@@ -217,10 +214,11 @@ def test_the_default_rack_chooses_per_task():
 def test_the_delay_margin_tells_the_hooks_apart():
     """The long J-hook's scripted pull fails with reality's 40 ms actuation delay: the
     rollouts with that much delay show it, and the robot takes the L-hook, which succeeds in
-    reality."""
+    reality. (Seed 0: on the -v1 arm the scripted pull fails seed 1's reality with either
+    hook; of seeds 0-9, 0, 2, 3, 6 and 8 are instances the L-hook succeeds in.)"""
     rack = ["hook:0.25,0.05,90", "hook:0.35,0.08,60"]
     scripted = Policies(pull=ScriptedPullPolicy())
-    out = choose_tool("pull", rack, 3, seed=1, oracle=True, policies=scripted)
+    out = choose_tool("pull", rack, 3, seed=0, oracle=True, policies=scripted)
     assert out["oracle_tools"] == ["hook:0.25,0.05,90"]
     j_hook = out["candidates"][1]
     assert [r["actuation_delay_s"] for r in j_hook["rollouts"]] == pytest.approx([0, 0.04, 0.06])
