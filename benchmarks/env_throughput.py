@@ -72,7 +72,7 @@ def breakdown(steps: int) -> dict:
     commands (`world_on_commands_ms`); and the rest: Drake's framework around the Python
     systems (events, ports), the IK system's update beyond the solve, the env's step and
     checks, resets, the random actions."""
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     u = env.unwrapped
     timers = {
         "tip target": _Timer(u.target_system, "_target"),
@@ -90,7 +90,7 @@ def breakdown(steps: int) -> dict:
 def joint_commands(steps: int) -> list:
     """The IK's joint command [q*, 0] after each step of `run_random(env, steps)` (the same
     seed, so the same steps), one list per episode."""
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     u = env.unwrapped
     env.reset(seed=0)
     env.action_space.seed(0)
@@ -192,11 +192,11 @@ def main() -> None:
     if fetch_env is not None:
         envs[FETCH] = fetch_env
     for action_mode in ("position_quaternion", "position"):
-        envs[f"ToolPush-v0 action_mode={action_mode}"] = gym.make(
-            "drake_tooluse/ToolPush-v0", action_mode=action_mode
+        envs[f"ToolPush-v1 action_mode={action_mode}"] = gym.make(
+            "drake_tooluse/ToolPush-v1", action_mode=action_mode
         )
     # The pull task: a hook drawn each episode, so each reset builds a new world (counted).
-    envs["ToolPull-v0"] = gym.make("drake_tooluse/ToolPull-v0")
+    envs["ToolPull-v1"] = gym.make("drake_tooluse/ToolPull-v1")
     for env in envs.values():  # warm up: compiled kernels, caches
         run_random(env, 50)
     rounds = interleaved(envs, args.steps, args.rounds)
