@@ -36,8 +36,10 @@ from __future__ import annotations
 
 import dataclasses as dc
 import io
+import math
 import time
 import types
+import zipfile
 from pathlib import Path
 
 import gymnasium as gym
@@ -209,8 +211,71 @@ def resume_distill(out, log=print) -> dict:
             f"{str(path)!r} is of format {progress.get('format')!r}; this version reads "
             f"format {PROGRESS_FORMAT}"
         )
-    config = DistillConfig(**progress["config"])
+    config = check_progress(progress, path)
     return _distill(progress["teacher"], Path(out), config, progress["command"], log, progress)
+
+
+# The distillation state's numbers: (field, type, lowest, highest); None: unbounded.
+CONFIG_RANGES = (
+    ("rounds", int, 1, 1000),
+    ("episodes", int, 1, 100_000),
+    ("seed", int, 0, 2**32 - 1),
+    ("epochs", int, 0, 10_000),
+    ("learning_rate", float, 1e-7, 1.0),
+    ("batch_size", int, 1, 1_000_000),
+    ("noise", float, 0.0, 10.0),
+)
+
+
+def check_progress(progress, path: Path) -> DistillConfig:
+    """A stopped distillation's state (`distill_progress.json`), checked whole before any
+    work: each field typed, each number finite and in its range, the rounds numbered in order
+    with their sample counts growing. Returns its config; a ValueError names the file and the
+    field."""
+
+    def bad(field: str, value, why: str) -> ValueError:
+        return ValueError(f"{str(path)!r}: {field}={value!r} {why}")
+
+    def number(field: str, value, kind, lo, hi):
+        if isinstance(value, bool) or not isinstance(value, (int, float) if kind is float else int):
+            raise bad(field, value, f"must be {'a number' if kind is float else 'an integer'}")
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise bad(field, value, f"must be in [{lo}, {hi}]")
+        return value
+
+    if not isinstance(progress, dict):
+        raise ValueError(f"{str(path)!r} must hold a JSON object")
+    for field, kind in (("teacher", str), ("command", str), ("config", dict), ("rounds", list)):
+        if not isinstance(progress.get(field), kind):
+            raise bad(field, progress.get(field), f"must be a {kind.__name__}")
+    raw = progress["config"]
+    fields = {f.name for f in dc.fields(DistillConfig)}
+    unknown = sorted(set(raw) - fields)
+    if unknown:
+        raise bad("config", unknown, f"holds unknown field(s); allowed: {sorted(fields)}")
+    for field, kind, lo, hi in CONFIG_RANGES:
+        if field not in raw:
+            raise bad(f"config.{field}", None, "is missing")
+        number(f"config.{field}", raw[field], kind, lo, hi)
+    if raw.get("action_mode") not in STUDENT_MODES:
+        raise bad("config.action_mode", raw.get("action_mode"), f"must be one of {STUDENT_MODES}")
+    if not isinstance(raw.get("env_kwargs", {}), dict):
+        raise bad("config.env_kwargs", raw.get("env_kwargs"), "must be a JSON object")
+    samples = 0
+    for i, entry in enumerate(progress["rounds"]):
+        if not isinstance(entry, dict) or entry.get("round") != i:
+            raise bad(f"rounds[{i}]", entry, f"must be round {i}'s record")
+        count = number(f"rounds[{i}].samples", entry.get("samples"), int, samples + 1, 10**9)
+        samples = count
+    if len(progress["rounds"]) >= raw["rounds"]:
+        raise bad(
+            "rounds", len(progress["rounds"]), f"records; the distillation has {raw['rounds']}"
+        )
+    number("next_seed", progress.get("next_seed"), int, 0, 2**32 - 1)
+    number("wall_time_s", progress.get("wall_time_s"), float, 0.0, 1e9)
+    if not isinstance(progress.get("numpy_random"), dict):
+        raise bad("numpy_random", progress.get("numpy_random"), "must be a generator's state")
+    return DistillConfig(**raw)
 
 
 def _distill(teacher_dir: str, out: Path, config, command: str, log, progress) -> dict:
@@ -332,16 +397,44 @@ def _restore(out: Path, progress: dict, student, optimizer, rng) -> tuple[list, 
     saved = load_policy(out)
     student.model.policy.load_state_dict(saved.model.policy.state_dict())
     student.obs_rms = saved.obs_rms
+    tensors_path, data_path = out / PROGRESS_TENSORS, out / PROGRESS_DATA
     try:
-        tensors = torch.load(out / PROGRESS_TENSORS, map_location="cpu", weights_only=True)
+        tensors = torch.load(tensors_path, map_location="cpu", weights_only=True)
         optimizer.load_state_dict(tensors["optimizer"])
         torch.set_rng_state(tensors["torch_rng"])
-        with np.load(out / PROGRESS_DATA, allow_pickle=False) as data:
-            observations, labels = list(data["observations"]), list(data["labels"])
-    except (OSError, RuntimeError, KeyError, ValueError) as e:
-        raise ValueError(f"cannot restore the distillation in {str(out)!r}: {e}") from None
-    rng.bit_generator.state = progress["numpy_random"]
-    return observations, labels
+    except Exception as e:  # torch's unpickler raises many kinds; all mean an unreadable file
+        raise ValueError(
+            f"cannot restore the distillation from {str(tensors_path)!r}: {e}"
+        ) from None
+    try:
+        with np.load(data_path, allow_pickle=False) as data:
+            observations, labels = np.asarray(data["observations"]), np.asarray(data["labels"])
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        raise ValueError(f"cannot restore the distillation from {str(data_path)!r}: {e}") from None
+    _check_data(observations, labels, progress, student.meta, data_path)
+    try:
+        rng.bit_generator.state = progress["numpy_random"]
+    except (TypeError, ValueError, KeyError) as e:
+        raise ValueError(f"{str(out / PROGRESS)!r}: numpy_random: {e}") from None
+    return list(observations), list(labels)
+
+
+def _check_data(observations, labels, progress, meta, path) -> None:
+    """The data so far fits the state: one observation and one label per sample, of the
+    student's sizes, every value finite, as many samples as the last round recorded."""
+    n = progress["rounds"][-1]["samples"] if progress["rounds"] else 0
+    shapes = {
+        "observations": (observations, meta.observation_shape[0]),
+        "labels": (labels, meta.action_shape[0]),
+    }
+    for name, (array, width) in shapes.items():
+        if array.dtype.kind not in "fiu" or array.shape != (n, width):
+            raise ValueError(
+                f"{str(path)!r}: {name} has shape {list(array.shape)} ({array.dtype}); the "
+                f"state's {n} samples need [{n}, {width}] numbers"
+            )
+        if not np.isfinite(array).all():
+            raise ValueError(f"{str(path)!r}: {name} holds NaN or infinite values")
 
 
 def _check_earlier(earlier, meta, path) -> None:

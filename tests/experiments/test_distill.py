@@ -241,3 +241,91 @@ def test_the_help_names_the_defaults_that_apply(capsys):
         shown = re.search(rf"{flag} \S+ [^-]*\(default: ([^)]+)\)", text)
         assert shown and float(shown[1]) == value, flag
     assert f"{defaults.action_mode} (the paper's 7-d action, the default)" in text
+
+
+@pytest.fixture(scope="module")
+def stopped(tmp_path_factory):
+    """A distillation stopped after its first of three rounds."""
+    from drake_tooluse.experiments.distill import distill
+
+    out = tmp_path_factory.mktemp("stopped") / "student"
+
+    def stop(_round):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        distill(TEACHER, out, DistillConfig(rounds=3, episodes=1, epochs=1), log=stop)
+    return out
+
+
+def _tampered(stopped, tmp_path, edit):
+    import shutil
+
+    out = tmp_path / "student"
+    shutil.copytree(stopped, out)
+    edit(out)
+    return out
+
+
+def _edit_progress(change):
+    import json
+
+    def edit(out):
+        path = out / "distill_progress.json"
+        state = json.loads(path.read_text())
+        change(state)
+        path.write_text(json.dumps(state))
+
+    return edit
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda s: s["config"].update(colour=1), r"config=\['colour'\] holds unknown field"),
+        (lambda s: s["config"].pop("rounds"), r"config\.rounds=None is missing"),
+        (lambda s: s["config"].update(rounds="six"), r"config\.rounds='six' must be an integer"),
+        (lambda s: s["config"].update(learning_rate=float("nan")), r"config\.learning_rate=nan"),
+        (lambda s: s["rounds"][0].update(samples=1400), r"observations has shape \[100, 30\]"),
+        (lambda s: s.update(numpy_random="x"), r"numpy_random='x' must be a generator's state"),
+    ],
+)
+def test_a_tampered_distillation_state_is_refused_naming_the_file_and_field(
+    stopped, tmp_path, change, message
+):
+    from drake_tooluse.experiments.distill import resume_distill
+
+    out = _tampered(stopped, tmp_path, _edit_progress(change))
+    with pytest.raises(ValueError, match=message) as refused:
+        resume_distill(out, log=lambda r: None)
+    assert str(out) in str(refused.value)
+    assert not (out / "policy.json").stat().st_mtime > (stopped / "policy.json").stat().st_mtime
+
+
+def _write_data(observations, labels):
+    def edit(out):
+        np.savez(out / "distill_data.npz", observations=observations, labels=labels)
+
+    return edit
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (
+            _write_data(np.full((100, 30), np.nan), np.zeros((100, 7))),
+            "observations holds NaN or infinite values",
+        ),
+        (_write_data(np.zeros((100, 30)), np.zeros((90, 7))), r"labels has shape \[90, 7\]"),
+        (lambda out: (out / "distill_data.npz").write_bytes(b"PK\x03\x04trunc"), "distill_data"),
+        (lambda out: (out / "distill_progress.pt").write_bytes(b"garbage"), "distill_progress.pt"),
+    ],
+)
+def test_tampered_distillation_data_is_refused_before_any_round(stopped, tmp_path, edit, message):
+    from drake_tooluse.experiments.distill import resume_distill
+
+    out = _tampered(stopped, tmp_path, edit)
+    rounds = []
+    with pytest.raises(ValueError, match=message):
+        resume_distill(out, log=rounds.append)
+    assert rounds == []  # nothing trained on it
