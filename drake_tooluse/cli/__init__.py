@@ -39,6 +39,7 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import warnings
 
@@ -108,6 +109,10 @@ def version_line() -> str:
     return f"drake-tooluse {__version__} (Drake {drake}, Python {platform.python_version()})"
 
 
+# What argparse takes for a negative number, not an option (its attribute, read by 3.11-3.13).
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|infinity|nan)$", re.I)
+
+
 class _Version(argparse.Action):
     def __init__(self, option_strings, dest, **kwargs):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
@@ -119,7 +124,13 @@ class _Version(argparse.Action):
 
 class Parser(argparse.ArgumentParser):
     """argparse's parser that raises its errors for `main` to report (as JSON too, with
-    `--json`) instead of printing them and exiting."""
+    `--json`) instead of printing them and exiting. A value such as `-inf`, `-nan` or `-1e-3`
+    is taken as an option's value (argparse's own pattern knows only `-1` and `-.5`, and
+    read `--hook-length -inf` as a missing value), so the option's range check names it."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message):
         raise ArgumentsRefused(self, message)

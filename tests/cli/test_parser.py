@@ -184,3 +184,13 @@ def test_the_new_human_formatters_say_what_was_done():
     assert maintenance.format_generate_models({"written": "u.urdf"}) == "wrote u.urdf"
     with pytest.raises(json.JSONDecodeError):  # human text, not JSON
         json.loads(text)
+
+
+@pytest.mark.parametrize("value", ["-inf", "-nan", "-1e-3", "-Infinity"])
+def test_a_negative_or_non_finite_value_reaches_the_options_range_check(value, capsys):
+    """argparse took `--hook-length -inf` for a missing value ("expected one argument")."""
+    from drake_tooluse.cli import main
+
+    assert main(["measure", "--tool-kind", "hook", "--hook-length", value]) == 2
+    err = capsys.readouterr().err
+    assert "--hook-length=" in err and "expected one argument" not in err
