@@ -87,6 +87,10 @@ def register_task_envs(
                 entry_point=entry_point,
                 max_episode_steps=max_episode_steps,
                 kwargs=dict(kwargs),
+                # Gymnasium 1.4's PassiveEnvChecker breaks every later step of an env whose
+                # first reset raised (a refused seed): docs/UPSTREAM.md. The envs pass
+                # Gymnasium's full `check_env` in the tests instead.
+                disable_env_checker=True,
             )
 
 

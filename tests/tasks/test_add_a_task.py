@@ -57,3 +57,23 @@ def test_learning_trains_and_evaluates_the_toy_task(tmp_path):
     }
     assert 0 <= result.metrics["final_distance_mean_m"] < 1.0
     assert result.episodes == 2 and 1 <= result.episode_length_mean <= 20
+
+
+def test_a_refused_reset_leaves_the_env_usable():
+    """A refused seed, then a valid reset: the env steps (Gymnasium 1.4's passive checker
+    broke every later step: docs/UPSTREAM.md, whose reproduction runs here too)."""
+    import re
+    from pathlib import Path
+
+    import gymnasium as gym
+    import numpy as np
+
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
+    with pytest.raises(ValueError, match="seed"):
+        env.reset(seed=-1)
+    env.reset(seed=0)
+    assert env.step(np.zeros(3, np.float32))[4]["sim_error"] is False
+    env.close()
+    page = Path(__file__).resolve().parents[2] / "docs" / "UPSTREAM.md"
+    (reproduction,) = re.findall(r"```python\n(.*?)```", page.read_text(), re.S)
+    exec(compile(reproduction, str(page), "exec"), {"__name__": "upstream_md"})
