@@ -28,9 +28,8 @@ import numpy as np
 
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.tool_choice import (
-    LearnedPullPolicy,
+    LearnedPolicy,
     Outcome,
-    PushTipPolicy,
     ScriptedPullPolicy,
     measure,
     run_outcome,
@@ -121,7 +120,7 @@ def main() -> None:
         ap.error(f"--cross-instances={args.cross_instances} must be at least 0")
     if args.seed < 0:
         ap.error(f"--seed={args.seed} must be at least 0")
-    learned = LearnedPullPolicy(args.policy)
+    learned = LearnedPolicy(args.policy)
     instances = range(args.seed, args.seed + args.instances)
     start = time.perf_counter()
     outcomes = reality({"hook policy": learned, "scripted pull": ScriptedPullPolicy()}, instances)
@@ -145,7 +144,7 @@ def main() -> None:
             f"{cross.start}…{cross.stop - 1}\n"
         )
         print(HEADER)
-        push = PushTipPolicy(TRANSFER_POLICY)
+        push = LearnedPolicy(TRANSFER_POLICY)
         hook_as_straight = with_other_tool("push", push, lambda h: (h, handle(h)), cross)
         print(row("push policy, a hook's straight handle (push)", hook_as_straight))
         straight_as_hook = with_other_tool("pull", learned, lambda h: (handle(h), h), cross)

@@ -226,3 +226,39 @@ def test_the_checker_sees_a_planted_private_import():
     assert _private_imports(tree, "drake_tooluse.perception.hook") == [
         "drake_tooluse.perception.hook line 1: drake_tooluse.perception.markers._blob"
     ]
+
+
+# The task names the tool-choice tasks declare (`tasks.contract.ToolTask`); the demo's two
+# modules still tell push from pull by name (the next step: one demo for every task).
+TASK_NAMES = {"push", "push-far", "pull"}
+NAMED_TASKS_LEFT = {"drake_tooluse/experiments/demo_pull.py", "drake_tooluse/cli/experiments.py"}
+
+
+def _task_name_tests(tree) -> list[int]:
+    """Lines of `tree` that compare with a task's name or key a table by one."""
+    lines = []
+    for node in ast.walk(tree):
+        names = []
+        if isinstance(node, ast.Compare):
+            names = [node.left, *node.comparators]
+        elif isinstance(node, ast.Dict):
+            names = [k for k in node.keys if k is not None]
+        if any(isinstance(n, ast.Constant) and n.value in TASK_NAMES for n in names):
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_of_experiments_or_cli_tells_the_tasks_apart_by_name():
+    found = {}
+    for layer in ("experiments", "cli"):
+        for path in sorted((PACKAGE / layer).glob("*.py")):
+            name = str(path.relative_to(PACKAGE.parent))
+            lines = _task_name_tests(ast.parse(path.read_text()))
+            if lines and name not in NAMED_TASKS_LEFT:
+                found[name] = lines
+    assert not found, f"a test of a task's name or a table by task: {found}"
+
+
+def test_the_task_name_check_sees_a_planted_test():
+    tree = ast.parse('if task == "pull":\n    pass\nTABLE = {"push": 1}\n')
+    assert _task_name_tests(tree) == [1, 3]

@@ -286,7 +286,7 @@ def run_demo(
                 "dropped_views": measurement.dropped,
             },
             "perturbation": dc.asdict(draw),
-            "push": run.as_dict(),
+            "run": run.as_dict(),
             "times": times,
             "files": {
                 "recording": final(work / "recording.html"),
@@ -311,7 +311,7 @@ def push_text(push: dict) -> str:
 
 
 def format_demo(m: dict) -> str:
-    push, tool = m["push"], m["tool"]
+    push, tool = m["run"], m["tool"]
     return "\n".join(
         [
             f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "

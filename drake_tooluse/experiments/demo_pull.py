@@ -25,10 +25,16 @@ from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.demo import FIGURE_DPI, mark_goal
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
-from drake_tooluse.experiments.tool_choice import LearnedPullPolicy, holding, task_scenarios
+from drake_tooluse.experiments.tool_choice import (
+    TOOL_TASKS,
+    LearnedPolicy,
+    holding,
+    task_scenarios,
+)
 from drake_tooluse.files import atomic_dir, atomic_write_figure, atomic_write_json, check_output_dir
 from drake_tooluse.paths import PULL_POLICY
 from drake_tooluse.robot.tool import HookTool
+from drake_tooluse.tasks.contract import declaration, env_class
 from drake_tooluse.tasks.pull.registration import MAX_EPISODE_STEPS
 from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
@@ -85,8 +91,13 @@ def _controller(policy, scenario):
     the joints) of `policy`: a policy directory, or "scripted"."""
     if str(policy) == SCRIPTED:
         return ScriptedPull(scenario.table.top_z), "scripted pull", BEHAVIOUR_V1
-    learned = LearnedPullPolicy(policy)
-    return learned.policy.act, f"policy {Path(policy).name}", learned.behaviour
+    learned = LearnedPolicy(policy)
+    pull = TOOL_TASKS["pull"]
+    if declaration(learned.env_id) != declaration(pull.env_id):
+        raise ValueError(f"{policy} is a policy of {learned.env_id}, not of the pull task")
+    meta = learned.policy.meta
+    behaviour = env_class(meta.env_id).control_behaviour(meta.env_kwargs)
+    return learned.policy.act, f"policy {Path(policy).name}", behaviour
 
 
 def run_demo_pull(
@@ -157,7 +168,7 @@ def run_demo_pull(
                 "views": measurement.as_dict()["views"],
                 "dropped_views": measurement.dropped,
             },
-            "pull": pull.as_dict(),
+            "run": pull.as_dict(),
             "times": times,
             "files": {
                 "recording": final(work / "recording.html"),
@@ -173,7 +184,7 @@ def run_demo_pull(
 
 
 def format_demo_pull(m: dict, files: bool = True) -> str:
-    true, measured, pull = m["hook"]["true"], m["hook"]["measured"], m["pull"]
+    true, measured, pull = m["hook"]["true"], m["hook"]["measured"], m["run"]
     first = pull["first_success_step"]
     arrived = "never at the goal" if first is None else f"first at the goal at step {first}"
     end = "at the goal" if pull["success"] else "not at the goal"

@@ -3,7 +3,8 @@ a rack of tools, it measures each tool with the head camera, predicts how well e
 by rolling out that tool's policy in its own nominal simulation of the measured tool, takes
 the best, and does the task with it in the perturbed "reality".
 
-- **Task instances** (`TaskInstance`, seeded): `push` (the push world, `diagrams/push.yaml`,
+- **Task instances** (`TaskInstance`, seeded), of the tasks the task packages declare
+  (`tasks.contract.ToolTask`, read by `task_scenarios`, `no_policy_reason`, `Policies`): `push` (the push world, `diagrams/push.yaml`,
   goal 0.20 m along y), `push-far` (the same, goal 0.10 m further: ToolPushFar-v1's) and
   `pull` (`diagrams/pull.yaml`: a cube beyond the bare gripper's reach, pulled 0.20 m
   back). The seed draws the instance's randomization (`world.randomization`): the box's
@@ -15,7 +16,7 @@ the best, and does the task with it in the perturbed "reality".
   into; `Policies`): a straight tool pushes with the shipped tool-tip policy
   (`paths.TRANSFER_POLICY`), and to the far goal with that policy fine-tuned on
   ToolPushFar-v1 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
-  (`paths.PULL_POLICY`, `LearnedPullPolicy`; `ScriptedPullPolicy` is the scripted
+  (`paths.PULL_POLICY`, `LearnedPolicy`; `ScriptedPullPolicy` is the scripted
   reference). No policy exists for a hook pushing or a straight tool pulling (the pull's
   control acts on a hook's inner corner, which a straight tool lacks): such a candidate is
   predicted 0 with that reason, and the oracle counts it 0 too (the robot has no way to use
@@ -43,32 +44,24 @@ from typing import Protocol
 
 import numpy as np
 
-from drake_tooluse.builders.control import BEHAVIOUR_V1
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.builders.visualization import start_meshcat
-from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_closed_loop, run_worlds
+from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.paths import (
-    DEFAULT_SCENARIO,
-    FAR_PUSH_POLICY,
-    PULL_POLICY,
-    PULL_SCENARIO,
-    REALITY_SCENARIO,
-    TRANSFER_POLICY,
-)
+from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
-from drake_tooluse.tasks.contract import env_class
-from drake_tooluse.tasks.pull.env import ToolPullEnv
+from drake_tooluse.tasks.contract import env_class, tool_tasks
 from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
-TASKS = ("push", "push-far", "pull")
-FAR_GOAL_EXTRA = 0.10  # m further along the push (ToolPushFar-v1's goal_extra)
+# The tasks the robot chooses a tool for, as their tasks declare them (`tasks.contract.ToolTask`).
+TOOL_TASKS = tool_tasks()
+TASKS = tuple(TOOL_TASKS)
 MIN_TOOLS, MAX_TOOLS = 1, 5
 MAX_ROLLOUTS = 20
 DEFAULT_ROLLOUTS = 3
@@ -152,18 +145,17 @@ def pull_reality(pull: Scenario, reality: Scenario) -> Scenario:
 
 
 def task_scenarios(task: str) -> tuple[Scenario, Scenario]:
-    """(nominal, reality) scenarios of a task kind, before any tool or draw."""
+    """(nominal, reality) scenarios of a task (a name of TASKS), before any tool or draw: its
+    world with its goal, and reality as its task declares it (`ToolTask.reality_world`)."""
+    declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
     reality = load_scenario(REALITY_SCENARIO)
-    if task == "pull":
-        pull = load_scenario(PULL_SCENARIO)
-        return pull, pull_reality(pull, reality)
-    nominal = load_scenario(DEFAULT_SCENARIO)
-    if task == "push-far":
-        goal = list(nominal.goal_offset)
-        goal[1] += FAR_GOAL_EXTRA
-        nominal = dc.replace(nominal, goal_offset=goal)
-        reality = dc.replace(reality, goal_offset=goal)
-    return nominal, reality
+    nominal = load_scenario(SCENARIOS_DIR / declared.world)
+    goal = list(nominal.goal_offset)
+    goal[1] += declared.goal_extra
+    nominal = dc.replace(nominal, goal_offset=goal)
+    if not declared.reality_world:
+        return nominal, pull_reality(nominal, reality)
+    return nominal, dc.replace(reality, goal_offset=goal)
 
 
 def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scenario:
@@ -203,97 +195,62 @@ class ToolPolicy(Protocol):
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome: ...
 
 
-class PushTipPolicy:
-    """A straight tool pushes with a learned tool-tip policy (default the shipped one)."""
+class LearnedPolicy:
+    """A task's learned policy (a policy directory), deployed as its env deploys it (the env
+    class's `deploy`: the push task's policy diagram, the pull task's `run_pull`), run to the
+    step limit and judged where the object ends."""
 
-    def __init__(self, policy_dir=TRANSFER_POLICY):
+    def __init__(self, policy_dir):
         self.policy = load_policy(policy_dir)
-        check_policy_env(self.policy)
+        env_id, _ = check_policy_env(self.policy)
+        self.env_id = env_id
+        self._deploy = env_class(env_id).deploy
 
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
-        push = run_closed_loop(scenario, self.policy, belief, recording_path)
-        return Outcome(push.success, push.final_object_to_goal, push.error)
-
-
-def run_recorded_pull(
-    scenario: Scenario, controller, belief: RobotBelief, recording_path, behaviour=BEHAVIOUR_V1
-):
-    """`run_pull` for MAX_STEPS, the action reaching the joints as `behaviour` has it (a
-    policy's: its env's); with `recording_path`, recorded in a new Meshcat and written there."""
-    meshcat = None if recording_path is None else start_meshcat()
-    return run_pull(
-        scenario,
-        controller,
-        belief,
-        MAX_STEPS,
-        meshcat=meshcat,
-        recording_path=recording_path,
-        behaviour=behaviour,
-    )
-
-
-class LearnedPullPolicy:
-    """A hook pulls with a learned policy of the pull task (default the shipped one,
-    `PULL_POLICY`), run to the step limit and judged where the cube ends, its action reaching
-    the joints as in the env it learned in."""
-
-    def __init__(self, policy_dir=PULL_POLICY):
-        self.policy = load_policy(policy_dir)
-        env_id, kwargs = check_policy_env(self.policy)
-        env = env_class(env_id)
-        if not issubclass(env, ToolPullEnv):
-            raise ValueError(f"{policy_dir} is a policy of {env_id}, not of the pull task")
-        self.behaviour = env.control_behaviour(kwargs)
-
-    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
-        pull = run_recorded_pull(scenario, self.policy.act, belief, recording_path, self.behaviour)
-        return Outcome(pull.success, pull.final_object_to_goal, pull.error)
+        run = self._deploy(scenario, self.policy, belief, recording_path, MAX_STEPS)
+        return Outcome(run.success, run.final_object_to_goal, run.error)
 
 
 class ScriptedPullPolicy:
-    """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`)."""
+    """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`), on the
+    `-v1` envs' control."""
 
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
         controller = ScriptedPull(scenario.table.top_z)
-        pull = run_recorded_pull(scenario, controller, belief, recording_path)
+        meshcat = None if recording_path is None else start_meshcat()
+        pull = run_pull(
+            scenario, controller, belief, MAX_STEPS, meshcat=meshcat, recording_path=recording_path
+        )
         return Outcome(pull.success, pull.final_object_to_goal, pull.error)
 
 
-NO_POLICY = {
-    (
-        "push",
-        HookTool,
-    ): "no push policy for a hook (the tool-tip policy is trained on straight tools)",
-    ("pull", StraightTool): "no pull policy for a straight tool (the pull's control acts on a "
-    "hook's inner corner, which a straight tool lacks)",
-}
-
-
 def no_policy_reason(task: str, tool) -> str | None:
-    """Why the robot has no way to do `task` with `tool`, or None when it has one."""
-    return NO_POLICY.get(("pull" if task == "pull" else "push", type(tool)))
-
-
-# Each task kind's default: a policy directory and the ToolPolicy that runs it.
-DEFAULT_POLICIES = {
-    "push": (TRANSFER_POLICY, PushTipPolicy),
-    "push-far": (FAR_PUSH_POLICY, PushTipPolicy),
-    "pull": (PULL_POLICY, LearnedPullPolicy),
-}
+    """Why the robot has no way to do `task` with `tool` (its policy uses another kind of
+    tool: `ToolTask.tool_kind`), or None when it has one."""
+    declared = TOOL_TASKS[task]
+    kind = "hook" if isinstance(tool, HookTool) else "straight"
+    if kind == declared.tool_kind:
+        return None
+    what = "a hook" if kind == "hook" else "a straight tool"
+    return f"no {task} policy for {what} ({declared.why_not})"
 
 
 class Policies:
-    """The policy for each task kind (TASKS): a ToolPolicy, a policy directory, or None for the
-    shipped one (`DEFAULT_POLICIES`); a directory is loaded once, on first use."""
+    """The policy for each task (by its name in TASKS, `-` written `_`: `push_far=`): a
+    ToolPolicy, a policy directory, or None for the shipped one (`ToolTask.policy`); a
+    directory is loaded once, on first use."""
 
-    def __init__(self, push=None, push_far=None, pull=None):
-        self._policies = {"push": push, "push-far": push_far, "pull": pull}
+    def __init__(self, **by_task):
+        self._policies = {name.replace("_", "-"): policy for name, policy in by_task.items()}
+        unknown = sorted(set(self._policies) - set(TASKS))
+        if unknown:
+            raise ValueError(f"no task {unknown[0]!r}; the tasks: {list(TASKS)}")
 
     def for_task(self, task: str) -> ToolPolicy:
-        policy = self._policies[task]
+        policy = self._policies.get(task)
         if policy is None or isinstance(policy, (str, Path)):
-            directory, kind = DEFAULT_POLICIES[task]
-            policy = self._policies[task] = kind(policy or directory)
+            default = POLICIES_DIR / TOOL_TASKS[task].policy
+            policy = self._policies[task] = LearnedPolicy(policy or default)
         return policy
 
 

@@ -49,7 +49,6 @@ from matplotlib.patches import Patch
 
 from drake_tooluse.builders.box_measurement import measure_box_start
 from drake_tooluse.builders.measurement import measure_belief
-from drake_tooluse.builders.visualization import save_recording, start_meshcat
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
@@ -77,13 +76,11 @@ from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
-from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.tasks.push.diagram import (
     PushRun,
-    build_policy_diagram,
+    run_deployed,
     run_open_loop,
-    run_policy,
 )
 from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
@@ -155,15 +152,7 @@ def run_closed_loop(
 ) -> PushRun:
     """The loaded policy inside the diagram, for MAX_STEPS (`run_policy`'s protocol); with
     `recording_path`, recorded in a new Meshcat and written there as a standalone HTML file."""
-    meshcat = None if recording_path is None else start_meshcat()
-    built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat)
-    try:
-        push = run_policy(built, max_steps=MAX_STEPS, record=meshcat is not None)
-        if meshcat is not None:
-            save_recording(meshcat, built.visualizer, recording_path)
-        return push
-    finally:
-        release_diagram(built.diagram)  # its Python systems would keep it alive
+    return run_deployed(scenario, policy, belief, recording_path, MAX_STEPS)
 
 
 def _stats(runs: list[TransferRun]) -> dict:

@@ -67,8 +67,44 @@ class TaskDeclaration:
     serves: frozenset = frozenset()
 
 
-# The declarations of the registered ids (`register_task_envs`).
+@dataclass(frozen=True)
+class ToolTask:
+    """A task the robot chooses a tool for (`choose-tool --task NAME`), as its task declares
+    it (`register_tool_tasks`): what `experiments.tool_choice` needs, with no test of a task's
+    name there.
+
+    `env_id`: the env whose policy does it; `policy`: that policy's directory name under
+    models/policies; `tool_kind`: the kind of tool the policy uses ("straight" or "hook"), and
+    `why_not` why another kind cannot do it; `world`: its scenario file's name (under
+    `paths.SCENARIOS_DIR`); `goal_extra`: m added to the goal along y. `reality_world`: True
+    where reality is diagrams/reality.yaml itself (with this task's goal); False where it is
+    this task's world with reality's actuation delay, joint limits and camera noise."""
+
+    name: str
+    env_id: str
+    policy: str
+    tool_kind: str
+    world: str
+    why_not: str
+    goal_extra: float = 0.0
+    reality_world: bool = True
+
+
+# The declarations of the registered ids (`register_task_envs`), and the tool-choice tasks
+# (`register_tool_tasks`), by name.
 _DECLARATIONS: dict = {}
+_TOOL_TASKS: dict = {}
+
+
+def register_tool_tasks(tasks) -> None:
+    """Declares each `ToolTask` of `tasks` (by its name; idempotent)."""
+    for task in tasks:
+        _TOOL_TASKS[task.name] = task
+
+
+def tool_tasks() -> dict:
+    """The declared tool-choice tasks, {name: ToolTask}, in the order they were declared."""
+    return dict(_TOOL_TASKS)
 
 
 def register_task_envs(
@@ -206,6 +242,13 @@ class TaskEnv:
     # What the task gives the commands (`TaskDeclaration`); a task that declares nothing is
     # served by train, evaluate and sweep.
     TASK: TaskDeclaration = TaskDeclaration("unnamed")
+
+    @staticmethod
+    def deploy(scenario, policy, belief=None, recording_path=None, max_steps: int = 100):
+        """A loaded policy of the env deployed in `scenario` for `max_steps`: a run with
+        `success`, `final_object_to_goal` (m) and `error` (None, or why the simulation
+        failed); recorded with `recording_path`. A task that deploys none raises."""
+        raise NotImplementedError("this task deploys no policy outside its env")
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:

@@ -24,7 +24,7 @@ def test_demo_end_to_end(tmp_path, capsys, monkeypatch):
         "grasp_along",
         "box_mass_scale",
     }
-    push = metrics["push"]
+    push = metrics["run"]
     assert 1 <= push["steps"] <= 100 and push["final_object_to_goal_m"] >= 0
     html = (out / "recording.html").read_text()
     assert "meshcat" in html.lower() and len(html) > 100_000  # the scene and its animation

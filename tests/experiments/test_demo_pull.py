@@ -19,7 +19,7 @@ def test_demo_pull_writes_its_run(tmp_path, capsys):
     assert measured["hook_length"] == pytest.approx(0.05, abs=0.005)
     assert measured["angle"] == pytest.approx(75.0, abs=3.0)
     assert measured["grasp_along"] == pytest.approx(0.015, abs=0.005)
-    pull = m["pull"]
+    pull = m["run"]
     assert m["controller"] == "policy ppo_toolpull"  # the shipped hook policy
     assert pull["success"] is True
     assert pull["final_object_to_goal_m"] < 0.05
@@ -53,4 +53,4 @@ def test_demo_pull_runs_the_scripted_reference_when_asked(tmp_path):
     from drake_tooluse.experiments.demo_pull import SCRIPTED, run_demo_pull
 
     m = run_demo_pull(tmp_path / "run", max_steps=5, progress=False, policy=SCRIPTED)
-    assert m["controller"] == "scripted pull" and m["pull"]["steps"] == 5
+    assert m["controller"] == "scripted pull" and m["run"]["steps"] == 5

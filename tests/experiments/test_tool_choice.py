@@ -69,7 +69,7 @@ def test_a_bad_instance_is_refused():
 def test_which_tool_kind_does_which_task():
     assert no_policy_reason("pull", StraightTool(0.3)).startswith("no pull policy")
     assert no_policy_reason("push", HookTool(0.25, 0.05)).startswith("no push policy")
-    assert no_policy_reason("push-far", HookTool(0.25, 0.05)).startswith("no push policy")
+    assert no_policy_reason("push-far", HookTool(0.25, 0.05)).startswith("no push-far policy")
     assert no_policy_reason("pull", HookTool(0.25, 0.05)) is None
     assert no_policy_reason("push-far", StraightTool(0.3)) is None
     # The default rack holds a tool for each task and one that cannot do it.

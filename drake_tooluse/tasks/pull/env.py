@@ -27,6 +27,7 @@ from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
 from drake_tooluse.tasks.pull.registration import TASK
+from drake_tooluse.tasks.pull.run import run_deployed
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import all_finite, check_bool, check_mapping
@@ -165,6 +166,8 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PULL_EPISODE_METRICS
     TASK = TASK
+    # A loaded policy of this env deployed in a scenario (`run_pull`, judged as here).
+    deploy = staticmethod(run_deployed)
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod

@@ -1,12 +1,30 @@
 """Gymnasium registration of the pull env; imports nothing heavy (no pydrake)."""
 
-from drake_tooluse.tasks.contract import TaskDeclaration, register_task_envs
+from drake_tooluse.tasks.contract import (
+    TaskDeclaration,
+    ToolTask,
+    register_task_envs,
+    register_tool_tasks,
+)
 
 # No tool-tip trajectory to replay, no transfer tools, no distillation, no study cells yet.
 TASK = TaskDeclaration("pull", "cube", frozenset({"record-video", "evaluate --meshcat"}))
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {"drake_tooluse/ToolPull-v1": {}}
+# The task the robot chooses a tool for: a hook pulls the cube; reality is the pull world with
+# reality's actuation delay, joint limits and camera noise.
+TOOL_TASKS = (
+    ToolTask(
+        "pull",
+        "drake_tooluse/ToolPull-v1",
+        "ppo_toolpull",
+        "hook",
+        "pull.yaml",
+        "the pull's control acts on a hook's inner corner, which a straight tool lacks",
+        reality_world=False,
+    ),
+)
 # The earlier behaviour (`ToolPullEnvV0`), kept while the policy trained on it is shipped.
 LEGACY_ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
 
@@ -17,3 +35,4 @@ def register_envs() -> None:
     register_task_envs(
         LEGACY_ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnvV0", MAX_EPISODE_STEPS, TASK
     )
+    register_tool_tasks(TOOL_TASKS)

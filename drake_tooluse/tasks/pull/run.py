@@ -12,10 +12,15 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.visualization import add_meshcat_visualizer, save_recording
+from drake_tooluse.builders.visualization import (
+    add_meshcat_visualizer,
+    save_recording,
+    start_meshcat,
+)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera, scene_camera_view
 from drake_tooluse.systems.lifetime import release_diagram
+from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.metrics import PullMetricsReader
 from drake_tooluse.tasks.pull.registration import MAX_EPISODE_STEPS
@@ -118,3 +123,26 @@ def run_pull(
         )
     finally:
         release_diagram(diagram)  # its Python systems would keep it alive
+
+
+def run_deployed(
+    scenario: Scenario,
+    policy,
+    belief: RobotBelief | None = None,
+    recording_path=None,
+    max_steps: int = MAX_EPISODE_STEPS,
+) -> PullRun:
+    """A loaded policy deployed in `scenario` (`run_pull`), its action reaching the joints as
+    in the env it learned in; with `recording_path`, recorded in a new Meshcat and written
+    there as a standalone HTML file."""
+    behaviour = env_class(policy.meta.env_id).control_behaviour(policy.meta.env_kwargs)
+    meshcat = None if recording_path is None else start_meshcat()
+    return run_pull(
+        scenario,
+        policy.act,
+        belief,
+        max_steps,
+        meshcat=meshcat,
+        recording_path=recording_path,
+        behaviour=behaviour,
+    )

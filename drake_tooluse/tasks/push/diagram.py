@@ -26,7 +26,11 @@ from drake_tooluse.builders.control import (
     nominal_belief,
 )
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
-from drake_tooluse.builders.visualization import add_meshcat_visualizer
+from drake_tooluse.builders.visualization import (
+    add_meshcat_visualizer,
+    save_recording,
+    start_meshcat,
+)
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.camera import CLOSE_UP_CAMERA, add_scene_camera
 from drake_tooluse.systems.lifetime import release_diagram
@@ -35,6 +39,7 @@ from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.tasks.contract import GoalTaskParts, env_class
 from drake_tooluse.tasks.push.metrics import PushMetricsReader, PushOutcome
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES, ToolPushObservation
+from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS
 from drake_tooluse.tasks.rollout import roll_out
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import World, goal_position, initial_box_pose
@@ -266,6 +271,27 @@ def run_policy(
         visualizer=built.visualizer if record else None,
         on_step=on_step,
     )
+
+
+def run_deployed(
+    scenario: Scenario,
+    policy,
+    belief: RobotBelief | None = None,
+    recording_path=None,
+    max_steps: int = MAX_EPISODE_STEPS,
+) -> PushRun:
+    """A loaded policy deployed in `scenario`: inside the task's diagram (`build_policy_diagram`)
+    for `max_steps` (the env's protocol); with `recording_path`, recorded in a new Meshcat and
+    written there as a standalone HTML file."""
+    meshcat = None if recording_path is None else start_meshcat()
+    built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat)
+    try:
+        push = run_policy(built, max_steps=max_steps, record=meshcat is not None)
+        if meshcat is not None:
+            save_recording(meshcat, built.visualizer, recording_path)
+        return push
+    finally:
+        release_diagram(built.diagram)  # its Python systems would keep it alive
 
 
 def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBelief) -> PushRun:

@@ -24,7 +24,7 @@ from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_v
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
-from drake_tooluse.tasks.push.diagram import add_push_task
+from drake_tooluse.tasks.push.diagram import add_push_task, run_deployed
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
     REWARD_TYPES,
@@ -369,6 +369,8 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
     TASK = TASK
+    # A loaded policy of this env deployed in a scenario (the task's diagram, judged as here).
+    deploy = staticmethod(run_deployed)
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod

@@ -1,6 +1,12 @@
 """Gymnasium registration of the push envs; imports nothing heavy (no pydrake)."""
 
-from drake_tooluse.tasks.contract import COMMAND_NEEDS, TaskDeclaration, register_task_envs
+from drake_tooluse.tasks.contract import (
+    COMMAND_NEEDS,
+    TaskDeclaration,
+    ToolTask,
+    register_task_envs,
+    register_tool_tasks,
+)
 
 # The paper's task: every command serves it.
 TASK = TaskDeclaration("push", "box", frozenset(COMMAND_NEEDS))
@@ -11,6 +17,27 @@ ENV_IDS = {
     "drake_tooluse/ToolPushBoxReward-v1": {"reward_type": "box", "goal_extra": 0.0},
     "drake_tooluse/ToolPushFar-v1": {"reward_type": "tool_and_box", "goal_extra": 0.10},
 }
+# The tasks the robot chooses a tool for: the paper's push, and the push 0.10 m further.
+STRAIGHT_ONLY = "the tool-tip policy is trained on straight tools"
+TOOL_TASKS = (
+    ToolTask(
+        "push",
+        "drake_tooluse/ToolPush-v1",
+        "ppo_toolpush_tip",
+        "straight",
+        "push.yaml",
+        STRAIGHT_ONLY,
+    ),
+    ToolTask(
+        "push-far",
+        "drake_tooluse/ToolPushFar-v1",
+        "ppo_toolpush_tip_far",
+        "straight",
+        "push.yaml",
+        STRAIGHT_ONLY,
+        goal_extra=ENV_IDS["drake_tooluse/ToolPushFar-v1"]["goal_extra"],
+    ),
+)
 # The earlier behaviour (`tasks.push.legacy`), kept while policies trained on it are shipped.
 LEGACY_ENV_IDS = {env_id.replace("-v1", "-v0"): kwargs for env_id, kwargs in ENV_IDS.items()}
 
@@ -21,3 +48,4 @@ def register_envs() -> None:
     register_task_envs(
         LEGACY_ENV_IDS, "drake_tooluse.tasks.push.legacy:ToolPushEnvV0", MAX_EPISODE_STEPS, TASK
     )
+    register_tool_tasks(TOOL_TASKS)
