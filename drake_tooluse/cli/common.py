@@ -97,20 +97,31 @@ def pose_dict(X) -> dict:
     }
 
 
-def serving_policy_arg(path, command: str, option: str = "--policy") -> Path:
-    """A policy directory (`policy_dir_arg`) whose task serves `command`, read from its
-    policy.json before any work: a task that does not serve it is a usage error saying what
-    the command needs (`tasks.contract.check_serves`)."""
+def policy_env_id(path) -> str | None:
+    """The env id a policy directory's policy.json names (None where it names none), read
+    without loading the policy."""
     from drake_tooluse.files import read_json
+
+    meta = read_json(Path(path) / "policy.json", "policy metadata")
+    return meta.get("env_id") if isinstance(meta, dict) else None
+
+
+def serves_arg(env_id, command: str, given: str) -> None:
+    """`env_id`'s task serves `command` (`tasks.contract.check_serves`); else a usage error
+    saying what the command needs, after `given` (the option and its value)."""
     from drake_tooluse.tasks.contract import check_serves
 
-    path = policy_dir_arg(path, option)
-    meta = read_json(path / "policy.json", "policy metadata")
-    env_id = meta.get("env_id") if isinstance(meta, dict) else None
     try:
         check_serves(env_id, command)
     except ValueError as e:
-        raise UsageError(f"{option} {str(path)!r}: {e}") from None
+        raise UsageError(f"{given}: {e}") from None
+
+
+def serving_policy_arg(path, command: str, option: str = "--policy") -> Path:
+    """A policy directory (`policy_dir_arg`) whose task serves `command`, read from its
+    policy.json before any work (`serves_arg`)."""
+    path = policy_dir_arg(path, option)
+    serves_arg(policy_env_id(path), command, f"{option} {str(path)!r}")
     return path
 
 

@@ -19,13 +19,15 @@ from drake_tooluse.cli.common import (
     output_dir_arg,
     parse_json_arg,
     policy_dir_arg,
+    policy_env_id,
     seed_arg,
+    serves_arg,
     serving_policy_arg,
     tool_length_arg,
 )
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.task_envs import task_env_ids
-from drake_tooluse.tasks.contract import check_serves, env_class
+from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.validation import check_in_range
 
 MAX_TIMESTEPS = 10**10
@@ -203,10 +205,7 @@ def cmd_evaluate(args) -> dict:
     if args.meshcat and args.env is None:
         serving_policy_arg(args.policy, "evaluate --meshcat")
     elif args.meshcat:
-        try:
-            check_serves(args.env, "evaluate --meshcat")
-        except ValueError as e:
-            raise UsageError(f"--env {args.env}: {e}") from None
+        serves_arg(args.env, "evaluate --meshcat", f"--env {args.env}")
     from drake_tooluse.learning.evaluate import evaluate
 
     meshcat = open_meshcat(args)
@@ -226,15 +225,9 @@ def cmd_evaluate(args) -> dict:
         result.pop("per_episode")
     if meshcat is not None:
         result["meshcat_url"] = meshcat.web_url()
-    result["env_id"] = env_id = args.env or _policy_env_id(args.policy)
+    result["env_id"] = env_id = args.env or policy_env_id(args.policy)
     result["object_name"] = env_class(env_id).TASK.object_name  # the word the text prints
     return result
-
-
-def _policy_env_id(policy) -> str:
-    from drake_tooluse.files import read_json
-
-    return read_json(Path(policy) / "policy.json", "policy metadata")["env_id"]
 
 
 def cmd_convert_policy(args) -> dict:
