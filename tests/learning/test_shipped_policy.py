@@ -79,13 +79,21 @@ def _evaluated_with_drake(name) -> str:
 
 # A rollout's floats move with the builds of Drake, numpy, torch and OpenCV (the policy's
 # matrix products, the IK's solver, contact), and an episode's small differences grow through
-# contact. Measured, against the evaluations shipped on 2026-12-04 (100 episodes each, to the
-# step limit): with Drake 1.58.0 (Python 3.13, `.ci/py313_check.sh`) 23, 18 and 7 episodes
-# differ, by up to 9.8 mm at the end; the means moved by at most 0.22 mm; one success of 100
-# flipped. With the same releases as here (numpy 2.4.6, torch 2.13.0+cpu, OpenCV 5.1.0, Drake
-# 1.51.1) in a fresh clone on another build, the first episodes differed by 1.3-2.6 µm. The
-# default suite compares within these tolerances wherever it runs:
-ACROSS_BUILDS_EPISODE_M = 0.015  # one episode's final box-to-goal distance
+# contact. Measured with `python benchmarks/across_builds.py models/policies/P/metrics.json
+# OTHER.json`, OTHER the same `drake-tooluse evaluate --policy … --episodes 100 --seed S --json
+# --per-episode` run in `.ci/py313_check.sh`'s venv (Python 3.13, Drake 1.58.0, numpy 2.5.5,
+# torch 2.13.0) against the evaluations shipped on 2026-12-05 (Drake 1.51.1):
+#   ppo_toolpush_tip           8 of 100 episodes differ, by up to 2.7 mm; mean moved 0.02 mm
+#   ppo_toolpush               7, up to 5.1 mm; 0.05 mm
+#   ppo_toolpush_paper_action  9, up to 8.5 mm; 0.11 mm
+#   ppo_toolpush_tip_far      20, up to 8.6 mm; 0.21 mm; one success flipped (rate -1 point)
+#   ppo_toolpull              37, 35 by up to 14.7 mm and 2 by 55 and 110 mm: the hook caught
+#                             or lost the cube on another branch; one success flipped each
+#                             way; mean moved 0.79 mm
+# With the same releases as here in a fresh clone on another build, the first episodes
+# differed by 1.3-2.6 µm. The default suite compares within these tolerances wherever it runs:
+ACROSS_BUILDS_EPISODE_M = 0.015  # one episode's final object-to-goal distance …
+ACROSS_BUILDS_BRANCHED = 1  # … but for at most this many of the first episodes
 ACROSS_BUILDS_MEAN_M = 0.001  # the mean of that over the 100 episodes
 ACROSS_BUILDS_SUCCESS_RATE = 0.03  # the success rate over the 100 episodes
 
@@ -113,8 +121,9 @@ def _first_episodes(name):
 def test_evaluate_reproduces_the_first_shipped_episodes(name):
     ours, shipped, key = _first_episodes(name)
     assert [e["seed"] for e in ours] == [e["seed"] for e in shipped]
-    for episode, recorded in zip(ours, shipped):
-        assert episode[key] == pytest.approx(recorded[key], abs=ACROSS_BUILDS_EPISODE_M)
+    apart = [abs(e[key] - r[key]) for e, r in zip(ours, shipped)]
+    branched = [d for d in apart if d > ACROSS_BUILDS_EPISODE_M]
+    assert len(branched) <= ACROSS_BUILDS_BRANCHED, (apart, ACROSS_BUILDS_EPISODE_M)
 
 
 @pytest.mark.slow
