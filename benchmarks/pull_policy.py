@@ -30,7 +30,7 @@ from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.tool_choice import (
     LearnedPolicy,
     Outcome,
-    ScriptedPullPolicy,
+    ScriptedPolicy,
     measure,
     run_outcome,
     task_scenarios,
@@ -55,7 +55,8 @@ def reality(policies: dict, instances: range) -> dict:
     for seed in instances:
         hook = instance_hook(seed)
         world = run_worlds(nominal, real, hook, seed)[1]
-        belief, error = attempt(measure, world, hook, seed)
+        measured, error = attempt(measure, world, hook, seed)
+        belief = None if measured is None else measured[0]
         for name, policy in policies.items():
             if belief is None:
                 outcomes[name].append(Outcome(False, float("nan"), f"measurement: {error}"))
@@ -123,7 +124,9 @@ def main() -> None:
     learned = LearnedPolicy(args.policy)
     instances = range(args.seed, args.seed + args.instances)
     start = time.perf_counter()
-    outcomes = reality({"hook policy": learned, "scripted pull": ScriptedPullPolicy()}, instances)
+    outcomes = reality(
+        {"hook policy": learned, "scripted pull": ScriptedPolicy(learned.env_id)}, instances
+    )
     seconds = time.perf_counter() - start
     print(
         f"\nToolPull in the perturbed reality (a hook drawn per instance and measured by the head "

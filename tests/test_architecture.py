@@ -228,10 +228,8 @@ def test_the_checker_sees_a_planted_private_import():
     ]
 
 
-# The task names the tool-choice tasks declare (`tasks.contract.ToolTask`); the demo's two
-# modules still tell push from pull by name (the next step: one demo for every task).
+# The task names the tool-choice tasks declare (`tasks.contract.ToolTask`).
 TASK_NAMES = {"push", "push-far", "pull"}
-NAMED_TASKS_LEFT = {"drake_tooluse/experiments/demo_pull.py", "drake_tooluse/cli/experiments.py"}
 
 
 def _task_name_tests(tree) -> list[int]:
@@ -254,7 +252,7 @@ def test_no_module_of_experiments_or_cli_tells_the_tasks_apart_by_name():
         for path in sorted((PACKAGE / layer).glob("*.py")):
             name = str(path.relative_to(PACKAGE.parent))
             lines = _task_name_tests(ast.parse(path.read_text()))
-            if lines and name not in NAMED_TASKS_LEFT:
+            if lines:
                 found[name] = lines
     assert not found, f"a test of a task's name or a table by task: {found}"
 

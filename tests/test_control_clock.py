@@ -8,11 +8,9 @@ import pytest
 
 import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.learning.policy_dir import load_policy
-from drake_tooluse.paths import PULL_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.paths import PULL_POLICY, PULL_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.tasks import rollout
-from drake_tooluse.tasks.pull import run as pull_run
-from drake_tooluse.tasks.pull.scripted import ScriptedPull
-from drake_tooluse.tasks.push import diagram as push_diagram
+from drake_tooluse.tasks.deploy import build_policy_diagram, run_policy
 from drake_tooluse.world.scenario import Scenario, load_scenario
 from tests.tasks import toy_touch
 
@@ -134,29 +132,18 @@ class _AdvanceRecorder:
         return failure
 
 
-def test_every_step_of_the_deployed_push_diagram_is_on_the_grid(monkeypatch):
-    scenario = Scenario()
-    built = push_diagram.build_policy_diagram(scenario, load_policy(TRANSFER_POLICY))
+@pytest.mark.parametrize(
+    "policy_dir, scenario",
+    [(TRANSFER_POLICY, Scenario()), (PULL_POLICY, load_scenario(PULL_SCENARIO))],
+    ids=["push", "pull"],
+)
+def test_every_step_of_the_deployed_policy_diagram_is_on_the_grid(
+    monkeypatch, policy_dir, scenario
+):
+    built = build_policy_diagram(scenario, load_policy(policy_dir))
     counter = SolveCounter()
     counter.wrap(built.control.ik_system.ik)
     recorder = _AdvanceRecorder(rollout.advance, scenario.control.control_period, counter)
     monkeypatch.setattr(rollout, "advance", recorder)
-    run = push_diagram.run_push(built.diagram, built.world, built.control, STEPS, False)
-    assert run.steps == recorder.k == STEPS and not run.sim_error
-
-
-def test_every_step_of_the_deployed_pull_diagram_is_on_the_grid(monkeypatch):
-    scenario = load_scenario(PULL_SCENARIO)
-    counter = SolveCounter()
-    original = pull_run.add_pull_task
-
-    def counted_task(*args, **kwargs):
-        task = original(*args, **kwargs)
-        counter.wrap(task.control.ik_system.ik)
-        return task
-
-    monkeypatch.setattr(pull_run, "add_pull_task", counted_task)
-    recorder = _AdvanceRecorder(rollout.advance, scenario.control.control_period, counter)
-    monkeypatch.setattr(rollout, "advance", recorder)
-    run = pull_run.run_pull(scenario, ScriptedPull(scenario.table.top_z), max_steps=STEPS)
+    run = run_policy(built, max_steps=STEPS)
     assert run.steps == recorder.k == STEPS and not run.sim_error

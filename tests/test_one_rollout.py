@@ -1,5 +1,6 @@
 """One rollout per task: the Gym env and the deployed run (the push task's policy diagram, policy
-`LeafSystem` → IK → plant; the pull task's `run_pull`) are built by the task's one builder,
+`LeafSystem` → IK → plant, `tasks.deploy`) are built by the task's one builder (its env
+class's `add_task`),
 step on the same clock and are judged the same, so the same policy, seed and world give the
 same trajectory in both, bit for bit, and the same physical-sanity flags."""
 
@@ -13,9 +14,8 @@ from gymnasium.utils.seeding import np_random
 import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import PULL_POLICY, PULL_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.tasks.deploy import build_policy_diagram, run_policy
 from drake_tooluse.tasks.pull.env import with_hook
-from drake_tooluse.tasks.pull.run import run_pull
-from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario
 
@@ -65,15 +65,15 @@ def test_the_push_env_and_the_policy_diagram_give_the_same_trajectory(randomize)
         policy.meta.env_id, policy.meta.env_kwargs, policy, seed, _tool_tip
     )
     assert run.steps == STEPS and not run.sim_error
-    np.testing.assert_array_equal(run.tip_path, env_path)
+    np.testing.assert_array_equal(run.tool_path, env_path)
     assert run.flagged == {flag for step in env_flags for flag, on in step.items() if on}
 
 
-def test_the_pull_env_and_the_deployed_pull_give_the_same_trajectory():
+def test_the_pull_env_and_the_policy_diagram_give_the_same_trajectory():
     policy = _v1(load_policy(PULL_POLICY), "drake_tooluse/ToolPull-v1", randomize=False)
     kwargs = {**policy.meta.env_kwargs, "hook": HOOK}
     scenario = with_hook(load_scenario(PULL_SCENARIO), HOOK)
-    run = run_pull(scenario, policy.act, max_steps=STEPS)
+    run = run_policy(build_policy_diagram(scenario, policy), max_steps=STEPS)
     env_path, env_flags = _env_path(policy.meta.env_id, kwargs, policy, 0, _tool_tip)
     assert run.steps == STEPS and not run.sim_error
     np.testing.assert_array_equal(run.tool_path, env_path)

@@ -229,6 +229,18 @@ class HookMeasurementResult:
         """Measured minus true (m or deg)."""
         return self.value(quantity) - self.truth[quantity]
 
+    def summary_lines(self) -> list[str]:
+        """The measurement in words, quantity by quantity (a figure's caption)."""
+        accepted = [v.view for v in self.views if v.accepted]
+        if not accepted:
+            return ["no view was accepted: " + "; ".join(d["reason"] for d in self.dropped)]
+        lines = [f"views: {', '.join(accepted)};", "measured (true, unknown to the robot):"]
+        for q in QUANTITIES:
+            unit, scale = ("deg", 1.0) if q == "angle" else ("mm", 1000.0)
+            value, true = self.value(q) * scale, self.truth[q] * scale
+            lines.append(f"{q.replace('_', ' ')}: {value:.1f} {unit} ({true:.1f})")
+        return lines
+
     def as_dict(self) -> dict:
         def f(x):
             return None if not math.isfinite(x) else float(x)

@@ -434,6 +434,26 @@ class MeasurementResult:
         values = [v.length(method) for v in self.views if v.accepted]
         return float(np.mean(values)) if values else math.nan
 
+    def summary_lines(self) -> list[str]:
+        """The measurement in words, view by view (a figure's caption): both variants."""
+        accepted = [v for v in self.views if v.accepted]
+        if not accepted:
+            return ["no view was accepted: " + "; ".join(d["reason"] for d in self.dropped)]
+        names = " / ".join(v.view.removeprefix("grip_") for v in accepted)
+
+        def mm(values):
+            return " / ".join(f"{x * 1000:.1f}" for x in values)
+
+        depth = [v.length_depth for v in accepted]
+        return [
+            f"views (grip {names}), mm:",
+            f"depth variant, what the robot uses: {mm(depth)}; mean {np.mean(depth) * 1000:.1f}",
+            f"pixel variant, the paper's fixed m/px: {mm(v.length_pixel for v in accepted)}",
+            "   (exact only for a tool square to the camera at the grip's depth:",
+            "   a view that tilts the tool in depth foreshortens it)",
+            f"true length: {self.scenario_tool_length * 1000:.1f} (unknown to the robot)",
+        ]
+
     def as_dict(self) -> dict:
         def f(x):
             return None if not math.isfinite(x) else float(x)

@@ -31,7 +31,8 @@ from drake_tooluse.experiments.choices import (
     RECORDS,
 )
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
-from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, PAPER_TOOL_LENGTHS
+from drake_tooluse.tasks.contract import tool_tasks
+from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 
 MAX_EPISODES = 100_000
 
@@ -214,84 +215,48 @@ def format_transfer(out: dict) -> str:
     return format_result(out)
 
 
-PULL_ONLY = ("handle_length", "hook_length", "hook_angle")
-
-
 def cmd_demo(args) -> dict:
     from drake_tooluse.experiments.runs import new_run_dir
 
-    if args.task == "pull":
-        return cmd_demo_pull(args)
-    given = [n for n in PULL_ONLY if getattr(args, n) is not None]
-    if given:
-        raise UsageError(f"--{given[0].replace('_', '-')} is for --task pull only")
-    out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
+    if args.tool is not None and args.tool_length is not None:
+        raise UsageError("give --tool or --tool-length (a straight tool), not both")
+    tool = args.tool
+    if args.tool_length is not None:
+        tool = f"straight:{tool_length_arg(args.tool_length)}"
     seed_arg(args.seed)
-    tool_length_arg(args.tool_length)
-    from drake_tooluse.experiments.demo import run_demo
+    from drake_tooluse.experiments.demo import SCRIPTED, demo_controller, run_demo
+    from drake_tooluse.experiments.tool_choice import parse_tool
 
-    meshcat = open_meshcat(args)
-    result = run_demo(
-        out,
-        args.policy,
-        args.scenario,
-        args.tool_length,
-        args.seed,
-        progress=not args.no_progress,
-        trust_pickle=args.trust_pickle,
-        meshcat=meshcat,
-    )
-    return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
-
-
-def cmd_demo_pull(args) -> dict:
-    from drake_tooluse.experiments.runs import new_run_dir
-
-    for name in ("tool_length", "scenario"):
-        if getattr(args, name) != DEMO_DEFAULTS.get(name):
-            raise UsageError(f"--{name.replace('_', '-')} is for --task push only")
-    out = output_dir_arg(args.out or new_run_dir("demo-pull"), "--out")
-    seed_arg(args.seed)
-    from drake_tooluse.experiments.demo_pull import (
-        DEMO_HANDLE_LENGTH,
-        DEMO_HOOK_ANGLE,
-        DEMO_HOOK_LENGTH,
-        SCRIPTED,
-        run_demo_pull,
-    )
-    from drake_tooluse.paths import PULL_POLICY
-
+    try:
+        tool = None if tool is None else parse_tool(tool)
+    except ValueError as e:
+        raise UsageError(f"--tool: {e}") from None
     if args.policy is not None and str(args.policy) != SCRIPTED:
         policy_dir_arg(args.policy, "--policy")
-
-    def given(value, default):
-        return default if value is None else value
-
+    try:  # the policy is the task's, before anything is written
+        demo_controller(args.task, args.policy, args.trust_pickle)
+    except ValueError as e:
+        raise UsageError(f"--policy: {str(e).splitlines()[0]}") from None
+    out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
     meshcat = open_meshcat(args)
     try:
-        result = run_demo_pull(
+        result = run_demo(
             out,
-            given(args.handle_length, DEMO_HANDLE_LENGTH),
-            given(args.hook_length, DEMO_HOOK_LENGTH),
-            given(args.hook_angle, DEMO_HOOK_ANGLE),
+            args.task,
+            args.policy,
+            tool,
+            args.scenario,
             args.seed,
             progress=not args.no_progress,
+            trust_pickle=args.trust_pickle,
             meshcat=meshcat,
-            policy=PULL_POLICY if args.policy is None else args.policy,
         )
-    except ValueError as e:  # a hook size out of range, before anything is written
+    except ValueError as e:  # a tool the task has no way to use, before anything is written
         raise UsageError(str(e).splitlines()[0]) from None
     return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
 
 
-DEMO_DEFAULTS = {"tool_length": DEMO_TOOL_LENGTH, "policy": None, "scenario": None}
-
-
 def format_demo(out: dict) -> str:
-    if out.get("task") == "pull":
-        from drake_tooluse.experiments.demo_pull import format_demo_pull
-
-        return format_demo_pull(out)
     from drake_tooluse.experiments.demo import format_demo as format_result
 
     return format_result(out)
@@ -565,46 +530,39 @@ def add_parsers(sub) -> None:
 
     p = sub.add_parser(
         "demo",
-        help="measure an unseen tool, push the box with the shipped "
-        "policy in the perturbed reality, record it",
+        help="measure an unseen tool and do a task with it (the shipped policy, in the "
+        "perturbed reality), recorded",
+    )
+    p.add_argument(
+        "--task",
+        choices=tuple(tool_tasks()),
+        default="push",
+        help="the task, as its package declares it (default push: the box; pull: the cube, "
+        "with a hook)",
+    )
+    p.add_argument(
+        "--tool",
+        metavar="SPEC",
+        help="the true tool, straight:L or hook:HANDLE,HOOK,ANGLE (m, m, deg; default: the "
+        "task's, straight:0.125 or hook:0.25,0.05,75)",
     )
     p.add_argument(
         "--tool-length",
         type=float,
-        default=DEMO_TOOL_LENGTH,
         metavar="L",
-        help="the true tool (m, in (0, 0.60]; default %(default)s)",
+        help="a straight tool of L m, in (0, 0.60] (--tool straight:L)",
     )
     p.add_argument(
         "--policy",
         type=Path,
-        help="policy directory (default: the shipped tool-tip policy; --task pull: the shipped "
-        "hook policy, or `scripted` for the scripted pull)",
+        help="a policy directory of the task (default: its shipped policy), or `scripted` for "
+        "its scripted reference",
     )
-    p.add_argument("--scenario", type=Path, help="reality scenario (default diagrams/reality.yaml)")
+    p.add_argument("--scenario", type=Path, help="reality scenario (default: the task's reality)")
     p.add_argument("--seed", type=int, default=0, help="draw of the reality and camera noise")
     p.add_argument("--out", type=Path, help="new directory (default runs/demo-<time>)")
     p.add_argument("--no-progress", action="store_true", help="no progress lines on stderr")
-    p.add_argument(
-        "--task",
-        choices=("push", "pull"),
-        default="push",
-        help="push (the box, with the shipped policy; default) or pull (the cube, with a hook "
-        "and the shipped hook policy; writes runs/demo-pull-<time>)",
-    )
-    p.add_argument(
-        "--handle-length", type=float, metavar="L", help="pull: the hook's handle (m; default 0.25)"
-    )
-    p.add_argument(
-        "--hook-length", type=float, metavar="L", help="pull: the hook (m; default 0.05)"
-    )
-    p.add_argument(
-        "--hook-angle",
-        type=float,
-        metavar="DEG",
-        help="pull: the hook's angle to the handle (deg; default 75)",
-    )
-    add_meshcat_arg(p, "the push or pull (its recording, to play again)")
+    add_meshcat_arg(p, "the task's run (its recording, to play again)")
     add_trust_pickle_arg(p)
     p.set_defaults(run=cmd_demo, show=format_demo)
 

@@ -23,7 +23,7 @@ from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.paths import TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.systems.tip_trajectory import waypoint_trajectory
-from drake_tooluse.tasks.push.diagram import build_policy_diagram
+from drake_tooluse.tasks.deploy import build_policy_diagram
 from drake_tooluse.validation import EnvironmentProblem
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import home_tip_pose

@@ -1,16 +1,20 @@
-"""`drake-tooluse demo`: the whole loop once, in the perturbed "reality".
+"""`drake-tooluse demo`: a task's whole loop once, in the perturbed "reality".
 
-1. Draw a reality (`diagrams/reality.yaml`, seeded): a tool the robot has never trained with,
-   held with a shifted grasp; box mass and friction off; delayed actuation; noisy camera.
-2. Measure the tool with the head camera (three views, OpenCV).
-3. Push the box with the shipped policy closed-loop, its IK holding the measured tool (its
-   length, and where the hand holds it along it), recorded in Meshcat.
+1. Draw a reality of the task (`--task`, as the task declares it: `tasks.contract.ToolTask`;
+   seeded): a tool the robot has never trained with (`--tool`, default the task's
+   `demo_tool`), held with a shifted grasp; the object's mass and friction off; delayed
+   actuation; a noisy camera.
+2. Measure the tool with the head camera (OpenCV; the straight tool's or the hook's
+   measurement, by the tool's kind).
+3. Do the task with its shipped policy closed loop (or another policy directory of the task,
+   or its scripted reference: `--policy scripted`), the IK holding the measured tool where the
+   camera saw the hand hold it, recorded in Meshcat.
 4. Write `runs/demo-<time>/`: `recording.html` (open it in a browser), `metrics.json`,
-   `trajectory.png` (tool tip and box from above and from the side), `summary.png` (the head
-   camera cropped to the tool with both length estimates and a legend of the annotation's
-   colours, the scene at the end with the goal marked, the paths from above),
-   `camera/measure_<view>.png` (the annotated camera views) and `final_scene.png` (the scene
-   camera at the end of the push, the goal drawn on it in green).
+   `trajectory.png` (the tool point and the object from above and over time), `summary.png`
+   (the head camera's view cropped to the tool with the measurement in words, the scene at
+   the end with the goal marked, the paths from above), `camera/measure_<view>.png` (the
+   annotated camera views) and `final_scene.png` (the scene camera at the end, the goal drawn
+   on it in green).
 
 Every path in `metrics.json` (`policy`, `scenario` and each of `files`) is absolute: the
 run directory's files where the directory is once written, the inputs where they were read.
@@ -19,6 +23,7 @@ run directory's files where the directory is once written, the inputs where they
 from __future__ import annotations
 
 import dataclasses as dc
+import math
 import sys
 import time
 from pathlib import Path
@@ -29,9 +34,20 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Patch
 from tqdm import tqdm
 
-from drake_tooluse.builders.measurement import measure_belief
-from drake_tooluse.builders.visualization import save_recording, start_meshcat
+from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
+from drake_tooluse.experiments.tool_choice import (
+    TASKS,
+    TOOL_TASKS,
+    LearnedPolicy,
+    ScriptedPolicy,
+    holding,
+    measure,
+    no_policy_reason,
+    parse_tool,
+    task_scenarios,
+    tool_label,
+)
 from drake_tooluse.files import (
     atomic_dir,
     atomic_write_figure,
@@ -39,23 +55,22 @@ from drake_tooluse.files import (
     atomic_write_json,
     check_output_dir,
 )
-from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.paths import REALITY_SCENARIO, TRANSFER_POLICY
+from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
 from drake_tooluse.systems.camera import (  # noqa: F401 (GOAL_RGB: the demo's figures' green)
     GOAL_RGB,
     SceneView,
     draw_goal,
-    scene_camera_view,
 )
-from drake_tooluse.systems.lifetime import release_diagram
-from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
-from drake_tooluse.validation import check_seed
-from drake_tooluse.world.paper import DEMO_TOOL_LENGTH, SUCCESS_DISTANCE
+from drake_tooluse.tasks.contract import declaration
+from drake_tooluse.tasks.deploy import MAX_STEPS
+from drake_tooluse.validation import check_one_of, check_seed
+from drake_tooluse.world.paper import SUCCESS_DISTANCE
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import load_scenario, with_tool_length
+from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import goal_position, initial_box_pose
 
+SCRIPTED = "scripted"  # the `policy` that is the task's scripted reference
 FIGURE_DPI = 110
 GOAL_RADIUS = SUCCESS_DISTANCE / 2  # m, the goal as drawn (as in the Meshcat recording)
 
@@ -69,10 +84,10 @@ def mark_goal(image: np.ndarray, view: SceneView, scenario) -> np.ndarray:
 
 
 def tool_crop(shape, view, aspect: float = 4 / 3) -> tuple[slice, slice]:
-    """Rows and columns of an image of `shape` that frame the tool seen in `view` (a
-    ViewMeasurement: its marker boxes span it), with a margin, `aspect` wide over high."""
+    """Rows and columns of an image of `shape` that frame the tool seen in `view` (a view's
+    measurement: its `pixel_points` span the tool), with a margin, `aspect` wide over high."""
     h, w = shape[:2]
-    corners = np.array([c for box in view.boxes for c in box] + list(view.ends_px), float)
+    corners = np.array(view.pixel_points(), float)
     if corners.size == 0:
         return slice(0, h), slice(0, w)
     lo, hi = corners.min(axis=0), corners.max(axis=0)
@@ -86,14 +101,16 @@ def tool_crop(shape, view, aspect: float = 4 / 3) -> tuple[slice, slice]:
     return slice(v0, v0 + int(2 * half_h)), slice(u0, u0 + int(2 * half_w))
 
 
-def _plot_top(ax, run, scenario) -> None:
-    """Tool tip and box seen from above, with the box's start and the goal."""
-    tip, box = run.tip_path, run.object_path
+def _plot_top(ax, run, scenario, object_name: str) -> None:
+    """The tool point and the object seen from above, with the object's start and the goal."""
+    tip, thing = run.tool_path, run.object_path
     goal = goal_position(scenario)
     start = initial_box_pose(scenario).translation()
-    ax.plot(tip[:, 1], tip[:, 0], color="tab:red", lw=1.5, label="tool tip")
-    ax.plot(box[:, 1], box[:, 0], color="tab:brown", lw=2.5, label="box")
-    ax.scatter([start[1]], [start[0]], color="tab:brown", marker="s", s=40, label="box start")
+    ax.plot(tip[:, 1], tip[:, 0], color="tab:red", lw=1.5, label="tool point")
+    ax.plot(thing[:, 1], thing[:, 0], color="tab:brown", lw=2.5, label=object_name)
+    ax.scatter(
+        [start[1]], [start[0]], color="tab:brown", marker="s", s=40, label=f"{object_name} start"
+    )
     ax.add_patch(
         Circle((goal[1], goal[0]), SUCCESS_DISTANCE / 2, fill=False, color="tab:green", lw=1.5)
     )
@@ -106,21 +123,21 @@ def _plot_top(ax, run, scenario) -> None:
     ax.legend(fontsize=7, loc="best")
 
 
-def _plot_time(ax, run, scenario) -> None:
-    """Tip height above the table and box travel over time."""
+def _plot_time(ax, run, scenario, object_name: str) -> None:
+    """The tool point's height above the table and the object's travel over time."""
     start = initial_box_pose(scenario).translation()
-    t = np.arange(len(run.tip_path)) * scenario.control.control_period
+    t = np.arange(len(run.tool_path)) * scenario.control.control_period
     ax.plot(
         t,
-        run.tip_path[:, 2] - scenario.table.top_z,
+        run.tool_path[:, 2] - scenario.table.top_z,
         color="tab:red",
-        label="tip height above the table",
+        label="tool point's height above the table",
     )
     ax.plot(
         t,
         np.linalg.norm(run.object_path[:, :2] - start[:2], axis=1),
         color="tab:brown",
-        label="box travel",
+        label=f"{object_name} travel",
     )
     ax.set_xlabel("time (s)")
     ax.set_ylabel("m")
@@ -129,11 +146,13 @@ def _plot_time(ax, run, scenario) -> None:
 
 
 def _camera_panel(ax_image, ax_text, measurement) -> None:
-    """The first accepted head-camera view, annotated and cropped to the tool, and under it
-    both estimates of every view in words with a legend of the annotation's colours."""
+    """An accepted head-camera view (a view of a hook's end first: it shows the bend),
+    annotated and cropped to the tool, and under it the measurement in words with a legend of
+    the annotation's colours."""
     ax_image.axis("off")
     ax_text.axis("off")
     pairs = [(v, f) for v, f in zip(measurement.views, measurement.image_files) if v.accepted]
+    pairs.sort(key=lambda pair: not Path(pair[1]).stem.startswith("measure_hook"))
     if not pairs:
         return
     view, path = pairs[0]
@@ -150,36 +169,23 @@ def _camera_panel(ax_image, ax_text, measurement) -> None:
         fontsize=6.5,
         framealpha=0.85,
     )
-    accepted = [v for v in measurement.views if v.accepted]
-    names = " / ".join(v.view.removeprefix("grip_") for v in accepted)
-
-    def mm(values):
-        return " / ".join(f"{x * 1000:.1f}" for x in values)
-
-    depth = [v.length_depth for v in accepted]
-    lines = [
-        f"views (grip {names}), mm:",
-        f"depth variant, what the robot uses: {mm(depth)}; mean {np.mean(depth) * 1000:.1f}",
-        f"pixel variant, the paper's fixed m/px: {mm(v.length_pixel for v in accepted)}",
-        "   (exact only for a tool square to the camera at the grip's depth:",
-        "   a view that tilts the tool in depth foreshortens it)",
-        f"true length: {measurement.scenario_tool_length * 1000:.1f} (unknown to the robot)",
-    ]
-    ax_text.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", fontsize=8.5, family="sans-serif")
+    text = "\n".join(measurement.summary_lines())
+    ax_text.text(0.0, 1.0, text, va="top", ha="left", fontsize=8.5, family="sans-serif")
 
 
-def write_figures(out: Path, run, scenario, measurement, final_image, scene_view=None) -> dict:
-    """trajectory.png, final_scene.png (the goal marked where `scene_view` sees it) and
-    summary.png (camera view, scene, paths)."""
+def write_figures(out: Path, run, scenario, measurement, object_name: str = "object") -> dict:
+    """trajectory.png, final_scene.png (the run's scene camera image, the goal marked where the
+    camera sees it) and summary.png (camera view, scene, paths)."""
     files = {}
     fig = Figure(figsize=(9, 4))
     ax_top, ax_time = fig.subplots(1, 2)
-    _plot_top(ax_top, run, scenario)
-    _plot_time(ax_time, run, scenario)
+    _plot_top(ax_top, run, scenario, object_name)
+    _plot_time(ax_time, run, scenario, object_name)
     fig.tight_layout()
     files["trajectory"] = atomic_write_figure(out / "trajectory.png", fig, dpi=FIGURE_DPI)
-    if final_image is not None and scene_view is not None:
-        final_image = mark_goal(final_image, scene_view, scenario)
+    final_image = run.final_image
+    if final_image is not None and run.scene_view is not None:
+        final_image = mark_goal(final_image, run.scene_view, scenario)
     if final_image is not None:
         files["final_scene"] = atomic_write_image(out / "final_scene.png", final_image)
     fig = Figure(figsize=(15, 5))
@@ -188,65 +194,104 @@ def write_figures(out: Path, run, scenario, measurement, final_image, scene_view
     ax_scene = fig.add_subplot(grid[:, 1])
     if final_image is not None:
         ax_scene.imshow(final_image[:, :, :3])
-        ax_scene.set_title("the push, at the end (green: the goal)", fontsize=9)
+        ax_scene.set_title("at the end (green: the goal)", fontsize=9)
     ax_scene.axis("off")
-    _plot_top(fig.add_subplot(grid[:, 2]), run, scenario)
+    _plot_top(fig.add_subplot(grid[:, 2]), run, scenario, object_name)
     fig.tight_layout()
     files["summary"] = atomic_write_figure(out / "summary.png", fig, dpi=FIGURE_DPI)
     return files
 
 
+def _finite_or_none(x) -> float | None:
+    return float(x) if math.isfinite(x) else None  # NaN: the camera did not give it
+
+
+def _tool_figures(tool, grasp_along: float) -> dict:
+    """A tool's dimensions (`dimensions()`) and where it is held along it, named with units."""
+    return {
+        **{k: _finite_or_none(v) for k, v in tool.dimensions().items()},
+        "grasp_along_m": _finite_or_none(grasp_along),
+    }
+
+
+def demo_controller(task: str, policy=None, trust_pickle: bool = False):
+    """What does the demo's task: the task's shipped policy (`policy` None), a policy
+    directory of that task, or `scripted` (its scripted reference). A policy of another task
+    is a ValueError naming both."""
+    declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
+    if str(policy) == SCRIPTED:
+        return ScriptedPolicy(declared.env_id)
+    learned = LearnedPolicy(policy or POLICIES_DIR / declared.policy, trust_pickle=trust_pickle)
+    ours, theirs = declaration(declared.env_id), declaration(learned.env_id)
+    if ours != theirs:
+        raise ValueError(
+            f"{policy} is a policy of {learned.env_id} (the {theirs.name} task), not of the "
+            f"{task} task ({declared.env_id})"
+        )
+    return learned
+
+
 def run_demo(
     out_dir,
+    task: str = "push",
     policy_dir=None,
+    tool=None,
     scenario_path=None,
-    tool_length: float = DEMO_TOOL_LENGTH,
     seed: int = 0,
-    max_steps: int = 100,
+    max_steps: int = MAX_STEPS,
     progress: bool = True,
     trust_pickle: bool = False,
     meshcat=None,
 ) -> dict:
-    """Runs the demo (see the module docstring) and returns its metrics (also in
-    `out_dir/metrics.json`). `trust_pickle` lets `policy_dir` be of the older pickle format.
-    The push is recorded in `meshcat` (default: a new one on a free loopback port), and the
-    recording published there to play again."""
+    """Runs the demo of `task` (see the module docstring) and returns its metrics (also in
+    `out_dir/metrics.json`). `tool`: a tool or its text (`straight:L`, `hook:H,K,A`; default
+    the task's `demo_tool`); `policy_dir`: default the task's shipped policy, `scripted` its
+    scripted reference; `scenario_path`: reality (default the task's, as it declares it);
+    `trust_pickle` lets `policy_dir` be of the older pickle format. The run is recorded in
+    `meshcat` (default: a new one on a free loopback port), and the recording published there
+    to play again. Bad input fails before anything is written."""
     start = time.perf_counter()
     log = stderr_log if progress else quiet_log
     check_seed(seed, "seed")
     out = Path(out_dir)
     check_output_dir(out, "the demo's directory")
-    policy_dir = Path(policy_dir or TRANSFER_POLICY)
-    # A bad policy fails before anything is written.
-    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
-    check_policy_env(policy)
-    scenario_path = scenario_path or REALITY_SCENARIO
-    base = with_tool_length(load_scenario(scenario_path), tool_length)
     if not isinstance(max_steps, int) or not 1 <= max_steps <= 1000:
         raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
+    declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
+    tool = parse_tool(tool or declared.demo_tool) if tool is None or isinstance(tool, str) else tool
+    why_not = no_policy_reason(task, tool)
+    if why_not is not None:
+        raise ValueError(f"tool {tool_label(tool)}: {why_not}")
+    controller = demo_controller(task, policy_dir, trust_pickle)
+    if scenario_path is None:
+        reality = task_scenarios(task)[1]
+        scenario_path = (
+            REALITY_SCENARIO if declared.reality_world else SCENARIOS_DIR / declared.world
+        )
+    else:
+        reality = load_scenario(scenario_path)
+    base = holding(reality, tool)
     draw = draw_randomization(base, np.random.default_rng(seed))
     scenario = apply_draw(base, draw)
+    object_name = declaration(declared.env_id).object_name
     times = {}
     # Written into a staging directory that becomes `out` only when everything is there.
     with atomic_dir(out) as work:
         log(
-            f"[1/3] measuring the tool with the head camera (true length {tool_length:.3f} m, "
-            "unknown to the robot) …"
+            f"[1/3] measuring the tool with the head camera ({tool_label(tool)}, unknown to the robot) …"
         )
         t0 = time.perf_counter()
-        belief, measurement = measure_belief(scenario, save_images_dir=work / "camera", seed=seed)
+        belief, measurement = measure(scenario, tool, seed, save_images_dir=work / "camera")
         times["measure_s"] = time.perf_counter() - t0
-        measured, along = belief.tool_length, belief.grasp_offset[1]
-        log(
-            f"      measured {measured:.4f} m (error {(measured - tool_length) * 1000:+.2f} mm), "
-            f"held {along * 1000:+.1f} mm along it (truth "
-            f"{scenario.tool.grasp_offset_along * 1000:+.1f} mm) in {times['measure_s']:.1f} s"
-        )
+        true = _tool_figures(tool, scenario.tool.grasp_offset_along)
+        measured = _tool_figures(belief.tool, belief.grasp_offset[1])
+        log(f"      {tool_text(true, measured)} in {times['measure_s']:.1f} s")
 
-        log(f"[2/3] pushing the box with {policy_dir.name}, IK on the measured tool …")
+        log(
+            f"[2/3] {task}: the {object_name} with the {controller.name}, IK on the measured tool …"
+        )
         t0 = time.perf_counter()
         meshcat = start_meshcat() if meshcat is None else meshcat
-        built = build_policy_diagram(scenario, policy, belief, meshcat=meshcat, scene_camera=True)
         with tqdm(
             total=max_steps,
             desc="      control steps",
@@ -255,17 +300,20 @@ def run_demo(
             disable=not progress or not sys.stderr.isatty(),  # no \r fragments in a log
             leave=False,
         ) as bar:
-            run = run_policy(
-                built, max_steps=max_steps, record=True, on_step=lambda step: bar.update(1)
+            run = controller.run(
+                scenario,
+                belief,
+                recording_path=work / "recording.html",
+                max_steps=max_steps,
+                meshcat=meshcat,
+                scene_camera=True,
+                on_step=lambda step: bar.update(1),
             )
-        save_recording(meshcat, built.visualizer, work / "recording.html")
-        scene_view = scene_camera_view(built.diagram, built.world.plant)
-        release_diagram(built.diagram)  # its Python systems would keep it alive
-        times["push_s"] = time.perf_counter() - t0
-        log(f"      {push_text(run.as_dict())} in {times['push_s']:.1f} s")
+        times["run_s"] = time.perf_counter() - t0
+        log(f"      {run_text(run.as_dict(), object_name)} in {times['run_s']:.1f} s")
 
         log("[3/3] writing figures and metrics …")
-        figures = write_figures(work, run, scenario, measurement, run.final_image, scene_view)
+        figures = write_figures(work, run, scenario, measurement, object_name)
         times["total_s"] = time.perf_counter() - start
         where = out.resolve()
 
@@ -273,17 +321,19 @@ def run_demo(
             return str(where / Path(path).relative_to(work))
 
         metrics = {
-            "policy": str(policy_dir.resolve()),
+            "task": task,
+            "object": object_name,
+            "controller": controller.name,
+            "policy": SCRIPTED
+            if isinstance(controller, ScriptedPolicy)
+            else str(Path(policy_dir or POLICIES_DIR / declared.policy).resolve()),
             "scenario": str(Path(scenario_path).resolve()),
             "seed": seed,
             "tool": {
-                "true_length_m": tool_length,
-                "measured_length_m": measured,
-                "measurement_error_m": measured - tool_length,
-                "measured_grasp_along_m": along,
-                "true_grasp_along_m": scenario.tool.grasp_offset_along,
-                "per_view_m": measurement.as_dict()["per_view_m"],
-                "dropped_views": measurement.dropped,
+                "given": tool_label(tool),
+                "true": true,
+                "measured": measured,
+                "measurement": _without_files(measurement.as_dict()),
             },
             "perturbation": dc.asdict(draw),
             "run": run.as_dict(),
@@ -299,26 +349,50 @@ def run_demo(
     return metrics
 
 
-def push_text(push: dict) -> str:
-    """Where the push left the box, and when it first reached the goal."""
-    first = push["first_success_step"]
+def _without_files(measurement: dict) -> dict:
+    """A measurement's figures without its image paths (the run's `files` name them where
+    they end up)."""
+    return {k: v for k, v in measurement.items() if k != "image_files"}
+
+
+def _value(key: str, value) -> str:
+    """One of a tool's figures (named with its unit, `length_m`) in words: "12.50 cm"."""
+    if value is None:
+        return "n/a"
+    if key.endswith("_deg"):
+        return f"{value:.1f}°"
+    if key == "grasp_along_m":
+        return f"{value * 1000:+.1f} mm"
+    return f"{value * 100:.2f} cm"
+
+
+def tool_text(true: dict, measured: dict) -> str:
+    """The tool as measured, each figure beside the truth."""
+    return "; ".join(
+        f"{key.rpartition('_')[0].replace('_', ' ')} {_value(key, measured[key])} "
+        f"(truth {_value(key, true[key])})"
+        for key in true
+    )
+
+
+def run_text(run: dict, object_name: str = "object") -> str:
+    """Where the run left the object, and when it first reached the goal."""
+    first = run["first_success_step"]
     arrived = "never at the goal" if first is None else f"first at the goal at step {first}"
-    end = "at the goal" if push["success"] else "not at the goal"
+    end = "at the goal" if run["success"] else "not at the goal"
     return (
-        f"box {end} after {push['steps']} steps, {push['final_object_to_goal_m'] * 100:.1f} cm "
-        f"from it ({arrived}); it moved {push['object_travel_m'] * 100:.1f} cm"
+        f"{object_name} {end} after {run['steps']} steps, "
+        f"{run['final_object_to_goal_m'] * 100:.1f} cm from it ({arrived}); it moved "
+        f"{run['object_travel_m'] * 100:.1f} cm"
     )
 
 
 def format_demo(m: dict) -> str:
-    push, tool = m["run"], m["tool"]
+    tool = m["tool"]
     return "\n".join(
         [
-            f"tool: true {tool['true_length_m'] * 100:.1f} cm, measured "
-            f"{tool['measured_length_m'] * 100:.2f} cm ({tool['measurement_error_m'] * 1000:+.2f} mm); "
-            f"held {tool['measured_grasp_along_m'] * 1000:+.1f} mm along it (truth "
-            f"{tool['true_grasp_along_m'] * 1000:+.1f} mm)",
-            f"push: {push_text(push)}",
+            f"tool: {tool['given']}, measured {tool_text(tool['true'], tool['measured'])}",
+            f"{m['task']} ({m['controller']}): {run_text(m['run'], m['object'])}",
             f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
             f"({m['times']['total_s']:.0f} s)",
         ]

@@ -16,7 +16,7 @@ the best, and does the task with it in the perturbed "reality".
   into; `Policies`): a straight tool pushes with the shipped tool-tip policy
   (`paths.TRANSFER_POLICY`), and to the far goal with that policy fine-tuned on
   ToolPushFar-v1 (`paths.FAR_PUSH_POLICY`); a hook pulls with the shipped hook policy
-  (`paths.PULL_POLICY`, `LearnedPolicy`; `ScriptedPullPolicy` is the scripted
+  (`paths.PULL_POLICY`, `LearnedPolicy`; `ScriptedPolicy` runs a task's scripted
   reference). No policy exists for a hook pushing or a straight tool pulling (the pull's
   control acts on a hook's inner corner, which a straight tool lacks): such a candidate is
   predicted 0 with that reason, and the oracle counts it 0 too (the robot has no way to use
@@ -46,15 +46,13 @@ import numpy as np
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
-from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
-from drake_tooluse.tasks.contract import env_class, tool_tasks
-from drake_tooluse.tasks.pull.run import run_pull
-from drake_tooluse.tasks.pull.scripted import ScriptedPull
+from drake_tooluse.tasks.contract import declaration, scripted_reference, tool_tasks
+from drake_tooluse.tasks.deploy import deploy, run_controller
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
@@ -189,39 +187,53 @@ class Outcome:
 
 class ToolPolicy(Protocol):
     """A way to do a task with a kind of tool: `run(scenario, belief)` in a world holding the
-    true tool, the robot's IK holding `belief`; `run(..., recording_path=FILE)` also writes
+    true tool, the robot's IK holding `belief`, gives the run (`tasks.rollout.Rollout`:
+    `success`, `final_object_to_goal`, `error`, …); `run(..., recording_path=FILE)` also writes
     the run's Meshcat recording as a standalone HTML file (asked of the chosen tool's run)."""
 
-    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome: ...
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None): ...
 
 
 class LearnedPolicy:
-    """A task's learned policy (a policy directory), deployed as its env deploys it (the env
-    class's `deploy`: the push task's policy diagram, the pull task's `run_pull`), run to the
-    step limit and judged where the object ends."""
+    """A task's learned policy (a policy directory), deployed inside its task's diagram as its
+    env wired it (`tasks.deploy.deploy`), run to the step limit and judged where the object
+    ends."""
 
-    def __init__(self, policy_dir):
-        self.policy = load_policy(policy_dir)
+    def __init__(self, policy_dir, trust_pickle: bool = False):
+        self.policy = load_policy(policy_dir, trust_pickle=trust_pickle)
         env_id, _ = check_policy_env(self.policy)
         self.env_id = env_id
-        self._deploy = env_class(env_id).deploy
+        self.name = f"policy {Path(policy_dir).name}"
 
-    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
-        run = self._deploy(scenario, self.policy, belief, recording_path, MAX_STEPS)
-        return Outcome(run.success, run.final_object_to_goal, run.error)
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None, **options):
+        """The run (`tasks.rollout.Rollout`); `options`: `tasks.deploy.deploy`'s `max_steps`
+        (default MAX_STEPS), `meshcat`, `scene_camera` and `on_step`."""
+        options.setdefault("max_steps", MAX_STEPS)
+        return deploy(scenario, self.policy, belief, recording_path=recording_path, **options)
 
 
-class ScriptedPullPolicy:
-    """A hook pulls with the scripted reference (`tasks.pull.scripted.ScriptedPull`), on the
-    `-v1` envs' control."""
+class ScriptedPolicy:
+    """A task's scripted reference (`tasks.contract.scripted_reference`), on the control of
+    `env_id` (a -v1 id of the task)."""
 
-    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None) -> Outcome:
-        controller = ScriptedPull(scenario.table.top_z)
-        meshcat = None if recording_path is None else start_meshcat()
-        pull = run_pull(
-            scenario, controller, belief, MAX_STEPS, meshcat=meshcat, recording_path=recording_path
+    def __init__(self, env_id: str):
+        scripted_reference(env_id, 0.0)  # a task that declares none fails here
+        self.env_id = env_id
+        self.name = f"scripted {declaration(env_id).name}"
+
+    def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None, **options):
+        """The run (`tasks.rollout.Rollout`); `options` as `LearnedPolicy.run`'s."""
+        controller, kwargs = scripted_reference(self.env_id, scenario.table.top_z)
+        options.setdefault("max_steps", MAX_STEPS)
+        return run_controller(
+            self.env_id,
+            scenario,
+            controller,
+            belief,
+            recording_path=recording_path,
+            env_kwargs=kwargs,
+            **options,
         )
-        return Outcome(pull.success, pull.final_object_to_goal, pull.error)
 
 
 def no_policy_reason(task: str, tool) -> str | None:
@@ -257,11 +269,12 @@ class Policies:
 # -- measuring, predicting, choosing -----------------------------------------------------
 
 
-def measure(reality: Scenario, tool, seed: int) -> RobotBelief:
-    """What the robot believes of `tool` (held in `reality`) after the head camera measures it."""
-    if isinstance(tool, HookTool):
-        return measure_hook_belief(reality, seed=seed)[0]
-    return measure_belief(reality, seed=seed)[0]
+def measure(reality: Scenario, tool, seed: int, save_images_dir=None):
+    """(what the robot believes of `tool`, held in `reality`, after the head camera measures
+    it; the measurement): the straight tool's or the hook's measurement, by the tool's kind.
+    With `save_images_dir`, the annotated views are written there."""
+    measure_kind = measure_hook_belief if isinstance(tool, HookTool) else measure_belief
+    return measure_kind(reality, save_images_dir=save_images_dir, seed=seed)
 
 
 def believed_tool_label(belief: RobotBelief) -> str:
@@ -269,10 +282,12 @@ def believed_tool_label(belief: RobotBelief) -> str:
 
 
 def run_outcome(policy: ToolPolicy, scenario: Scenario, belief: RobotBelief) -> Outcome:
-    """`policy.run(scenario, belief)`; a run that raises (RuntimeError, ValueError) is a
-    failure with its error, and the caller goes on."""
-    outcome, error = attempt(policy.run, scenario, belief)
-    return outcome or Outcome(False, math.nan, error)
+    """The outcome of `policy.run(scenario, belief)`; a run that raises (RuntimeError,
+    ValueError) is a failure with its error, and the caller goes on."""
+    run, error = attempt(policy.run, scenario, belief)
+    if run is None:
+        return Outcome(False, math.nan, error)
+    return Outcome(run.success, run.final_object_to_goal, run.error)
 
 
 def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list[float]:
@@ -359,7 +374,8 @@ def choose_tool(
             continue
         nominal_world, reality_world = run_worlds(nominal, reality, tool, instance.seed)[:2]
         worlds[i] = (nominal_world, reality_world)
-        belief, error = attempt(measure, reality_world, tool, instance.seed)
+        measured, error = attempt(measure, reality_world, tool, instance.seed)
+        belief = None if measured is None else measured[0]
         if belief is None:
             candidate.update(
                 predicted_success=0.0,
@@ -424,9 +440,10 @@ def _reality_run(instance, candidate, worlds, policies: Policies, recording_path
     if worlds is None or belief is None:
         return {"success": False, "final_distance_m": None, "run": False}
     recording = {} if recording_path is None else {"recording_path": recording_path}
-    outcome, error = attempt(policies.for_task(instance.task).run, worlds[1], belief, **recording)
-    if outcome is None:  # the run raised: nothing was written
+    run, error = attempt(policies.for_task(instance.task).run, worlds[1], belief, **recording)
+    if run is None:  # the run raised: nothing was written
         return {**Outcome(False, math.nan, error).as_dict(), "run": True}
+    outcome = Outcome(run.success, run.final_object_to_goal, run.error)
     recorded = {} if recording_path is None else {"recording": str(recording_path)}
     return {**outcome.as_dict(), "run": True, **recorded}
 

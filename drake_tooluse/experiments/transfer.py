@@ -13,7 +13,7 @@ two worlds:
 
 Both run in one of two modes:
 
-- `closed-loop`: the policy inside the diagram (`tasks.push.diagram.build_policy_diagram`), until
+- `closed-loop`: the policy inside the diagram (`tasks.deploy.build_policy_diagram`), until
   the box is at the goal or 100 control steps;
 - `open-loop` (the paper's): a tool-tip trajectory averaged from the policy's episodes in the
   nominal simulation (`experiments.trajectory_extraction.extract`), replayed through a TrajectorySource
@@ -77,11 +77,9 @@ from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
-from drake_tooluse.tasks.push.diagram import (
-    PushRun,
-    run_deployed,
-    run_open_loop,
-)
+from drake_tooluse.tasks.deploy import MAX_STEPS, deploy
+from drake_tooluse.tasks.push.diagram import run_open_loop
+from drake_tooluse.tasks.rollout import Rollout
 from drake_tooluse.validation import check_int, check_one_of, check_seed
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
@@ -89,7 +87,7 @@ from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool
 from drake_tooluse.world.scene import initial_box_pose
 
 WORLDS = ("nominal", "reality")
-MAX_STEPS = 100  # control steps of a closed-loop run (the env's episode)
+
 TRAVEL_RATIO_GOAL = 0.9
 TOOL_DIFFERENCE_GOAL = 0.01  # m
 
@@ -101,7 +99,7 @@ class TransferRun:
     believed_length: float  # m, what the robot's IK holds (measured in reality)
     believed_grasp_along: float  # m, where it believes the hand holds the tool (measured or 0)
     seed: int
-    push: PushRun | None  # None: the run failed before its push (see `error`)
+    push: Rollout | None  # None: the run failed before its push (see `error`)
     draw: dict  # the reality's perturbation (the nominal world uses only the box pose)
     error: str | None = None
     believed_box_xy: tuple | None = None  # where the replay took the box to start (box frame)
@@ -149,10 +147,10 @@ def run_worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
 
 def run_closed_loop(
     scenario: Scenario, policy, belief: RobotBelief, recording_path=None
-) -> PushRun:
-    """The loaded policy inside the diagram, for MAX_STEPS (`run_policy`'s protocol); with
+) -> Rollout:
+    """The loaded policy inside the diagram, for MAX_STEPS (`tasks.deploy.deploy`); with
     `recording_path`, recorded in a new Meshcat and written there as a standalone HTML file."""
-    return run_deployed(scenario, policy, belief, recording_path, MAX_STEPS)
+    return deploy(scenario, policy, belief, MAX_STEPS, recording_path)
 
 
 def _stats(runs: list[TransferRun]) -> dict:

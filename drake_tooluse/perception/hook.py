@@ -112,6 +112,10 @@ class HookViewMeasurement:
     centroids_px: list = dc.field(default_factory=list)  # (u, v): corner, tip[, grip] / grip
     blob_count: int = 0
 
+    def pixel_points(self) -> list:
+        """(u, v) of what the view found of the hook: its markers' centroids."""
+        return [tuple(c) for c in self.centroids_px]
+
     def as_dict(self) -> dict:
         def f(x):
             return None if not math.isfinite(x) else float(x)

@@ -126,6 +126,10 @@ class ViewMeasurement:
     def length(self, method: str) -> float:
         return self.length_depth if method == "depth" else self.length_pixel
 
+    def pixel_points(self) -> list:
+        """(u, v) of what the view found of the tool: its markers' boxes and outer ends."""
+        return [tuple(c) for box in self.boxes for c in box] + [tuple(e) for e in self.ends_px]
+
     def as_dict(self) -> dict:
         def f(x):
             return None if x is None or not math.isfinite(x) else float(x)

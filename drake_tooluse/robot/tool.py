@@ -281,6 +281,10 @@ class StraightTool(Tool):
     def frames(self) -> dict[str, Pose]:
         return {GRASP: Pose(), TOOL_TIP: Pose((0.0, 0.0, self.length))}
 
+    def dimensions(self) -> dict[str, float]:
+        """What the head camera measures of it, named with their units (m)."""
+        return {"length_m": self.length}
+
     def center(self) -> tuple[float, float, float]:
         """p_HC: the rod's centre (it runs from TOOL_HANDLE_DEPTH behind H to `length`)."""
         return (0.0, 0.0, (self.length - TOOL_HANDLE_DEPTH) / 2)
@@ -424,6 +428,14 @@ class HookTool(Tool):
         object.__setattr__(
             self, "marker_length", check_positive(self.marker_length, "tool marker length", "m")
         )
+
+    def dimensions(self) -> dict[str, float]:
+        """What the head camera measures of it, named with their units (m, deg)."""
+        return {
+            "handle_length_m": self.handle_length,
+            "hook_length_m": self.hook_length,
+            "angle_deg": self.angle,
+        }
 
     def direction(self) -> np.ndarray:
         """The unit vector from the corner to the hook's end, in H."""

@@ -108,6 +108,12 @@ class TaskOutcome:
         context.get_mutable_numeric_parameter(self._goal).SetFromVector(goal)
         context.get_mutable_numeric_parameter(self._start).SetFromVector(start)
 
+    @property
+    def reader(self):
+        """The task's metrics reader (`read(plant_context, goal, start)` reads the same
+        metrics from the plant's context directly)."""
+        return self._reader
+
     def goal(self, context) -> np.ndarray:
         return context.get_numeric_parameter(self._goal).get_value()
 

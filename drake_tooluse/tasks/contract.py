@@ -60,11 +60,17 @@ class TaskDeclaration:
     """What a task declares for the commands, in one place: its env classes' `TASK`.
 
     `name` is the task as commands name it ("push"); `object_name` the word they print for
-    what it moves ("box"); `serves` the commands of COMMAND_NEEDS it gives."""
+    what it moves ("box"); `serves` the commands of COMMAND_NEEDS it gives; `scripted` its
+    scripted reference, if it has one: the "module:Class" of a controller (made with the
+    table top's height, m; called with an observation, giving an action), and
+    `scripted_env_kwargs` the env kwargs ((name, value) pairs) whose observation and action it
+    uses."""
 
     name: str
     object_name: str = "object"
     serves: frozenset = frozenset()
+    scripted: str | None = None
+    scripted_env_kwargs: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -78,7 +84,9 @@ class ToolTask:
     `why_not` why another kind cannot do it; `world`: its scenario file's name (under
     `paths.SCENARIOS_DIR`); `goal_extra`: m added to the goal along y. `reality_world`: True
     where reality is diagrams/reality.yaml itself (with this task's goal); False where it is
-    this task's world with reality's actuation delay, joint limits and camera noise."""
+    this task's world with reality's actuation delay, joint limits and camera noise.
+    `demo_tool`: the tool `drake-tooluse demo --task NAME` hands the robot (as `choose-tool
+    --tools` writes one: "straight:0.125", "hook:0.25,0.05,75")."""
 
     name: str
     env_id: str
@@ -86,6 +94,7 @@ class ToolTask:
     tool_kind: str
     world: str
     why_not: str
+    demo_tool: str
     goal_extra: float = 0.0
     reality_world: bool = True
 
@@ -155,6 +164,16 @@ def declaration(env_id: str) -> TaskDeclaration:
     imported), else its env class's `TASK`."""
     task = _DECLARATIONS.get(check_env_id(env_id))
     return task if task is not None else env_class(env_id).TASK
+
+
+def scripted_reference(env_id: str, table_top_z: float):
+    """(controller, env kwargs) of `env_id`'s task's scripted reference
+    (`TaskDeclaration.scripted`); a ValueError names a task that has none."""
+    task = declaration(env_id)
+    if task.scripted is None:
+        raise ValueError(f"the {task.name} task ({env_id}) declares no scripted reference")
+    controller = load_env_creator(task.scripted)(table_top_z)
+    return controller, dict(task.scripted_env_kwargs)
 
 
 def check_serves(env_id: str, command: str) -> TaskDeclaration:
@@ -243,11 +262,13 @@ class TaskEnv:
     # served by train, evaluate and sweep.
     TASK: TaskDeclaration = TaskDeclaration("unnamed")
 
-    @staticmethod
-    def deploy(scenario, policy, belief=None, recording_path=None, max_steps: int = 100):
-        """A loaded policy of the env deployed in `scenario` for `max_steps`: a run with
-        `success`, `final_object_to_goal` (m) and `error` (None, or why the simulation
-        failed); recorded with `recording_path`. A task that deploys none raises."""
+    @classmethod
+    def add_task(cls, builder, scenario, belief=None, kwargs=None) -> TaskParts:
+        """The task wired into `builder` as the env these keyword arguments make wires it (its
+        control, observation and outcome), in the world of `scenario`, the robot's IK holding
+        `belief` (default: the scenario's tool): the task's one builder, which the env is made
+        of and a deployed policy runs in (`tasks.deploy`). The tip target's `action` input is
+        left unconnected. A task whose policies deploy nowhere else raises."""
         raise NotImplementedError("this task deploys no policy outside its env")
 
     @classmethod

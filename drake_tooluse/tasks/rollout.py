@@ -40,7 +40,7 @@ def step_info(metrics, episode: dict, ik_ok: bool, sim_error: bool, sanity: dict
 
 @dataclass
 class Rollout:
-    """What happened in one deployed episode, from the world's truth."""
+    """What happened in one deployed episode of any task, from the world's truth."""
 
     steps: int  # control steps simulated (the failed one included)
     metrics: object  # the task's metrics of the last sound state
@@ -52,11 +52,39 @@ class Rollout:
     first_success_step: int | None = None  # the first step the task succeeded (None: never)
     flagged: set = field(default_factory=set)  # the physical-sanity flags of any step
     final_image: np.ndarray | None = None  # the scene camera's RGBA at the end, if any
+    scene_view: object = None  # that camera (`systems.camera.SceneView`), to draw on its image
 
     @property
     def success(self) -> bool:
         """The task succeeded where the episode ended (and the simulation did not fail)."""
         return bool(self.metrics.is_success) and self.error is None
+
+    @property
+    def sim_error(self) -> bool:
+        return self.error is not None
+
+    @property
+    def final_object_to_goal(self) -> float:
+        """m, the object from its goal where the episode ended."""
+        return float(self.metrics.object_to_goal)
+
+    @property
+    def object_travel(self) -> float:
+        """m, the object from its start where the episode ended."""
+        return float(self.metrics.object_travel)
+
+    def as_dict(self) -> dict:
+        return {
+            "steps": self.steps,
+            "success": self.success,
+            "first_success_step": self.first_success_step,
+            "final_object_to_goal_m": self.final_object_to_goal,
+            "object_travel_m": self.object_travel,
+            "tool_touched": bool(self.tool_touched),
+            "gripper_touched": bool(self.gripper_touched),
+            "sim_error": self.sim_error,
+            **({"error": self.error} if self.error else {}),
+        }
 
 
 def roll_out(

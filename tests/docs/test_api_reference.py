@@ -139,7 +139,7 @@ def test_every_port_block_names_the_systems_ports():
     from drake_tooluse.builders.measurement import build_measurement_diagram
     from drake_tooluse.learning.policy_dir import load_policy
     from drake_tooluse.paths import TRANSFER_POLICY
-    from drake_tooluse.tasks.push.diagram import build_policy_diagram
+    from drake_tooluse.tasks.deploy import build_policy_diagram
     from drake_tooluse.world.scenario import Scenario, ToolConfig, validate_scenario
 
     scenario = Scenario()

@@ -7,19 +7,14 @@ import numpy as np
 import pytest
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.experiments.demo import (
-    GOAL_RGB,
-    mark_goal,
-    scene_camera_view,
-    tool_crop,
-)
+from drake_tooluse.experiments.demo import GOAL_RGB, mark_goal, tool_crop
 from drake_tooluse.perception.markers import (
     ANNOTATION_COLORS,
     ViewMeasurement,
     annotate_view,
     measurement_text,
 )
-from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.systems.camera import add_scene_camera, scene_camera_view
 from drake_tooluse.world.scenario import Scenario
 from drake_tooluse.world.scene import add_world, goal_position, initial_box_pose
 

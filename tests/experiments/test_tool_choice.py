@@ -2,15 +2,15 @@
 rollouts in the nominal simulation of the measured tool, the best done in reality."""
 
 import json
+from types import SimpleNamespace
 
 import pytest
 
 from drake_tooluse.cli import EXIT_USAGE, main
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
-    Outcome,
     Policies,
-    ScriptedPullPolicy,
+    ScriptedPolicy,
     TaskInstance,
     check_rack,
     choose_tool,
@@ -23,9 +23,11 @@ from drake_tooluse.experiments.tool_choice import (
 )
 from drake_tooluse.paths import TRANSFER_POLICY
 from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.tasks.deploy import run_controller
 from drake_tooluse.tasks.pull.env import with_hook
-from drake_tooluse.tasks.pull.run import run_pull
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
+
+PULL = "drake_tooluse/ToolPull-v1"
 
 
 def test_tools_parse_and_print_back():
@@ -104,9 +106,9 @@ def test_rollouts_span_the_delay_margin():
 def test_the_pull_runner_judges_the_cube():
     pull, _ = task_scenarios("pull")
     scenario = with_hook(pull, (0.25, 0.05, 90.0))
-    pulled = run_pull(scenario, ScriptedPull(scenario.table.top_z), max_steps=100)
+    pulled = run_controller(PULL, scenario, ScriptedPull(scenario.table.top_z), max_steps=100)
     assert pulled.success and pulled.object_travel > 0.1 and not pulled.sim_error
-    still = run_pull(scenario, lambda observation: [0.0, 0.0, 0.0], max_steps=20)
+    still = run_controller(PULL, scenario, lambda observation: [0.0, 0.0, 0.0], max_steps=20)
     assert not still.success and still.object_travel < 0.01
 
 
@@ -120,7 +122,12 @@ class HookGeometryPolicy:
     def run(self, scenario, belief):
         hook = belief.tool
         self.calls.append((scenario, belief))
-        return Outcome(hook.hook_length > 0.04, abs(hook.angle - 90.0) / 1000)
+        # What a run gives (`tasks.rollout.Rollout`'s figures).
+        return SimpleNamespace(
+            success=hook.hook_length > 0.04,
+            final_object_to_goal=abs(hook.angle - 90.0) / 1000,
+            error=None,
+        )
 
 
 def test_the_choice_is_the_best_prediction_ties_by_distance():
@@ -143,7 +150,7 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
     assert "reality" in c[3] and not any("reality" in x for x in c[:3])
 
 
-@pytest.mark.parametrize("pull", [ScriptedPullPolicy(), None], ids=["scripted", "shipped"])
+@pytest.mark.parametrize("pull", [ScriptedPolicy(PULL), None], ids=["scripted", "shipped"])
 def test_choose_pull_succeeds_in_reality(pull):
     rack = ["straight:0.3", "hook:0.25,0.05,90"]
     policies = Policies(pull=pull)  # None: the shipped hook policy
@@ -217,7 +224,7 @@ def test_the_delay_margin_tells_the_hooks_apart():
     reality. (Seed 0: on the -v1 arm the scripted pull fails seed 1's reality with either
     hook; of seeds 0-9, 0, 2, 3, 6 and 8 are instances the L-hook succeeds in.)"""
     rack = ["hook:0.25,0.05,90", "hook:0.35,0.08,60"]
-    scripted = Policies(pull=ScriptedPullPolicy())
+    scripted = Policies(pull=ScriptedPolicy(PULL))
     out = choose_tool("pull", rack, 3, seed=0, oracle=True, policies=scripted)
     assert out["oracle_tools"] == ["hook:0.25,0.05,90"]
     j_hook = out["candidates"][1]

@@ -245,7 +245,7 @@ def test_the_commanded_trajectory_replays_the_push_the_achieved_one_lags():
             scenario, average_episodes(tips, quats, period), RobotBelief(scenario.tool.length)
         )
         n = len(tip_path)
-        errors[name] = np.linalg.norm(run.tip_path[:n] - tip_path, axis=1).max()
+        errors[name] = np.linalg.norm(run.tool_path[:n] - tip_path, axis=1).max()
     assert errors["commanded"] < 0.008 < 0.015 < errors["achieved"], errors
 
 

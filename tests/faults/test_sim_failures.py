@@ -135,7 +135,7 @@ def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatc
 
 def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypatch):
     from drake_tooluse.learning.policy_dir import load_policy
-    from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
+    from drake_tooluse.tasks.deploy import build_policy_diagram, run_policy
     from drake_tooluse.world.scenario import Scenario
 
     built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))
@@ -143,7 +143,7 @@ def test_a_policy_diagram_run_that_fails_is_flagged_with_finite_figures(monkeypa
     run = run_policy(built, max_steps=20)
     assert run.sim_error and run.steps == 5 and not run.success
     assert "step 5" in run.error
-    assert np.all(np.isfinite(run.tip_path)) and np.all(np.isfinite(run.object_path))
+    assert np.all(np.isfinite(run.tool_path)) and np.all(np.isfinite(run.object_path))
     assert np.isfinite(run.final_object_to_goal) and run.as_dict()["sim_error"]
 
 
@@ -172,7 +172,7 @@ def test_a_box_flung_by_a_diverged_solve_is_a_simulation_failure(monkeypatch):
     travel is not counted as a push."""
     from drake_tooluse.builders.failures import MAX_OBJECT_SPEED
     from drake_tooluse.learning.policy_dir import load_policy
-    from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
+    from drake_tooluse.tasks.deploy import build_policy_diagram, run_policy
     from drake_tooluse.world.scenario import Scenario
 
     built = build_policy_diagram(Scenario(), load_policy(TRANSFER_POLICY))

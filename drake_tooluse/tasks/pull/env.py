@@ -27,7 +27,6 @@ from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
 from drake_tooluse.tasks.pull.registration import TASK
-from drake_tooluse.tasks.pull.run import run_deployed
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import all_finite, check_bool, check_mapping
@@ -166,8 +165,6 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PULL_EPISODE_METRICS
     TASK = TASK
-    # A loaded policy of this env deployed in a scenario (`run_pull`, judged as here).
-    deploy = staticmethod(run_deployed)
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
@@ -185,9 +182,16 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     @classmethod
     def control_behaviour(cls, kwargs) -> ControlBehaviour:
-        """What a deployed run of this env's policies builds (`run_pull`)."""
+        """How an action of the env these keyword arguments make reaches the joints."""
         _config(kwargs)
         return cls.BEHAVIOUR
+
+    @classmethod
+    def add_task(cls, builder, scenario, belief=None, kwargs=None):
+        """The pull task wired into `builder` as the env these keyword arguments make wires
+        it, in `scenario` holding its hook (the env's own hook and scenario options aside)."""
+        _config(kwargs or {})
+        return add_pull_task(builder, scenario, belief, behaviour=cls.BEHAVIOUR)
 
     def __init__(self, **kwargs):
         config = _config(kwargs)
@@ -218,7 +222,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def _build(self, scenario: Scenario) -> None:
         self.scenario = scenario
         builder = DiagramBuilder()
-        task = add_pull_task(builder, scenario, behaviour=self.BEHAVIOUR)
+        task = self.add_task(builder, scenario, None, {})
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control

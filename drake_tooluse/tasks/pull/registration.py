@@ -8,7 +8,12 @@ from drake_tooluse.tasks.contract import (
 )
 
 # No tool-tip trajectory to replay, no transfer tools, no distillation, no study cells yet.
-TASK = TaskDeclaration("pull", "cube", frozenset({"record-video", "evaluate --meshcat"}))
+TASK = TaskDeclaration(
+    "pull",
+    "cube",
+    frozenset({"record-video", "evaluate --meshcat"}),
+    scripted="drake_tooluse.tasks.pull.scripted:ScriptedPull",
+)
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {"drake_tooluse/ToolPull-v1": {}}
@@ -22,6 +27,7 @@ TOOL_TASKS = (
         "hook",
         "pull.yaml",
         "the pull's control acts on a hook's inner corner, which a straight tool lacks",
+        "hook:0.25,0.05,75",
         reality_world=False,
     ),
 )

@@ -24,7 +24,7 @@ from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_v
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
-from drake_tooluse.tasks.push.diagram import add_push_task, run_deployed
+from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
     REWARD_TYPES,
@@ -369,8 +369,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
     EPISODE_METRICS = PUSH_EPISODE_METRICS
     TASK = TASK
-    # A loaded policy of this env deployed in a scenario (the task's diagram, judged as here).
-    deploy = staticmethod(run_deployed)
     PHYSICAL_LIMITS = PHYSICAL_LIMITS
 
     @classmethod
@@ -389,9 +387,27 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
 
     @classmethod
     def control_behaviour(cls, kwargs) -> ControlBehaviour:
-        """How an action of the env these keyword arguments make reaches the joints: what a
-        deployed diagram of its policies builds (`build_policy_diagram`)."""
+        """How an action of the env these keyword arguments make reaches the joints."""
         return cls._behaviour_of(cls._config(kwargs))
+
+    @classmethod
+    def add_task(cls, builder, scenario, belief=None, kwargs=None):
+        """The push task wired into `builder` as the env these keyword arguments make wires
+        it, in `scenario` (the env's own scenario options aside)."""
+        return cls._add_task(builder, scenario, belief, cls._config(kwargs))
+
+    @classmethod
+    def _add_task(cls, builder, scenario, belief, config: EnvConfig):
+        return add_push_task(
+            builder,
+            scenario,
+            belief,
+            config.action_mode,
+            config.observation_mode,
+            config.include_tool_length,
+            config.reward_type,
+            behaviour=cls._behaviour_of(config),
+        )
 
     @classmethod
     def _behaviour_of(cls, config) -> ControlBehaviour:
@@ -432,16 +448,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, config: EnvConfig) -> None:
         builder = DiagramBuilder()
-        task = add_push_task(
-            builder,
-            self.scenario,
-            None,
-            config.action_mode,
-            config.observation_mode,
-            config.include_tool_length,
-            config.reward_type,
-            behaviour=self._behaviour_of(config),
-        )
+        task = self._add_task(builder, self.scenario, None, config)
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control

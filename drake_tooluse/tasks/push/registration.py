@@ -9,7 +9,13 @@ from drake_tooluse.tasks.contract import (
 )
 
 # The paper's task: every command serves it.
-TASK = TaskDeclaration("push", "box", frozenset(COMMAND_NEEDS))
+TASK = TaskDeclaration(
+    "push",
+    "box",
+    frozenset(COMMAND_NEEDS),
+    scripted="drake_tooluse.tasks.push.scripted:ScriptedPush",
+    scripted_env_kwargs=(("action_mode", "position"),),
+)
 
 MAX_EPISODE_STEPS = 100
 ENV_IDS = {
@@ -19,6 +25,7 @@ ENV_IDS = {
 }
 # The tasks the robot chooses a tool for: the paper's push, and the push 0.10 m further.
 STRAIGHT_ONLY = "the tool-tip policy is trained on straight tools"
+DEMO_TOOL = "straight:0.125"  # the paper's unseen tool (world.paper.DEMO_TOOL_LENGTH)
 TOOL_TASKS = (
     ToolTask(
         "push",
@@ -27,6 +34,7 @@ TOOL_TASKS = (
         "straight",
         "push.yaml",
         STRAIGHT_ONLY,
+        DEMO_TOOL,
     ),
     ToolTask(
         "push-far",
@@ -35,6 +43,7 @@ TOOL_TASKS = (
         "straight",
         "push.yaml",
         STRAIGHT_ONLY,
+        DEMO_TOOL,
         goal_extra=ENV_IDS["drake_tooluse/ToolPushFar-v1"]["goal_extra"],
     ),
 )

@@ -11,7 +11,7 @@ from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.train import train
 from drake_tooluse.systems.policy import PolicySystem
-from drake_tooluse.tasks.push.diagram import build_policy_diagram, run_policy
+from drake_tooluse.tasks.deploy import build_policy_diagram, run_policy
 from drake_tooluse.world.scenario import Scenario
 
 
@@ -68,7 +68,7 @@ def test_policy_diagram_matches_the_env_rollout(policy_dir, env_id, kwargs):
         obs, *_ = env.step(policy.act(obs))
         tips.append(obs[6:9])
     # The same controller and policy: the same tip path (float32 observations aside).
-    np.testing.assert_allclose(run.tip_path, np.array(tips), atol=2e-3)
+    np.testing.assert_allclose(run.tool_path, np.array(tips), atol=2e-3)
 
 
 def test_policy_with_mismatched_action_mode_is_refused(policy_dir, tmp_path):
@@ -107,4 +107,4 @@ def test_policy_diagram_with_a_tip_observation_policy(tmp_path_factory):
     built = build_policy_diagram(Scenario(), load_policy(out / "final"))
     assert built.observation.get_output_port().size() == 12
     run = run_policy(built, max_steps=5)
-    assert run.steps == 5 and np.all(np.isfinite(run.tip_path))
+    assert run.steps == 5 and np.all(np.isfinite(run.tool_path))
