@@ -122,6 +122,12 @@ class ViewOptions:
     meshcat: object = None  # a Meshcat instance to draw the episode in (for recordings)
 
 
+def has_views(config) -> bool:
+    """Whether `config` asks for a view (a render mode or Meshcat): what its world is drawn
+    in. A world without views needs no visual geometry."""
+    return config.render_mode is not None or config.meshcat is not None
+
+
 def check_views(config, render_modes=(None, "rgb_array", "human")) -> None:
     """The view options every task's env takes, checked (each a ValueError naming it):
     `render_mode` (one of `render_modes`), `rgb_array`'s `render_size`,

@@ -274,17 +274,25 @@ class ToolTipIK:
         self._options.SetOption(self._solver.id(), "Major feasibility tolerance", 1e-10)
         self._options.SetOption(self._solver.id(), "Major optimality tolerance", 1e-6)
         self._options.SetOption(self._solver.id(), "Major iterations limit", 60)
-        self._build_seed_library(library_size)
+        self._library_size = int(library_size)
+        self._seed_libraries = None
 
-    def _build_seed_library(self, size: int) -> None:
-        """Two seed libraries of configurations drawn once with fixed seeds: `size` in the
-        central 80 % of each joint's range (seeds there rarely end against a limit) and
-        `size // 2` over the full range (for targets that need a joint near its limit)."""
-        centre, half = (self.lower + self.upper) / 2, (self.upper - self.lower) / 2
-        self._libraries = [
-            self._library(centre - 0.8 * half, centre + 0.8 * half, size, seed=1),
-            self._library(self.lower, self.upper, max(size // 2, 1), seed=2),
-        ]
+    @property
+    def _libraries(self) -> list:
+        """The two seed libraries, (q, p, R) each, of configurations drawn once with fixed
+        seeds: `library_size` in the central 80 % of each joint's range, where seeds rarely
+        end against a limit, and half as many over the full range, for targets that need a
+        joint near its limit.
+        Built on first use: most solves in a control loop never need them (the warm start
+        succeeds), and an env that draws a tool per episode builds a new IK each episode."""
+        if self._seed_libraries is None:
+            size = self._library_size
+            centre, half = (self.lower + self.upper) / 2, (self.upper - self.lower) / 2
+            self._seed_libraries = [
+                self._library(centre - 0.8 * half, centre + 0.8 * half, size, seed=1),
+                self._library(self.lower, self.upper, max(size // 2, 1), seed=2),
+            ]
+        return self._seed_libraries
 
     def _library(self, lower, upper, size: int, seed: int):
         q = np.random.default_rng(seed).uniform(lower, upper, size=(size, 7))

@@ -214,15 +214,17 @@ class World:
         return [self.plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS]
 
 
-def add_world(builder, scenario: Scenario) -> World:
+def add_world(builder, scenario: Scenario, robot_visuals: bool = True) -> World:
     """Adds the world (truth) to `builder`: plant + scene graph, finalized, defaults set.
+    Without `robot_visuals`, Baxter has no visual geometry (`robot.model.add_baxter`): for a
+    world that nothing draws or renders.
 
     Ports to connect (the plant's): `plant.get_desired_state_input_port(world.baxter)` takes
     [q_d (7), v_d (7)] of the right arm; `plant.get_actuation_input_port(world.baxter)` takes a
     feed-forward torque (7, N·m) added to the PD output (the sum is clipped to the effort limits).
     """
     plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
-    baxter = add_baxter(plant, scenario.robot.left_arm_q)
+    baxter = add_baxter(plant, scenario.robot.left_arm_q, visuals=robot_visuals)
     if scenario.tool.attached:
         tool = add_tool(plant, baxter, scenario)
     else:

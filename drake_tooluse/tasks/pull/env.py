@@ -17,7 +17,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V0, BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views
+from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.systems.tip_target import ACTION_MODES
@@ -187,11 +187,13 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         return cls.BEHAVIOUR
 
     @classmethod
-    def add_task(cls, builder, scenario, belief=None, kwargs=None):
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
         """The pull task wired into `builder` as the env these keyword arguments make wires
         it, in `scenario` holding its hook (the env's own hook and scenario options aside)."""
         _config(kwargs or {})
-        return add_pull_task(builder, scenario, belief, behaviour=cls.BEHAVIOUR)
+        return add_pull_task(
+            builder, scenario, belief, behaviour=cls.BEHAVIOUR, robot_visuals=robot_visuals
+        )
 
     def __init__(self, **kwargs):
         config = _config(kwargs)
@@ -222,7 +224,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def _build(self, scenario: Scenario) -> None:
         self.scenario = scenario
         builder = DiagramBuilder()
-        task = self.add_task(builder, scenario, None, {})
+        task = self.add_task(builder, scenario, None, {}, has_views(self.config))
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control

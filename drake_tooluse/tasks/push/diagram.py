@@ -50,14 +50,16 @@ def add_push_task(
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
     behaviour: ControlBehaviour = BEHAVIOUR_V1,
+    robot_visuals: bool = True,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
     `action` input is left unconnected. `behaviour`: how the action reaches the joints
-    (`ControlBehaviour`; default the `-v1` envs')."""
+    (`ControlBehaviour`; default the `-v1` envs'). `robot_visuals`: as
+    `world.scene.add_world`'s."""
     belief = nominal_belief(scenario) if belief is None else belief
-    world, ik, q0 = add_world_at_home(builder, scenario, belief)
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, robot_visuals=robot_visuals)
     control = add_tip_control(
         builder,
         world,

@@ -20,7 +20,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
-from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views
+from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
@@ -391,13 +391,13 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         return cls._behaviour_of(cls._config(kwargs))
 
     @classmethod
-    def add_task(cls, builder, scenario, belief=None, kwargs=None):
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
         """The push task wired into `builder` as the env these keyword arguments make wires
         it, in `scenario` (the env's own scenario options aside)."""
-        return cls._add_task(builder, scenario, belief, cls._config(kwargs))
+        return cls._add_task(builder, scenario, belief, cls._config(kwargs), robot_visuals)
 
     @classmethod
-    def _add_task(cls, builder, scenario, belief, config: EnvConfig):
+    def _add_task(cls, builder, scenario, belief, config: EnvConfig, robot_visuals: bool = True):
         return add_push_task(
             builder,
             scenario,
@@ -407,6 +407,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.include_tool_length,
             config.reward_type,
             behaviour=cls._behaviour_of(config),
+            robot_visuals=robot_visuals,
         )
 
     @classmethod
@@ -448,7 +449,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     # -- the diagram ----------------------------------------------------------------------
     def _build(self, config: EnvConfig) -> None:
         builder = DiagramBuilder()
-        task = self._add_task(builder, self.scenario, None, config)
+        task = self._add_task(builder, self.scenario, None, config, has_views(config))
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control

@@ -1,0 +1,44 @@
+"""The world: an env that nothing draws builds Baxter without visual geometry, and moves the
+same, bit for bit."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import drake_tooluse  # noqa: F401  (registers the envs)
+from drake_tooluse.robot.model import _baxter_without_visuals
+
+STEPS = 40
+
+
+def _observations(env_id: str, **kwargs) -> tuple[np.ndarray, int]:
+    """STEPS observations of `env_id` under seeded random actions, and how many geometries
+    the world's SceneGraph holds."""
+    env = gym.make(env_id, **kwargs)
+    try:
+        observation, _ = env.reset(seed=4)
+        env.action_space.seed(4)
+        observations = [observation]
+        for _ in range(STEPS):
+            observation, *_ = env.step(env.action_space.sample())
+            observations.append(observation)
+        inspector = env.unwrapped.world.scene_graph.model_inspector()
+        return np.array(observations), inspector.num_geometries()
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", ["drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1"])
+def test_a_world_without_robot_visuals_moves_the_same_bit_for_bit(env_id):
+    drawn, with_visuals = _observations(env_id, render_mode="rgb_array")
+    undrawn, without = _observations(env_id)
+    assert without == with_visuals - 44  # Baxter's visual geometries
+    np.testing.assert_array_equal(drawn, undrawn)
+
+
+def test_the_urdf_without_visuals_keeps_every_link_joint_and_collision():
+    urdf = _baxter_without_visuals()
+    assert "<visual" not in urdf
+    text = open(drake_tooluse.paths.BAXTER_URDF).read()
+    for tag in ("<link", "<joint", "<collision", "<inertial"):
+        assert urdf.count(tag) == text.count(tag), tag
