@@ -229,6 +229,15 @@ class HookMeasurementResult:
         """Measured minus true (m or deg)."""
         return self.value(quantity) - self.truth[quantity]
 
+    def measured_dimensions(self) -> dict[str, float]:
+        """What was measured of the hook, named as `HookTool.dimensions()` names it (before
+        `measured_hook` takes a value just past its range at the range's end)."""
+        return {
+            "handle_length_m": self.handle_length,
+            "hook_length_m": self.hook_length,
+            "angle_deg": self.angle,
+        }
+
     def summary_lines(self) -> list[str]:
         """The measurement in words, quantity by quantity (a figure's caption)."""
         accepted = [v.view for v in self.views if v.accepted]

@@ -434,6 +434,10 @@ class MeasurementResult:
         values = [v.length(method) for v in self.views if v.accepted]
         return float(np.mean(values)) if values else math.nan
 
+    def measured_dimensions(self) -> dict[str, float]:
+        """What was measured of the tool, named as `StraightTool.dimensions()` names it."""
+        return {"length_m": self.length}
+
     def summary_lines(self) -> list[str]:
         """The measurement in words, view by view (a figure's caption): both variants."""
         accepted = [v for v in self.views if v.accepted]

@@ -10,6 +10,7 @@ carries them into the saved file.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -42,9 +43,19 @@ GOAL_THICKNESS = 0.002
 GOAL_RGBA = (0.1, 0.8, 0.2, 0.45)
 
 
-def start_meshcat() -> Meshcat:
-    """A Meshcat server on a free loopback port (no browser needed)."""
-    return Meshcat(MeshcatParams(host="localhost", port=0, show_stats_plot=False))
+def start_meshcat(announce: bool = False) -> Meshcat:
+    """A Meshcat server on a free loopback port (no browser needed). Drake logs its URL
+    ("Meshcat listening for connections at …") only with `announce`: a server that only
+    records (a run written as an HTML file) has no view to open, and its URL dies with the
+    process."""
+    drake_log = logging.getLogger("drake")
+    level = drake_log.level
+    if not announce:
+        drake_log.setLevel(max(level, logging.WARNING))
+    try:
+        return Meshcat(MeshcatParams(host="localhost", port=0, show_stats_plot=False))
+    finally:
+        drake_log.setLevel(level)
 
 
 def show_task(meshcat: Meshcat, scenario: Scenario) -> None:

@@ -70,6 +70,7 @@ def cmd_train(args) -> dict:
     if args.init_from is not None:
         policy_dir_arg(args.init_from, "--init-from")
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
+    overrides = _with_run_flags(args, overrides)
     env_kwargs = train_env_kwargs(args)
     import torch
 
@@ -131,6 +132,14 @@ def cmd_train(args) -> dict:
 DEFAULT_TIMESTEPS = 1_250_000
 DEFAULT_ENV = "drake_tooluse/ToolPush-v1"
 DEFAULT_ALGO = "ppo"
+# rl-zoo's names for the run's evaluation and checkpoint settings: the hyperparameter each sets.
+RUN_FLAGS = {
+    "eval_freq": "eval_freq",
+    "save_freq": "checkpoint_freq",
+    "n_eval_episodes": "eval_episodes",
+}
+
+
 # The flags that set a run's configuration: a resume given none of them takes the run's own.
 SETTINGS_FLAGS = (
     "env",
@@ -142,7 +151,25 @@ SETTINGS_FLAGS = (
     "scenario",
     "init_from",
     "hyperparams",
+    *RUN_FLAGS,
 )
+
+
+def _with_run_flags(args, overrides: dict | None) -> dict | None:
+    """`--hyperparams` with `--eval-freq`, `--save-freq` and `--n-eval-episodes` put in (each
+    checked here; one also set in `--hyperparams` is refused)."""
+    given = {f: getattr(args, f) for f in RUN_FLAGS if getattr(args, f, None) is not None}
+    if not given:
+        return overrides
+    overrides = dict(overrides or {})
+    for flag, value in given.items():
+        option = "--" + flag.replace("_", "-")
+        count_arg(value, option, 1, MAX_TIMESTEPS)
+        key = RUN_FLAGS[flag]
+        if key in overrides:
+            raise UsageError(f"give {option} or {key} in --hyperparams, not both")
+        overrides[key] = value
+    return overrides
 
 
 def _settings_given(args) -> bool:
@@ -189,9 +216,20 @@ def format_train(out: dict) -> str:
         if "budget_changed_from" in out
         else ""
     )
+    best = out.get("best")
+    if best is not None:
+        source = (
+            f"best/ is the best of {out['evaluations']} evaluations (mean reward "
+            f"{best['mean_reward']:.3g} at step {best['step']})"
+        )
+    else:
+        source = (
+            "best/ is the final policy: no evaluation ran (the first comes after --eval-freq "
+            "steps; eval/ stays empty)"
+        )
     return (
         f"trained {out['timesteps']} steps in {out['wall_time_s'] / 60:.1f} min{rate}{resumed}: "
-        f"{out['out']} (final/, best/, logs/, eval/, summary.json){changed}"
+        f"{out['out']} (final/, best/, logs/, eval/, summary.json){changed}; {source}"
     )
 
 
@@ -359,27 +397,53 @@ def format_flagged(out: dict) -> str:
     return "; past a physical limit: " + ", ".join(f"{k} in {n}" for k, n in flagged.items())
 
 
+# What evaluate's result holds beside the task's figures.
+NOT_FIGURES = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
+NOT_FIGURES += ("flagged_episodes", "env_id", "object_name", "sim_errors")
+UNITS = {"m": (100.0, "cm", ".2f"), "deg": (1.0, "°", ".1f"), "s": (1.0, "s", ".2f")}
+
+
+def _figure_name(name: str, thing: str) -> str:
+    return name.replace("object", thing).replace("_", " ")
+
+
+def format_figures(out: dict, thing: str = "object") -> str:
+    """Any task's evaluation figures in words, with units, from their names (the task
+    contract's `EpisodeMetric` summaries): `<name>_<mean|median|std>_<unit>` together,
+    `<name>_rate` and `success_rate` as a percentage, `episode_length_mean` in steps; `object`
+    in a name read as `thing`."""
+    stats, parts = {}, []
+    for key, value in out.items():
+        if key in NOT_FIGURES or isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue
+        name, _, unit = key.rpartition("_")
+        base, _, stat = name.rpartition("_")
+        if unit in UNITS and stat in ("mean", "median", "std"):
+            if base not in stats:
+                stats[base] = []
+                parts.append((base, stats[base]))
+            scale, symbol, spec = UNITS[unit]
+            stats[base].append(f"{stat} {value * scale:{spec}} {symbol}".replace(" °", "°"))
+        elif key == "success_rate":
+            parts.append(f"success {value * 100:.0f} %")
+        elif unit == "rate":
+            parts.append(f"{_figure_name(name, thing)} in {value * 100:.0f} % of episodes")
+        elif key == "episode_length_mean":
+            parts.append(f"episode length {value:.1f} steps")
+        else:
+            parts.append(f"{_figure_name(key, thing)} {value:.4g}")
+    return "; ".join(
+        f"{_figure_name(p[0], thing)}: {', '.join(p[1])}" if isinstance(p, tuple) else p
+        for p in parts
+    )
+
+
 def format_evaluate(out: dict) -> str:
     ends = " (each run to the step limit)" if out.get("to_time_limit") else ""
-    if "final_object_to_goal_mean_m" not in out:  # another task: its figures as they are
-        skip = ("episodes", "seed", "to_time_limit", "per_episode", "meshcat_url")
-        skip += ("flagged_episodes", "env_id", "object_name")
-        figures = "; ".join(f"{k} {v:.4g}" for k, v in out.items() if k not in skip)
-        return (
-            f"{out['episodes']} episodes from seed {out['seed']}{ends}: {figures}"
-            + format_flagged(out)
-        )
     thing = out.get("object_name", "object")
     return (
-        f"{out['episodes']} episodes from seed {out['seed']}{ends}: final {thing}-goal distance "
-        f"mean {out['final_object_to_goal_mean_m'] * 100:.2f} cm, median "
-        f"{out['final_object_to_goal_median_m'] * 100:.2f} cm, std "
-        f"{out['final_object_to_goal_std_m'] * 100:.2f} cm; success "
-        f"{out['success_rate'] * 100:.0f} %; {thing} travel "
-        f"{out['object_travel_mean_m'] * 100:.1f} cm; episode length "
-        f"{out['episode_length_mean']:.1f}; tool touched the {thing} in "
-        f"{out['tool_touched_rate'] * 100:.0f} %, gripper in "
-        f"{out['gripper_touched_rate'] * 100:.0f} %"
+        f"{out['episodes']} episodes from seed {out['seed']}{ends}: "
+        + format_figures(out, thing)
         + (f"; {out['sim_errors']} simulation failure(s)" if out.get("sim_errors") else "")
         + format_flagged(out)
     )
@@ -456,8 +520,9 @@ def add_parsers(sub) -> None:
     p.add_argument(
         "--timesteps",
         type=int,
-        help=f"environment steps in all (default: {DEFAULT_TIMESTEPS}; with --resume, the "
-        "run's own: another budget is applied, and the result says so)",
+        help=f"environment steps in all (default: {DEFAULT_TIMESTEPS}, a full training; `sweep` "
+        "defaults to 300000 per cell, a comparison; with --resume, the run's own: another "
+        "budget is applied, and the result says so)",
     )
     p.add_argument("--n-envs", type=int, help="parallel envs (default from the YAML)")
     p.add_argument(
@@ -496,6 +561,24 @@ def add_parsers(sub) -> None:
         "--hyperparams",
         metavar="JSON",
         help="override YAML hyperparameters, e.g. '{\"learning_rate\": 1e-4}'",
+    )
+    p.add_argument(
+        "--eval-freq",
+        type=int,
+        metavar="N",
+        help="evaluate every N steps in all (rl-zoo's name; the YAML's eval_freq)",
+    )
+    p.add_argument(
+        "--save-freq",
+        type=int,
+        metavar="N",
+        help="checkpoint every N steps in all (the YAML's checkpoint_freq)",
+    )
+    p.add_argument(
+        "--n-eval-episodes",
+        type=int,
+        metavar="N",
+        help="episodes per evaluation (the YAML's eval_episodes)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_trust_pickle_arg(p)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -32,7 +31,6 @@ import cv2
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle, Patch
-from tqdm import tqdm
 
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
@@ -41,6 +39,7 @@ from drake_tooluse.experiments.tool_choice import (
     TOOL_TASKS,
     LearnedPolicy,
     ScriptedPolicy,
+    clamped,
     holding,
     measure,
     no_policy_reason,
@@ -57,6 +56,7 @@ from drake_tooluse.files import (
 )
 from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.systems.camera import (  # noqa: F401 (GOAL_RGB: the demo's figures' green)
     GOAL_RGB,
     SceneView,
@@ -206,10 +206,11 @@ def _finite_or_none(x) -> float | None:
     return float(x) if math.isfinite(x) else None  # NaN: the camera did not give it
 
 
-def _tool_figures(tool, grasp_along: float) -> dict:
-    """A tool's dimensions (`dimensions()`) and where it is held along it, named with units."""
+def _tool_figures(dimensions: dict, grasp_along: float) -> dict:
+    """A tool's dimensions (`Tool.dimensions()`, or what the camera measured of them) and
+    where it is held along it, named with units."""
     return {
-        **{k: _finite_or_none(v) for k, v in tool.dimensions().items()},
+        **{k: _finite_or_none(v) for k, v in dimensions.items()},
         "grasp_along_m": _finite_or_none(grasp_along),
     }
 
@@ -283,8 +284,10 @@ def run_demo(
         t0 = time.perf_counter()
         belief, measurement = measure(scenario, tool, seed, save_images_dir=work / "camera")
         times["measure_s"] = time.perf_counter() - t0
-        true = _tool_figures(tool, scenario.tool.grasp_offset_along)
-        measured = _tool_figures(belief.tool, belief.grasp_offset[1])
+        true = _tool_figures(tool.dimensions(), scenario.tool.grasp_offset_along)
+        # As measured: a value just past its range, which the belief holds at the range's end,
+        # is shown as it was (and `clamped` says so).
+        measured = _tool_figures(measurement.measured_dimensions(), belief.grasp_offset[1])
         log(f"      {tool_text(true, measured)} in {times['measure_s']:.1f} s")
 
         log(
@@ -292,14 +295,7 @@ def run_demo(
         )
         t0 = time.perf_counter()
         meshcat = start_meshcat() if meshcat is None else meshcat
-        with tqdm(
-            total=max_steps,
-            desc="      control steps",
-            unit="step",
-            file=sys.stderr,
-            disable=not progress or not sys.stderr.isatty(),  # no \r fragments in a log
-            leave=False,
-        ) as bar:
+        with progress_bar(max_steps, "      control steps", "step", progress) as bar:
             run = controller.run(
                 scenario,
                 belief,
@@ -333,6 +329,7 @@ def run_demo(
                 "given": tool_label(tool),
                 "true": true,
                 "measured": measured,
+                "clamped": clamped(belief, measurement),
                 "measurement": _without_files(measurement.as_dict()),
             },
             "perturbation": dc.asdict(draw),

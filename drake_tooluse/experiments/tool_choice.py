@@ -49,6 +49,7 @@ from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
 from drake_tooluse.tasks.contract import declaration, scripted_reference, tool_tasks
@@ -281,6 +282,17 @@ def believed_tool_label(belief: RobotBelief) -> str:
     return tool_label(belief.tool)
 
 
+def clamped(belief: RobotBelief, measurement) -> dict:
+    """The figures the camera measured just past their range, which the belief holds at the
+    range's end: {name: [measured, believed]} (empty where none was)."""
+    believed = belief.tool.dimensions()
+    return {
+        name: [float(value), float(believed[name])]
+        for name, value in measurement.measured_dimensions().items()
+        if abs(value - believed[name]) > 1e-9
+    }
+
+
 def run_outcome(policy: ToolPolicy, scenario: Scenario, belief: RobotBelief) -> Outcome:
     """The outcome of `policy.run(scenario, belief)`; a run that raises (RuntimeError,
     ValueError) is a failure with its error, and the caller goes on."""
@@ -345,13 +357,15 @@ def choose_tool(
     policies: Policies | None = None,
     delay_margin: float = DELAY_MARGIN,
     recording_path=None,
+    progress: bool = True,
 ) -> dict:
     """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
     actuation delays up to `delay_margin` s), chooses the best and does the instance with it in reality. `instance` is a TaskInstance
     or a task kind (TASKS, then drawn with `seed`). With `oracle`, every tool is also run in
     reality (`oracle_success`: whether any tool succeeds). With `recording_path`, the chosen
     tool's run in reality is recorded in Meshcat and written there as a standalone HTML file.
-    Returns a dict (see `format_choice`)."""
+    `progress`: a bar on stderr (a terminal only) over the tools' predictions and reality
+    runs. Returns a dict (see `format_choice`)."""
     if not isinstance(instance, TaskInstance):
         instance = TaskInstance(instance, seed)
     rack = check_rack(rack)
@@ -365,7 +379,9 @@ def choose_tool(
     start = time.perf_counter()
     candidates = []
     worlds = {}
+    bar = progress_bar(len(rack) * (2 if oracle else 1) + int(not oracle), "tools", "", progress)
     for i, tool in enumerate(rack):
+        bar.update(1)
         candidate = {"tool": tool_label(tool)}
         reason = no_policy_reason(instance.task, tool)
         if reason is not None:
@@ -376,6 +392,8 @@ def choose_tool(
         worlds[i] = (nominal_world, reality_world)
         measured, error = attempt(measure, reality_world, tool, instance.seed)
         belief = None if measured is None else measured[0]
+        if measured is not None:
+            candidate["clamped"] = clamped(*measured)
         if belief is None:
             candidate.update(
                 predicted_success=0.0,
@@ -402,6 +420,7 @@ def choose_tool(
     chosen = min(range(len(candidates)), key=lambda i: _rank_key(candidates[i]))
     for i, candidate in enumerate(candidates):
         if oracle or i == chosen:
+            bar.update(1)
             candidate["reality"] = _reality_run(
                 instance,
                 candidate,
@@ -409,6 +428,7 @@ def choose_tool(
                 policies,
                 recording_path if i == chosen else None,
             )
+    bar.close()
     result = {
         "task": instance.task,
         "seed": instance.seed,
@@ -448,6 +468,15 @@ def _reality_run(instance, candidate, worlds, policies: Policies, recording_path
     return {**outcome.as_dict(), "run": True, **recorded}
 
 
+def _clamped_text(figures: dict) -> str:
+    """ ", the angle measured 61.3 and taken as 60" for each figure clamped to its range."""
+    return "".join(
+        f", {name.rpartition('_')[0].replace('_', ' ')} measured {measured:.4g} and taken as "
+        f"{believed:g}"
+        for name, (measured, believed) in figures.items()
+    )
+
+
 def format_choice(out: dict) -> str:
     lines = [
         f"{out['task']} (seed {out['seed']}), {out['rollouts']} predicted rollouts per tool "
@@ -460,7 +489,7 @@ def format_choice(out: dict) -> str:
         if final is not None:
             text += f", final distance {final * 100:.1f} cm"
         if "believed" in c:
-            text += f" (measured {c['believed']})"
+            text += f" (measured {c['believed']}{_clamped_text(c.get('clamped', {}))})"
         if "reason" in c:
             text += f" ({c['reason']})"
         if "reality" in c and c["reality"]["run"]:

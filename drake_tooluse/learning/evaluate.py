@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 
 import gymnasium as gym
 import numpy as np
-from tqdm import tqdm
 
 from drake_tooluse.learning.policy_dir import check_policy_env, check_policy_matches, load_policy
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.validation import check_int, check_seed
 
 
@@ -129,14 +128,7 @@ def evaluate(
     kwargs = env.spec.kwargs if env.spec is not None else {}
     to_time_limit = to_time_limit or not task_env.ends_at_success(kwargs)
     rows = []
-    bar = tqdm(
-        total=episodes,
-        desc="episodes",
-        unit="ep",
-        file=sys.stderr,
-        disable=not progress or not sys.stderr.isatty(),  # no \r fragments in a log file
-        leave=False,
-    )
+    bar = progress_bar(episodes, "episodes", "ep", progress)
     try:
         for ep in range(episodes):
             sanity = PhysicalSanity(limits)

@@ -488,9 +488,21 @@ def train(
             "resumes": run.resumes,
             "command": first_command,
             "out": str(out),
+            **_best_source(evaluation),
         }
         atomic_write_json(out / "summary.json", summary)
     return summary
+
+
+def _best_source(evaluation: EvalCallback) -> dict:
+    """Where `best/` came from: the run's evaluations (how many, and the best's mean reward and
+    step), or, where none ran, the final policy."""
+    steps = list(evaluation.evaluations_timesteps)
+    if not steps:
+        return {"evaluations": 0, "best": None}
+    means = [float(np.mean(r)) for r in evaluation.evaluations_results]
+    i = int(np.argmax(means))
+    return {"evaluations": len(steps), "best": {"mean_reward": means[i], "step": int(steps[i])}}
 
 
 def _build_model(config: TrainConfig, venv):

@@ -67,7 +67,7 @@ def test_the_pull_policy_is_evaluated_in_meshcat(monkeypatch, capsys):
     monkeypatch.setattr("sys.stdin", open("/dev/null"))  # the view closes at once
     code = main(["evaluate", "--policy", str(PULL_POLICY), "--episodes", "1", "--meshcat"])
     out = capsys.readouterr().out
-    assert code == 0 and "final cube-goal distance" in out
+    assert code == 0 and "final cube to goal: mean" in out
 
 
 def test_the_push_task_serves_every_command():
@@ -115,3 +115,26 @@ def test_render_without_a_render_mode_warns_and_returns_none():
         with pytest.warns(UserWarning, match="render\\(\\) without a render mode"):
             assert env.unwrapped.render() is None
         env.close()
+
+
+def test_every_tasks_figures_print_in_words_with_units():
+    """One formatter for every task's evaluation, from the figures' names."""
+    from drake_tooluse.cli.learning import format_evaluate
+
+    toy = {
+        "episodes": 3,
+        "seed": 0,
+        "final_distance_mean_m": 0.0123,
+        "final_distance_median_m": 0.01,
+        "final_distance_std_m": 0.002,
+        "success_rate": 2 / 3,
+        "episode_length_mean": 12.0,
+        "tool_touched_rate": 0.5,
+        "sim_errors": 1,
+        "flagged_episodes": {"arm_too_fast": 1, "tool_in_table": 0},
+    }
+    assert format_evaluate(toy) == (
+        "3 episodes from seed 0: final distance: mean 1.23 cm, median 1.00 cm, std 0.20 cm; "
+        "success 67 %; episode length 12.0 steps; tool touched in 50 % of episodes; "
+        "1 simulation failure(s); past a physical limit: arm_too_fast in 1"
+    )
