@@ -367,10 +367,10 @@ def _distill_config(args):
 
 def _resumable(out, run) -> dict:
     """`run(log)`, its rounds logged to stderr; stopped, it says how to go on."""
-    from drake_tooluse.experiments.distill import unfinished
+    from drake_tooluse.experiments.distill import round_text, unfinished
 
     try:
-        return run(lambda r: print(r, file=sys.stderr))
+        return run(lambda r: print(round_text(r), file=sys.stderr))
     except KeyboardInterrupt:
         if not unfinished(out):
             raise
@@ -385,7 +385,8 @@ def format_distill(out: dict) -> str:
     return (
         f"distilled {out['teacher']} -> {out['out']}: {len(out['rounds'])} rounds, "
         f"{last['samples']} samples; the student's last round: success "
-        f"{last['success']:.0%}, RMSE per action {last['rmse']}; {out['wall_time_s']:.0f} s"
+        f"{last['success']:.0%}, RMSE per action [{', '.join(f'{r:.3f}' for r in last['rmse'])}]; "
+        f"{out['wall_time_s']:.0f} s"
     )
 
 

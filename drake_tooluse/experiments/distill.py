@@ -179,6 +179,15 @@ def unfinished(out) -> bool:
     return (Path(out) / PROGRESS).is_file()
 
 
+def round_text(entry: dict) -> str:
+    """One round of the distillation in words (a progress line)."""
+    rmse = ", ".join(f"{r:.3f}" for r in entry["rmse"])
+    return (
+        f"round {entry['round']} ({entry['acting']} acting): success {entry['success']:.0%}, "
+        f"{entry['samples']} samples, RMSE per action [{rmse}]"
+    )
+
+
 def distill(
     teacher_dir, out, config: DistillConfig = DistillConfig(), command: str = "", log=print
 ) -> dict:
