@@ -1,4 +1,4 @@
-"""`learning.distill`: the student starts as its teacher, with the paper's 7-d action; one
+"""`experiments.distill`: the student starts as its teacher, with the paper's 7-d action; one
 DAgger round writes a policy directory that loads and acts; a teacher it cannot widen is a
 one-line usage error; a stopped distillation goes on to the student it would have made."""
 
