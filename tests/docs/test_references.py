@@ -9,7 +9,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 LAYERS = ("builders", "tasks", "experiments", "learning", "robot", "world", "systems")
 LAYERS += ("perception", "cli")
-REFERENCE = re.compile(r"`((?:drake_tooluse\.)?(?:%s)\.[A-Za-z_][\w.]*)" % "|".join(LAYERS))
+NAMES = "|".join(LAYERS)
+REFERENCE = re.compile(rf"`((?:drake_tooluse\.)?(?:{NAMES})\.[A-Za-z_][\w.]*)")
 # `world.plant`, `robot.conservative_limits`: a World's and a scenario's fields, not modules.
 INSTANCE_NAMES = ("world", "robot")
 
