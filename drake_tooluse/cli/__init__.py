@@ -206,6 +206,7 @@ def main(argv=None) -> int:
         print(moved, file=sys.stderr)
     try:
         args = make_parser().parse_args(argv)
+        args.argv = argv  # the command line, as a command says how to go on from a stop
     except VersionShown:
         return EXIT_OK
     except ArgumentsRefused as e:

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import shlex
 import sys
 from pathlib import Path
 
@@ -262,6 +264,21 @@ def add_trust_pickle_arg(p: argparse.ArgumentParser) -> None:
         "its files can run code when loaded: only for files you trust. Convert it once with "
         "`drake-tooluse convert-policy` instead",
     )
+
+
+@contextlib.contextmanager
+def goes_on_with(command: str, kept: str):
+    """Ctrl-C inside says what was `kept` and the `command` that goes on from it (as
+    KeyboardInterrupt's text, which `main` prints with exit code 130)."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(f"{kept}; go on with `{command}`") from None
+
+
+def this_command(args) -> str:
+    """The command line `args` were parsed from (`main` keeps it), as `drake-tooluse …`."""
+    return shlex.join(["drake-tooluse", *args.argv])
 
 
 def run_script(main) -> int:

@@ -9,8 +9,10 @@ from drake_tooluse.cli.common import (
     EXIT_OK,
     UsageError,
     count_arg,
+    goes_on_with,
     output_dir_arg,
     seed_arg,
+    this_command,
 )
 
 
@@ -75,7 +77,9 @@ def cmd_study(args) -> dict:
     if args.states_only:
         runs = queue_of(study, args.only, args.seeds)
         return {"runs": status(study, read_results(files.results), runs), "states_only": True}
-    return {"runs": run_study(study, args.only, args.seeds, args.parallel)}
+    kept = f"the runs so far are recorded in {str(files.results)!r} and kept"
+    with goes_on_with(this_command(args), kept):  # a rerun picks up every run where it stopped
+        return {"runs": run_study(study, args.only, args.seeds, args.parallel)}
 
 
 def format_study(out: dict) -> str:

@@ -182,3 +182,20 @@ def test_an_interrupted_training_says_how_to_go_on(tmp_path, monkeypatch, capsys
     assert main(argv) == 130
     err = capsys.readouterr().err
     assert f"go on with `drake-tooluse train --resume {out}`" in err
+
+
+def test_an_interrupted_study_says_how_to_go_on(tmp_path, monkeypatch, capsys):
+    """Ctrl-C in `study`: exit 130, where the finished runs are, and the command that picks up
+    every run where it stopped (it printed only "interrupted")."""
+    import drake_tooluse.experiments.paper_study as paper_study
+    from drake_tooluse.cli import main
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(paper_study, "run_study", interrupted)
+    out = tmp_path / "study"
+    assert main(["study", "--out", str(out), "--no-report"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "the runs so far are recorded in" in err
+    assert f"go on with `drake-tooluse study --out {out} --no-report`" in err
