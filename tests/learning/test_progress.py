@@ -2,6 +2,7 @@
 carriage-return fragments."""
 
 import io
+import sys
 
 import pytest
 
@@ -50,7 +51,7 @@ def test_evaluate_shows_progress_only_on_a_terminal(monkeypatch, tty):
     monkeypatch.setattr(evaluate_mod, "make_policy_env", lambda *a: (None, Env()))
     monkeypatch.setattr(evaluate_mod, "run_episode", lambda env, policy, seed, **kw: (INFO, 40))
     err = Stderr(tty)
-    monkeypatch.setattr(evaluate_mod.sys, "stderr", err)
+    monkeypatch.setattr(sys, "stderr", err)
     result = evaluate_mod.evaluate("policy", episodes=5, progress=True)
     assert result.episodes == 5 and result.success_rate == 1.0
     if tty:
@@ -58,6 +59,6 @@ def test_evaluate_shows_progress_only_on_a_terminal(monkeypatch, tty):
     else:
         assert err.getvalue() == ""
     err = Stderr(True)
-    monkeypatch.setattr(evaluate_mod.sys, "stderr", err)
+    monkeypatch.setattr(sys, "stderr", err)
     evaluate_mod.evaluate("policy", episodes=2)  # the library is quiet unless asked
     assert err.getvalue() == ""
