@@ -12,8 +12,11 @@ transfer --mode open-loop` replays its trajectory.
 Variants, each changing one thing of the one above it:
 
   paper        the paper's: where the tip got at each step, the per-step mean of the episodes
-               from their start (an episode that ends early holds its last pose), smoothed over
-               5 steps, the poses the IK reaches under the conservative limits kept
+               from their start, each as long as the policy's own env runs it (to its first
+               success where that env ends an episode there, the -v0 ids; else to the step
+               limit, where the -v1 ids judge it), an episode that ends early holding its last
+               pose; smoothed over 5 steps, the poses the IK reaches under the conservative
+               limits kept
   commanded    the tip poses each step commanded instead (Baxter's arm lags them by ~2 cm)
   box-frame    each episode shifted by where its box started before averaging, and the replay
                by where the run's box starts: in reality as the robot's hand camera measures it
@@ -21,7 +24,8 @@ Variants, each changing one thing of the one above it:
   medoid       the one episode nearest all the others (mean tip distance, in the box frame)
                instead of their mean
   full-length  box-frame, with the episodes recorded past their success to the 100-step limit
-               (the paper's Fetch episodes had no early end)
+               (the paper's Fetch episodes had no early end): the same as box-frame for a
+               policy whose env runs to the limit (the -v1 ids)
   centred      box-frame, moved across the push so that the tool runs through the box's centre
                line while it pushes (the mean pushes ~0.4 cm to one side)
   line-contact centred, the tool tilted about the push direction (its tip leaning away from
@@ -139,8 +143,12 @@ class _Recorder:
 
 def record(policy_dir, episodes: int):
     """Each episode run on to the step limit (`_Recorder`'s rows, first success and box start),
-    and the control period."""
+    the control period, and whether the policy's env ends an episode at its first success (its
+    protocol: the -v0 ids do; the -v1 ids run to the step limit and judge it there)."""
     policy, env = make_policy_env(policy_dir)
+    ends_at_success = type(env.unwrapped).ends_at_success(
+        env.spec.kwargs if env.spec is not None else {}
+    )
     recorded = []
     for ep in range(episodes):
         recorder = _Recorder(env)
@@ -148,16 +156,24 @@ def record(policy_dir, episodes: int):
         recorded.append((np.array(recorder.rows), recorder.success, recorder.box))
     period = env.unwrapped.scenario.control.control_period
     env.close()
-    return recorded, period
+    return recorded, period, ends_at_success
 
 
-def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -> TipTrajectory:
+def trajectory(
+    recorded, period: float, variant: str, nominal_box: np.ndarray, ends_at_success: bool
+) -> TipTrajectory:
     """One trajectory of the recorded episodes, in the nominal box start's frame if the
-    variant is in the box frame (see the module docstring)."""
+    variant is in the box frame (see the module docstring). Each episode is cut where the
+    policy's protocol ends it (`ends_at_success`: at its first success; else at the step
+    limit), or kept to the limit (`full-length`). A -v1 policy, which is not stopped at its first
+    success, reaches it at the success threshold (the box ~18 of its 20 cm, the tip ~3 cm from
+    the box's centre) and pushes on to the goal after it: cut there, the mean push ends on the
+    threshold and half its replays stop short of it."""
     columns, box_frame, medoid, full_length, _, _ = VARIANTS[variant]
     episodes = []
     for rows, success, box in recorded:
-        ep = rows[: None if full_length or success is None else success + 1, columns].copy()
+        cut = ends_at_success and not full_length and success is not None
+        ep = rows[: success + 1 if cut else None, columns].copy()
         if box_frame:
             ep[:, :2] -= (box - nominal_box)[:2]
         episodes.append(ep)
@@ -221,7 +237,7 @@ def main() -> None:
 def study(args) -> None:
     """Records, builds every variant's trajectory, replays them, prints and writes the table."""
     start = time.perf_counter()
-    recorded, period = record(args.policy, args.episodes)
+    recorded, period, ends_at_success = record(args.policy, args.episodes)
     nominal_s, reality_s = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)
     nominal_box = initial_box_pose(nominal_s).translation()
     successes = sum(success is not None for _, success, _ in recorded)
@@ -247,7 +263,7 @@ def study(args) -> None:
     rows = []
     for variant, tilts, offset in specs:
         v = VARIANTS[variant]
-        base = trajectory(recorded, period, variant, nominal_box)
+        base = trajectory(recorded, period, variant, nominal_box, ends_at_success)
         if v.centred:
             base = centred(base, push_direction, nominal_box, box_size)
         for tool in args.tools:
@@ -280,6 +296,7 @@ def study(args) -> None:
                             "success": bool(run.success),
                             "object_travel_m": float(run.object_travel),
                             "final_object_to_goal_m": float(run.final_object_to_goal),
+                            "final_tip_to_object_m": float(run.metrics.tip_to_object),
                             "box_dx_m": float(moved[0]),  # across the push (+y)
                             "sim_error": bool(run.sim_error),
                         }
