@@ -55,8 +55,8 @@ from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
 GROUPS = (robot, learning, experiments, study, measure, maintenance)
 DESCRIPTION = (
-    "A Baxter robot that uses a straight tool of any length, in Drake: tool-tip IK, "
-    "simulation, camera measurement, training, transfer."
+    "A Baxter robot that uses tools (straight tools of any length, hooks), in Drake: tool-tip "
+    "IK, simulation, camera measurement, training, transfer, a pull task, tool choice."
 )
 EPILOG = (
     "exit codes: 0 success, 1 internal error (a bug), 2 usage error (bad option, value, file "
