@@ -87,7 +87,7 @@ def add_parsers(top) -> None:
 
     p = sub.add_parser(
         "render-figures",
-        help="take the README's Meshcat screenshots (docs/figures/*.png) from fresh recordings "
+        help="take the docs' Meshcat screenshots (docs/figures/*.png) from fresh recordings "
         "with headless Chromium, each with a .json of what it shows",
     )
     p.add_argument(

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from drake_tooluse.files import atomic_write_json
 
-RUNS_DIR = Path("runs")  # relative to the working directory, as the README's commands use it
+RUNS_DIR = Path("runs")  # relative to the working directory, as the docs' commands use it
 
 
 def new_run_dir(name: str) -> Path:

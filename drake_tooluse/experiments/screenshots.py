@@ -1,10 +1,10 @@
-"""The README's Meshcat screenshots, taken with headless Chromium from fresh recordings, and a
+"""The docs' Meshcat screenshots, taken with headless Chromium from fresh recordings, and a
 check that they are current that needs no browser.
 
 Each screenshot in `SCREENSHOTS` is made from a recording built the way its command builds it
-(`simulate_meshcat.png`: the README's `drake-tooluse simulate ... --record`), opened in headless
-Chromium at a fixed window size and photographed once the playback has ended (Drake's
-animation holds its last frame). Beside each PNG, `<name>.json` records what the picture
+(`simulate_meshcat.png`: docs/guide/simulation.md's `drake-tooluse simulate ... --record`),
+opened in headless Chromium at a fixed window size and photographed once the playback has
+ended (Drake's animation holds its last frame). Beside each PNG, `<name>.json` records what the picture
 shows: a digest of the recording's scene (`scene_digest`) and the camera and window.
 
 A pixel comparison would not survive another machine's renderer, so `render_all(check=True)`
@@ -47,7 +47,7 @@ CHROMIUM_TIMEOUT_S = 300
 
 @dataclass(frozen=True)
 class Screenshot:
-    """A README screenshot: how its recording is made, the command a user types for it, and
+    """A docs screenshot: how its recording is made, the command a user types for it, and
     the browser window it is taken in (px)."""
 
     record: Callable[[Path], Path]
@@ -55,7 +55,8 @@ class Screenshot:
     window: tuple[int, int] = (1280, 800)
 
 
-# The README's `simulate` example (its defaults: --move-time 1.0 --dwell 1.5, push.yaml).
+# docs/guide/simulation.md's `simulate` example (its defaults: --move-time 1.0 --dwell 1.5,
+# push.yaml).
 SIMULATE_WAYPOINTS = ((0.66, -0.2, -0.12), (0.72, 0.0, -0.15), (0.58, -0.35, -0.1))
 
 

@@ -1,4 +1,4 @@
-"""`drake-tooluse record-video`: one episode of a policy as an animated GIF a README can show.
+"""`drake-tooluse record-video`: one episode of a policy as an animated GIF a README or a page can show.
 
 The frames are the env's `rgb_array` renders (`tasks.push.env.ToolPushEnv.render`: the scene
 camera framing robot, tool, table, box and goal, the goal drawn on the image), one after the

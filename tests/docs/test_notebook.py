@@ -71,7 +71,7 @@ def test_notebook_runs(kernel_of_this_python, tmp_path):
     ]
     assert "Meshcat: http://" in text
     measured_mm = float(re.search(r"measured ([0-9.]+) mm \(truth 150 mm", text).group(1))
-    assert abs(measured_mm - 150) < 3, text  # the README's bound on a measurement
+    assert abs(measured_mm - 150) < 3, text  # the measurement guide's bound
     assert "solved: True" in text
     assert "success: True" in text, text  # the shipped policy pushes the box to the goal
     assert len(images) == 2  # the camera view and the push from above

@@ -21,7 +21,8 @@ from drake_tooluse.paths import HYPERPARAMS_DIR
 from drake_tooluse.tasks.push.registration import ENV_IDS
 
 CONF = HYPERPARAMS_DIR / "rl_zoo3.yaml"
-README = Path(__file__).resolve().parents[2] / "README.md"
+# The training page of the user guide, which shows the rl_zoo3 command line.
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide" / "training.md"
 # Run settings rl-zoo3 takes as flags, not from the file: ours -> its flag.
 ZOO_FLAGS = {
     "eval_freq": "--eval-freq",
@@ -52,12 +53,12 @@ def test_the_rl_zoo3_file_holds_the_projects_ppo_hyperparameters():
         assert conf[env_id] == _expected(env_id), env_id
 
 
-def test_the_readme_and_the_file_give_rl_zoo3_the_run_settings_as_flags():
+def test_the_guide_and_the_file_give_rl_zoo3_the_run_settings_as_flags():
     hp = load_hyperparams("ppo", "drake_tooluse/ToolPush-v1")
     flags = " ".join(f"{flag} {hp[key]}" for key, flag in ZOO_FLAGS.items())
-    readme = " ".join(README.read_text().split())
-    commands = re.findall(r"python -m rl_zoo3\.train [^`\n]*", readme)
-    assert commands, "README.md shows no rl_zoo3 command"
+    guide = " ".join(GUIDE.read_text().split())
+    commands = re.findall(r"python -m rl_zoo3\.train [^`\n]*", guide)
+    assert commands, "docs/guide/training.md shows no rl_zoo3 command"
     assert all("--conf-file drake_tooluse/learning/hyperparams/rl_zoo3.yaml" in c for c in commands)
     assert all("--gym-packages drake_tooluse" in c and flags in c for c in commands)
     header = " ".join(
@@ -66,22 +67,22 @@ def test_the_readme_and_the_file_give_rl_zoo3_the_run_settings_as_flags():
     assert flags in " ".join(header.replace("\\", " ").split())
 
 
-def _readme_env_kwargs() -> dict:
-    """The README's `--env-kwargs` for rl_zoo3, read as rl_zoo3 reads them (`key:value`, the
+def _guide_env_kwargs() -> dict:
+    """The training guide's `--env-kwargs` for rl_zoo3, read as rl_zoo3 reads them (`key:value`, the
     value a Python literal)."""
-    readme = " ".join(README.read_text().split())
-    (command,) = re.findall(r"python -m rl_zoo3\.train [^`\n]*?(?=```|$)", readme)
+    guide = " ".join(GUIDE.read_text().split())
+    (command,) = re.findall(r"python -m rl_zoo3\.train [^`\n]*?(?=```|$)", guide)
     words = shlex.split(command)
     start = words.index("--env-kwargs") + 1
     pairs = itertools.takewhile(lambda w: not w.startswith("-"), words[start:])
     return {key: ast.literal_eval(value) for key, value in (w.split(":", 1) for w in pairs)}
 
 
-def test_the_readme_gives_rl_zoo3_the_files_env_kwargs_for_both_envs():
-    # rl_zoo3 builds its evaluation env from the command line's env kwargs only: the README's
+def test_the_guide_gives_rl_zoo3_the_files_env_kwargs_for_both_envs():
+    # rl_zoo3 builds its evaluation env from the command line's env kwargs only: the guide's
     # must be the file's, or its first evaluation meets the wrong action space.
     conf = yaml.safe_load(CONF.read_text())
-    assert _readme_env_kwargs() == conf["drake_tooluse/ToolPush-v1"]["env_kwargs"]
+    assert _guide_env_kwargs() == conf["drake_tooluse/ToolPush-v1"]["env_kwargs"]
 
 
 def test_rl_zoo3_reads_the_file_into_the_projects_run(tmp_path):
@@ -131,7 +132,7 @@ def test_rl_zoo3_trains_the_env_with_the_file(tmp_path):
         "n_steps:128",
         "batch_size:64",
         "--env-kwargs",
-        *(f"{key}:{value!r}" for key, value in _readme_env_kwargs().items()),
+        *(f"{key}:{value!r}" for key, value in _guide_env_kwargs().items()),
         "--eval-freq",
         "128",
         "--eval-episodes",

@@ -1,4 +1,4 @@
-"""The README's Meshcat screenshots are current, and recordings open framed on the task.
+"""The docs' Meshcat screenshots are current, and recordings open framed on the task.
 
 None of these needs Chromium: the check compares what a picture shows (the recording's scene
 digest), not its pixels."""

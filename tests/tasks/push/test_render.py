@@ -175,7 +175,7 @@ def test_rendering_changes_nothing_of_the_physics():
 
 
 def test_an_env_made_with_a_meshcat_resets_and_steps():
-    """The README's example: an env drawing its episodes in a Meshcat of one's own."""
+    """The guide's example (docs/guide/simulation.md): an env drawing its episodes in a Meshcat of one's own."""
     meshcat = Meshcat()
     env = gym.make(ENV, meshcat=meshcat)
     observation, info = env.reset(seed=0)

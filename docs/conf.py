@@ -1,21 +1,24 @@
-"""Sphinx configuration of drake-tooluse's API reference. Built from the repo's root with
+"""Sphinx configuration of drake-tooluse's documentation site: the user guide (docs/guide/),
+the pages docs/*.md and the API reference (docs/api/). Built from the repo's root with
 
-    python -m sphinx -W --keep-going -b html docs/api build/api-html
+    python -m sphinx -W --keep-going -b html docs build/docs-html
 
-(warnings are errors; tests/docs/test_api_reference.py runs the same build)."""
+(warnings are errors; tests/docs/test_docs_site.py runs the same build)."""
 
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 # The checkout's package first (as the tests run it), then the local extension.
-sys.path[:0] = [str(HERE.parents[1]), str(HERE / "_ext")]
+sys.path[:0] = [str(HERE.parent), str(HERE / "api" / "_ext")]
 
 project = "drake-tooluse"
 author = "drake-tooluse authors"
 copyright = "2026, drake-tooluse authors"
 
 extensions = [
+    # The guide and the docs/*.md pages are Markdown (GitHub renders them too).
+    "myst_parser",
     "sphinx.ext.autodoc",
     # The docstrings' `Args:` / `Attributes:` sections are Google style.
     "sphinx.ext.napoleon",
@@ -29,7 +32,12 @@ extensions = [
 ]
 
 root_doc = "index"
-exclude_patterns = ["_build"]
+# results/ holds the experiments' JSON and figures, read by the pages, not pages themselves.
+exclude_patterns = ["_build", "api/_ext", "api/_static", "results", "figures"]
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+# GitHub's anchors (`BENCHMARKS.md#the-hook-policy`) for headings down to ###, so that the
+# pages' links work on GitHub and on the site alike.
+myst_heading_anchors = 3
 # Docstrings write `name` (Markdown's code span) for code: render it as code, not as a citation.
 default_role = "literal"
 
@@ -79,4 +87,4 @@ def setup(app):
 
 
 html_theme = "alabaster"
-html_title = "drake-tooluse API reference"
+html_title = "drake-tooluse"

@@ -1,9 +1,10 @@
-"""The API reference (docs/api) builds with warnings as errors, every LeafSystem's
-`.. pydrake_system::` block renders as its port figure, and each block names the ports its
-system declares.
+"""The docs site (docs/conf.py: the user guide, the pages docs/*.md and the API reference)
+builds with warnings as errors, a broken link between its pages among them; every page is on
+it; every LeafSystem's `.. pydrake_system::` block renders as its port figure, and each block
+names the ports its system declares.
 
-Needs the `docs` extra (Sphinx). Slow: the build imports every module (25–55 s here, by the
-load on the machine).
+Needs the `docs` extra (Sphinx, myst-parser). Slow: the build imports every module (25–55 s
+here, by the load on the machine).
 """
 
 import html
@@ -23,8 +24,9 @@ import drake_tooluse
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
-DOCS = ROOT / "docs" / "api"
-sys.path.insert(0, str(DOCS / "_ext"))
+DOCS = ROOT / "docs"
+EXT = DOCS / "api" / "_ext"  # the site's own Sphinx extensions
+sys.path.insert(0, str(EXT))
 
 # A port figure in the built HTML: (inputs cell, name cell, outputs cell).
 FIGURE = re.compile(
@@ -51,7 +53,7 @@ def _paragraphs(cell: str) -> list[str]:
 def _figures(folder: Path) -> dict:
     """{system name: (input lines, output lines)} of every port figure in the built pages."""
     figures = {}
-    for page in folder.glob("*.html"):
+    for page in folder.rglob("*.html"):
         for inputs, name, outputs in FIGURE.findall(page.read_text()):
             figures[html.unescape(name)] = (_paragraphs(inputs), _paragraphs(outputs))
     return figures
@@ -92,10 +94,33 @@ def _block(docstring: str) -> str | None:
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("api-html")
+    out = tmp_path_factory.mktemp("docs-html")
     result = _sphinx(DOCS, out)
-    assert result.returncode == 0, f"the API reference has warnings:\n{result.stderr}"
+    assert result.returncode == 0, f"the docs site has warnings:\n{result.stderr}"
     return out
+
+
+def test_every_page_is_on_the_site(built):
+    pages = [*DOCS.glob("*.md"), *(DOCS / "guide").glob("*.md")]
+    assert len(pages) >= 15
+    for page in pages:
+        html_page = built / page.relative_to(DOCS).with_suffix(".html")
+        assert html_page.is_file(), page
+    assert (built / "api" / "index.html").is_file()
+
+
+def test_a_broken_link_between_pages_fails_the_build(tmp_path):
+    """The build's `-W` is what holds the pages' links (as GitHub writes them: `page.md#anchor`)
+    to pages and headings that exist."""
+    conf = "extensions = ['myst_parser']\nmyst_heading_anchors = 3\n"
+    for link, ok in [("b.md#a-heading", True), ("b.md#no-such-heading", False), ("c.md", False)]:
+        source = tmp_path / link.replace("#", "_").replace(".", "_")
+        source.mkdir()
+        (source / "conf.py").write_text(conf)
+        (source / "index.md").write_text(f"# A\n\n[b]({link})\n\n```{{toctree}}\nb\n```\n")
+        (source / "b.md").write_text("# B\n\n## A heading\n")
+        result = _sphinx(source, source / "html")
+        assert (result.returncode == 0) == ok, (link, result.stderr)
 
 
 def test_push_outcome_ports_render(built):
@@ -201,7 +226,7 @@ def test_a_bad_block_fails_the_build(tmp_path, block, message):
     source = tmp_path / "source"
     source.mkdir()
     (source / "conf.py").write_text(
-        f"import sys\nsys.path.insert(0, {str(DOCS / '_ext')!r})\nextensions = ['pydrake_system']\n"
+        f"import sys\nsys.path.insert(0, {str(EXT)!r})\nextensions = ['pydrake_system']\n"
     )
     indented = "\n".join(f"   {line}" for line in block.splitlines())
     (source / "index.rst").write_text(f"Title\n=====\n\n.. pydrake_system::\n\n{indented}\n")
