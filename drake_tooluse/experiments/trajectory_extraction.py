@@ -21,6 +21,7 @@ from pydrake.math import RigidTransform
 from drake_tooluse.experiments.choices import ALIGNMENTS, RECORDS
 from drake_tooluse.files import atomic_dir, atomic_write_figure
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.validation import check_int, check_one_of, check_seed
@@ -180,8 +181,10 @@ def record_episodes(
     trust_pickle: bool = False,
     record: str = "achieved",
     box_frame: bool = False,
+    progress: bool = True,
 ):
-    """Runs the policy; returns per-episode arrays of the tool tip's poses (`record`: the
+    """Runs the policy (a progress bar on stderr where it is a terminal and `progress`);
+    returns per-episode arrays of the tool tip's poses (`record`: the
     commanded ones, or where the tip got, see RECORDS) and the gripper's positions at each
     control step (the robot's belief: forward kinematics of its model), the number of
     successes and the control period (s) between the rows. Row k + 1 is what step k commanded
@@ -198,7 +201,9 @@ def record_episodes(
     policy, env = make_policy_env(policy_dir, env_kwargs=env_kwargs, trust_pickle=trust_pickle)
     p_WB_nominal = initial_box_pose(env.unwrapped.scenario).translation()
     recorded, contacts, successes = [], [], 0
+    bar = progress_bar(episodes, "episodes", "ep", progress)
     for ep in range(episodes):
+        bar.update(1)
         recorder = _PoseRecorder(env)
         info, _ = run_episode(env, policy, seed + ep, on_step=recorder)
         successes += bool(info["is_success"])
@@ -209,6 +214,7 @@ def record_episodes(
                 rows[:, columns] -= dxy
         recorded.append(rows)
         contacts.append(recorder.contact)
+    bar.close()
     period = env.unwrapped.scenario.control.control_period
     env.close()
     if align == "contact":

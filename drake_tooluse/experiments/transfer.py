@@ -74,6 +74,7 @@ from drake_tooluse.files import (
 )
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -268,11 +269,13 @@ def run_transfer(
     p_WB_nominal = initial_box_pose(nominal_scenario).translation()
     start = time.perf_counter()
     per_tool = []
+    bar = progress_bar(len(tools) * runs, "runs", "run")  # (a terminal's stderr only)
     for tool in tools:
         results = {w: [] for w in WORLDS}
         measured, grasp_errors = [], []
         tool_trajectory = trajectory.get(tool) if isinstance(trajectory, dict) else trajectory
         for i in range(runs):
+            bar.update(1)
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
@@ -359,6 +362,7 @@ def run_transfer(
             else None
         )
         per_tool.append(entry)
+    bar.close()
     ratios = [t["travel_ratio"] for t in per_tool]
     travels = [t["reality"]["object_travel_mean_m"] for t in per_tool]
     difference = (
