@@ -224,7 +224,7 @@ def cmd_demo(args) -> dict:
     if args.tool_length is not None:
         tool = f"straight:{tool_length_arg(args.tool_length)}"
     seed_arg(args.seed)
-    from drake_tooluse.experiments.demo import SCRIPTED, demo_controller, run_demo
+    from drake_tooluse.experiments.demo import SCRIPTED, run_demo
     from drake_tooluse.experiments.tool_choice import parse_tool
 
     try:
@@ -233,10 +233,6 @@ def cmd_demo(args) -> dict:
         raise UsageError(f"--tool: {e}") from None
     if args.policy is not None and str(args.policy) != SCRIPTED:
         policy_dir_arg(args.policy, "--policy")
-    try:  # the policy is the task's, before anything is written
-        demo_controller(args.task, args.policy, args.trust_pickle)
-    except ValueError as e:
-        raise UsageError(f"--policy: {str(e).splitlines()[0]}") from None
     out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
     meshcat = open_meshcat(args)
     try:
@@ -251,7 +247,8 @@ def cmd_demo(args) -> dict:
             trust_pickle=args.trust_pickle,
             meshcat=meshcat,
         )
-    except ValueError as e:  # a tool the task has no way to use, before anything is written
+    # A tool the task has no way to use, or a policy of another task: before anything is written.
+    except ValueError as e:
         raise UsageError(str(e).splitlines()[0]) from None
     return result if meshcat is None else {**result, "meshcat_url": meshcat.web_url()}
 

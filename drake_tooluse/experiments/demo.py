@@ -259,7 +259,8 @@ def run_demo(
     if not isinstance(max_steps, int) or not 1 <= max_steps <= 1000:
         raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
     declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
-    tool = parse_tool(tool or declared.demo_tool) if tool is None or isinstance(tool, str) else tool
+    tool = declared.demo_tool if tool is None else tool
+    tool = parse_tool(tool) if isinstance(tool, str) else tool
     why_not = no_policy_reason(task, tool)
     if why_not is not None:
         raise ValueError(f"tool {tool_label(tool)}: {why_not}")
@@ -322,7 +323,7 @@ def run_demo(
             "controller": controller.name,
             "policy": SCRIPTED
             if isinstance(controller, ScriptedPolicy)
-            else str(Path(policy_dir or POLICIES_DIR / declared.policy).resolve()),
+            else str(controller.directory.resolve()),
             "scenario": str(Path(scenario_path).resolve()),
             "seed": seed,
             "tool": {

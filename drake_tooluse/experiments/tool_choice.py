@@ -46,7 +46,7 @@ import numpy as np
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
-from drake_tooluse.experiments.transfer import MAX_STEPS, attempt, run_worlds
+from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.progress import progress_bar
@@ -204,12 +204,12 @@ class LearnedPolicy:
         self.policy = load_policy(policy_dir, trust_pickle=trust_pickle)
         env_id, _ = check_policy_env(self.policy)
         self.env_id = env_id
-        self.name = f"policy {Path(policy_dir).name}"
+        self.directory = Path(policy_dir)
+        self.name = f"policy {self.directory.name}"
 
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None, **options):
         """The run (`tasks.rollout.Rollout`); `options`: `tasks.deploy.deploy`'s `max_steps`
-        (default MAX_STEPS), `meshcat`, `scene_camera` and `on_step`."""
-        options.setdefault("max_steps", MAX_STEPS)
+        (default the envs' step limit), `meshcat`, `scene_camera` and `on_step`."""
         return deploy(scenario, self.policy, belief, recording_path=recording_path, **options)
 
 
@@ -225,7 +225,6 @@ class ScriptedPolicy:
     def run(self, scenario: Scenario, belief: RobotBelief, recording_path=None, **options):
         """The run (`tasks.rollout.Rollout`); `options` as `LearnedPolicy.run`'s."""
         controller, kwargs = scripted_reference(self.env_id, scenario.table.top_z)
-        options.setdefault("max_steps", MAX_STEPS)
         return run_controller(
             self.env_id,
             scenario,

@@ -30,7 +30,6 @@ from drake_tooluse.systems.policy import PolicySystem
 from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.tasks.rollout import Rollout, roll_out
 from drake_tooluse.world.scenario import Scenario
-from drake_tooluse.world.scene import goal_position, initial_box_pose
 
 MAX_STEPS = 100  # the envs' step limit: a deployed run's protocol
 
@@ -107,23 +106,24 @@ def build_policy_diagram(
     )
 
 
-def _run(diagram, task, max_steps, act=None, stop_at_success=False, visualizer=None, on_step=None):
-    s = task.world.scenario
+def _run(built: PolicyDiagram, max_steps: int, record: bool, on_step, act=None) -> Rollout:
+    """The one rollout of a deployed diagram (`act` fed each step, or its policy inside), to
+    its step limit or, for a policy trained with the early end, its first success; recorded
+    where `record` and it has a visualizer."""
+    task = built.task
     run = roll_out(
-        diagram,
+        built.diagram,
         task.world,
         task.control,
         task.outcome.reader,
-        goal_position(s),
-        initial_box_pose(s).translation(),
         max_steps,
         act=act,
-        stop_at_success=stop_at_success,
-        visualizer=visualizer,
+        stop_at_success=built.end_at_success,
+        visualizer=built.visualizer if record else None,
         on_step=on_step,
     )
     if run.final_image is not None:
-        run.scene_view = scene_camera_view(diagram, task.world.plant)
+        run.scene_view = scene_camera_view(built.diagram, task.world.plant)
     return run
 
 
@@ -134,14 +134,7 @@ def run_policy(
     ends (the envs' protocol), or until its first success for a policy trained with the early
     end; recorded if `record` and the diagram has a visualizer. `on_step(step)` is called
     after each control step (progress displays)."""
-    return _run(
-        built.diagram,
-        built.task,
-        max_steps,
-        stop_at_success=built.end_at_success,
-        visualizer=built.visualizer if record else None,
-        on_step=on_step,
-    )
+    return _run(built, max_steps, record, on_step)
 
 
 def _finish_recording(meshcat, visualizer, recording_path) -> None:
@@ -156,15 +149,7 @@ def _run_and_release(built: PolicyDiagram, meshcat, recording_path, max_steps, a
     """Runs a deployed diagram (`run_policy`, or `act` fed each step), publishes or writes its
     recording where it has a visualizer, and releases the diagram."""
     try:
-        run = _run(
-            built.diagram,
-            built.task,
-            max_steps,
-            act=act,
-            stop_at_success=built.end_at_success,
-            visualizer=built.visualizer,
-            on_step=on_step,
-        )
+        run = _run(built, max_steps, True, on_step, act)
         if built.visualizer is not None:
             _finish_recording(meshcat, built.visualizer, recording_path)
         return run

@@ -18,6 +18,7 @@ from pydrake.systems.analysis import Simulator
 
 from drake_tooluse.builders.failures import advance, finite_state_vector, object_diverged
 from drake_tooluse.tasks.sanity import PhysicalSanityReader, past_limits
+from drake_tooluse.world.scene import goal_position, initial_box_pose
 
 
 def step_info(metrics, episode: dict, ik_ok: bool, sim_error: bool, sanity: dict) -> dict:
@@ -92,8 +93,6 @@ def roll_out(
     world,
     control,
     reader,
-    goal,
-    start,
     max_steps: int,
     act=None,
     stop_at_success: bool = False,
@@ -104,7 +103,8 @@ def roll_out(
     `max_steps` control periods, or until the task first succeeds if `stop_at_success`. With
     `act` (observation → action), each step's action is `act` of the diagram's `observation`
     output, fixed on its `action` input; without, the diagram holds its policy. `reader` reads
-    the task's metrics (`read(plant_context, goal, start)`). Recorded with `visualizer`;
+    the task's metrics (`read(plant_context, goal, start)`) against the world scenario's goal
+    and the object's start. Recorded with `visualizer`;
     `on_step(step)` is called after each step."""
     simulator = Simulator(diagram)
     root = simulator.get_mutable_context()
@@ -115,6 +115,8 @@ def roll_out(
     plant_context = world.plant.GetMyContextFromRoot(root)
     sanity = PhysicalSanityReader(world)
     period = world.scenario.control.control_period
+    goal = goal_position(world.scenario)
+    start = initial_box_pose(world.scenario).translation()
     if act is not None:
         action_port = diagram.GetInputPort("action")
         observation_port = diagram.GetOutputPort("observation")

@@ -2,8 +2,8 @@
 
 
 def test_the_v1_study_is_the_papers_protocol_on_the_v1_envs():
-    """Issue 42's cells: every algorithm of the paper on a -v1 id, episodes to the step limit,
-    the paper's budget."""
+    """The -v1 study's cells: PPO, TRPO and A2C of the paper's algorithms (DDPG apart) on a -v1
+    id, episodes to the step limit, the paper's budget."""
     from drake_tooluse.experiments.paper_study_cells import PAPER_STUDY_CELLS, load_cells
 
     cells, episodes, _ = load_cells(PAPER_STUDY_CELLS.parent / "paper_study_v1.yaml")

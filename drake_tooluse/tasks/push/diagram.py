@@ -97,14 +97,11 @@ def run_push(
     each control step (progress displays). A simulation failure (Drake raises, the state is no
     longer finite, or the box flies off) ends the run flagged `sim_error`, with the figures of
     the last sound state."""
-    s = world.scenario
     return roll_out(
         diagram,
         world,
         control,
         PushMetricsReader(world),
-        goal_position(s),
-        initial_box_pose(s).translation(),
         max_steps,
         stop_at_success=stop_at_success,
         visualizer=visualizer,
