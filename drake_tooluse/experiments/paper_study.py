@@ -39,14 +39,17 @@ import shlex
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
 
 from drake_tooluse.experiments.paper_study_cells import StudyFiles, check_cell_names
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.tasks.push.legacy import current_kwargs
 from drake_tooluse.validation import check_int
 
@@ -55,6 +58,7 @@ from drake_tooluse.validation import check_int
 ARCHIVED = ("config.json", "summary.json", "best", "logs/progress.csv", "eval/evaluations.npz")
 ARCHIVE_EVERY = 20 * 60  # s between two archives of a run that is training
 ARCHIVE_MAX_CHECKPOINT = 4 << 20  # bytes: PPO's, TRPO's and A2C's are ~1 MB, DDPG's ~100 MB
+PROGRESS_POLL = 5.0  # s between two reads of the runs' training logs for the study's bar
 REPLAY_BUFFER = ("ddpg",)  # algorithms whose checkpoints hold a replay buffer (~100 MB)
 EARLY_END = {"end_at_success": True}
 
@@ -177,6 +181,56 @@ def _summary(out: Path) -> dict | None:
 def trained(out: Path, timesteps: int) -> bool:
     summary = _summary(out)
     return summary is not None and summary["timesteps"] >= timesteps
+
+
+def steps_trained(out: Path) -> int:
+    """The steps the run in `out` has trained so far: its training log's last complete row
+    (`logs/progress.csv`, time/total_timesteps); 0 before its first row."""
+    path = out / "logs" / "progress.csv"
+    try:
+        with path.open("rb") as f:
+            column = f.readline().decode().rstrip().split(",").index("time/total_timesteps")
+            start = max(0, path.stat().st_size - 8192)  # the log's tail: its last rows
+            f.seek(start)
+            # Whole rows only: the last one (after the last newline) may be being written,
+            # and the first is cut where the tail starts mid-file.
+            rows = f.read().decode(errors="replace").split("\n")[1 if start else 0 : -1]
+    except (OSError, ValueError):
+        return 0
+    for row in reversed(rows):
+        cells = row.split(",")
+        if len(cells) > column and cells[column].isdigit():
+            return int(cells[column])
+    return 0
+
+
+@contextmanager
+def study_progress(study: Study, queue: list[tuple[str, int]]):
+    """A bar of the training steps of the runs of `queue` on stderr where it is a terminal,
+    each run's read from its training log every PROGRESS_POLL s (the runs are other
+    processes)."""
+    runs = [(run_dir(study.files.runs, c, s), study.cells[c]["timesteps"]) for c, s in queue]
+
+    def done() -> int:
+        return sum(min(steps_trained(out), target) for out, target in runs)
+
+    total = sum(target for _, target in runs)
+    with progress_bar(total, "study", "step", initial=done()) as bar:
+        stop = threading.Event()
+
+        def poll():
+            while not stop.wait(PROGRESS_POLL):
+                bar.update(done() - bar.n)
+
+        watcher = threading.Thread(target=poll, daemon=True)
+        if not bar.disable:
+            watcher.start()
+        try:
+            yield
+        finally:
+            stop.set()
+            if watcher.is_alive():
+                watcher.join()
 
 
 def _tree_size(path: Path) -> int:
@@ -513,14 +567,15 @@ def run_study(study: Study, only=None, seeds=None, parallel: int = 1) -> list[di
             snapshot = json.loads(json.dumps(results))  # this thread goes on updating `results`
             return (lambda: run_one(study, cell, seed, snapshot)), (before, was_lost)
 
-        run_queue(
-            order(study.cells, queue, files.runs, results),  # the missing first, the lost last
-            parallel,
-            lambda run, pending, running: ready(study.cells, run, pending, running, files.runs),
-            prepare,
-            lambda run, entry, about: record(study, run, entry, about, results),
-            study.commands,
-        )
+        with study_progress(study, queue):
+            run_queue(
+                order(study.cells, queue, files.runs, results),  # the missing first, the lost last
+                parallel,
+                lambda run, pending, running: ready(study.cells, run, pending, running, files.runs),
+                prepare,
+                lambda run, entry, about: record(study, run, entry, about, results),
+                study.commands,
+            )
     rows = status(study, results, queue)
     for row in rows:
         entry = results.get(row["cell"], {}).get("seeds", {}).get(str(row["seed"]), {})

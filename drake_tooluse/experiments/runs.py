@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import argparse
 import platform
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.progress import progress_line
 
 RUNS_DIR = Path("runs")  # relative to the working directory, as the docs' commands use it
 
@@ -69,8 +69,8 @@ class BenchmarkOutput:
 
 
 def stderr_log(text: str) -> None:
-    """A progress line to stderr (stdout stays for the results)."""
-    print(text, file=sys.stderr, flush=True)
+    """A progress line to stderr, above any bar drawn there (stdout stays for the results)."""
+    progress_line(text)
 
 
 def quiet_log(text: str) -> None:

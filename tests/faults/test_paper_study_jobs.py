@@ -399,3 +399,33 @@ def test_a_job_runs_drake_tooluse_with_this_interpreter_activated_or_not(monkeyp
     done = jobs.Commands().run(["drake-tooluse", "--version"])
     assert done.returncode == 0 and done.stdout.startswith("drake-tooluse "), done.stderr
     assert done.args == ["drake-tooluse", "--version"]  # as logged
+
+
+def test_the_study_shows_its_runs_training_steps_on_a_terminal_only(study, monkeypatch):
+    """A bar of the queue's steps, read from each run's training log as it grows (a row cut
+    mid-write is skipped); nothing where stderr is a log file."""
+    import io
+
+    class Stderr(io.StringIO):
+        def __init__(self, tty):
+            super().__init__()
+            self.tty = tty
+
+        def isatty(self):
+            return self.tty
+
+    log = run_dir(study.files.runs, "source", 0) / "logs" / "progress.csv"
+    log.parent.mkdir(parents=True)
+    log.write_text("a,time/total_timesteps\n1,40\n2,6")  # the last row still being written
+    assert paper_study.steps_trained(log.parents[1]) == 40
+    assert paper_study.steps_trained(run_dir(study.files.runs, "other", 0)) == 0
+    monkeypatch.setattr(paper_study, "PROGRESS_POLL", 0.01)
+    queue = [("source", 0), ("other", 0)]
+    for tty in (True, False):
+        err = Stderr(tty)
+        monkeypatch.setattr(sys, "stderr", err)
+        with paper_study.study_progress(study, queue):
+            log.write_text("a,time/total_timesteps\n1,40\n2,60\n")
+            time.sleep(0.2)
+        assert ("60/200" in err.getvalue()) == tty and ("\r" in err.getvalue()) == tty
+        log.write_text("a,time/total_timesteps\n1,40\n")
