@@ -330,9 +330,17 @@ def cmd_record_video(args) -> dict:
     )
 
 
+# What record-video's result holds beside the episode's figures (the task's metrics).
+VIDEO_KEYS = ("video", "policy", "seed", "frames", "fps", "size_px", "bytes", "steps", "success")
+
+
 def format_record_video(out: dict) -> str:
-    box = out.get("final_object_to_goal_m")
-    where = "" if box is None else f", the box {box * 100:.1f} cm from the goal at the end"
+    from drake_tooluse.cli.learning import format_figures
+
+    figures = format_figures(
+        {k: v for k, v in out.items() if k not in VIDEO_KEYS}, out.get("object_name", "object")
+    )
+    where = f"; {figures}" if figures else ""
     return (
         f"{out['video']}: {out['frames']} frames of {out['size_px'][0]} x {out['size_px'][1]} px "
         f"at {out['fps']:g} fps, {out['bytes'] / 1000:.0f} KB; seed {out['seed']}, "

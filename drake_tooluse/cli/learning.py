@@ -411,8 +411,8 @@ def _figure_name(name: str, thing: str) -> str:
 def format_figures(out: dict, thing: str = "object") -> str:
     """Any task's evaluation figures in words, with units, from their names (the task
     contract's `EpisodeMetric` summaries): `<name>_<mean|median|std>_<unit>` together,
-    `<name>_rate` and `success_rate` as a percentage, `episode_length_mean` in steps; `object`
-    in a name read as `thing`."""
+    `<name>_rate` and `success_rate` as a percentage, `episode_length_mean` in steps, one
+    episode's `<name>_<unit>` with its unit; `object` in a name read as `thing`."""
     stats, parts = {}, []
     for key, value in out.items():
         if key in NOT_FIGURES or isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -431,6 +431,9 @@ def format_figures(out: dict, thing: str = "object") -> str:
             parts.append(f"{_figure_name(name, thing)} in {value * 100:.0f} % of episodes")
         elif key == "episode_length_mean":
             parts.append(f"episode length {value:.1f} steps")
+        elif unit in UNITS:  # one episode's figure
+            scale, symbol, spec = UNITS[unit]
+            parts.append(f"{_figure_name(name, thing)} {value * scale:{spec}} {symbol}")
         else:
             parts.append(f"{_figure_name(key, thing)} {value:.4g}")
     return "; ".join(

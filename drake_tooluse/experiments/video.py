@@ -72,6 +72,7 @@ def record_video(
         "bytes": len(data),
         "steps": steps,
         "success": bool(info["is_success"]) and not info.get("sim_error", False),
+        "object_name": task_env.TASK.object_name,
         **{m.name: m.read(info) for m in task_env.EPISODE_METRICS},
     }
 

@@ -42,12 +42,32 @@ def _refused_before_work(capsys, argv, tmp_path, command, task):
     assert not any(tmp_path.iterdir())  # no work: nothing written
 
 
-@pytest.mark.parametrize(
-    "command", ["trajectory", "transfer", "distill", "record-video", "evaluate --meshcat"]
-)
+@pytest.mark.parametrize("command", ["trajectory", "transfer", "distill"])
 def test_the_toy_task_is_refused_before_any_work(command, toy_policy, tmp_path, capsys):
     argv = _argv(command, str(toy_policy), tmp_path)
-    _refused_before_work(capsys, argv, tmp_path, command, "unnamed")
+    _refused_before_work(capsys, argv, tmp_path, command, "touch")
+
+
+def test_the_toy_task_records_a_video_with_what_its_own_file_gives(toy_policy, tmp_path, capsys):
+    """A view and a declaration in tests/tasks/toy_touch.py: record-video serves it, and
+    prints its own figure (the tip's distance from the target) in words."""
+    out = tmp_path / "toy.gif"
+    code = main(["record-video", "--policy", str(toy_policy), "--out", str(out), "--every", "5"])
+    printed = capsys.readouterr()
+    assert code == 0 and out.read_bytes()[:6] == b"GIF89a", printed.err
+    assert "final distance" in printed.out and " cm" in printed.out
+    code = main(["record-video", "--policy", str(toy_policy), "--out", str(out)] + SIZE)
+    assert code == 2 and "render_size" in capsys.readouterr().err  # framing it does not take
+
+
+SIZE = ["--render-size", "64", "48"]
+
+
+def test_the_toy_task_is_evaluated_in_meshcat(toy_policy, monkeypatch, capsys):
+    monkeypatch.setattr("sys.stdin", open("/dev/null"))  # the view closes at once
+    code = main(["evaluate", "--policy", str(toy_policy), "--episodes", "1", "--meshcat"])
+    out = capsys.readouterr().out
+    assert code == 0 and "final distance: mean" in out
 
 
 @pytest.mark.parametrize("command", ["trajectory", "transfer", "distill"])
@@ -59,7 +79,7 @@ def test_the_pull_task_is_refused_before_any_work(command, tmp_path, capsys):
 def test_the_pull_policy_records_a_video_framed_as_asked(tmp_path, capsys):
     out = tmp_path / "pull.gif"
     argv = ["record-video", "--policy", str(PULL_POLICY), "--out", str(out)]
-    code = main([*argv, "--render-size", "64", "48", "--every", "10", "--json"])
+    code = main([*argv, *SIZE, "--every", "10", "--json"])
     assert code == 0 and out.is_file(), capsys.readouterr().err
 
 

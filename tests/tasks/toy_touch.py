@@ -10,6 +10,9 @@ The world is the push task's scenario (`diagrams/push.yaml`) or `scenario` (a YA
 whatever tool it holds (tests/tasks/test_add_a_tool.py gives it a toy L-shaped tool).
 Reward: minus the tip's distance from the target (m). Success: the tip within 2 cm of the
 target; the episode ends there (a simulator monitor, the Drake way) or after 20 steps.
+Views: `render_mode="rgb_array"` (the project's scene camera) and `meshcat` (a Meshcat to draw
+in), so it declares `record-video` and `evaluate --meshcat` (`TASK`); the other commands that
+need more of a task refuse it, saying what it lacks.
 """
 
 from __future__ import annotations
@@ -21,8 +24,10 @@ from pydrake.systems.framework import BasicVector, DiagramBuilder, EventStatus, 
 
 from drake_tooluse.builders.control import add_tip_control, add_world_at_home
 from drake_tooluse.builders.task_gym_env import CountedClockGymEnv
+from drake_tooluse.builders.visualization import add_meshcat_visualizer
 from drake_tooluse.learning.task_envs import task_env_ids
-from drake_tooluse.tasks.contract import EpisodeMetric, TaskEnv, TaskParts
+from drake_tooluse.systems.camera import add_scene_camera
+from drake_tooluse.tasks.contract import EpisodeMetric, TaskDeclaration, TaskEnv, TaskParts
 from drake_tooluse.world.scenario import Scenario, load_scenario
 from drake_tooluse.world.scene import home_tip_pose
 
@@ -95,14 +100,18 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
     for the episode's end, an info handler; DrakeGymEnv's `reset` and its `step` on a counted clock
     (`CountedClockGymEnv`: one control update per step)."""
 
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 25}  # 1 / its 40 ms step
     EPISODE_METRICS = (EpisodeMetric("final_distance_m", "distance"),)
+    TASK = TaskDeclaration("touch", serves=frozenset({"record-video", "evaluate --meshcat"}))
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
         kwargs = dict(kwargs or {})
-        unknown = sorted(set(kwargs) - {"target_offset", "scenario"})
+        unknown = sorted(set(kwargs) - {"target_offset", "scenario", "render_mode", "meshcat"})
         if unknown:
             raise ValueError(f"unknown argument(s) {unknown} for {ENV_ID} ({name})")
+        if kwargs.get("render_mode") not in (None, "rgb_array"):
+            raise ValueError(f"render_mode={kwargs['render_mode']!r} must be None or 'rgb_array'")
         offset = np.asarray(kwargs.get("target_offset", (0, 0, 0)), float)
         if offset.shape != (3,) or np.abs(offset).max() > 0.1:
             raise ValueError(f"target_offset={offset.tolist()} must be 3 values within 0.1 m")
@@ -112,12 +121,16 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
     def spaces(cls, kwargs) -> tuple[list, list]:
         return [6], [3]
 
-    def __init__(self, scenario=None, **kwargs):
-        self.check_kwargs(kwargs)
+    def __init__(self, scenario=None, render_mode=None, meshcat=None, **kwargs):
+        self.check_kwargs({**kwargs, "render_mode": render_mode})
         scenario = Scenario() if scenario is None else load_scenario(scenario)
         builder = DiagramBuilder()
         parts, self._outcome = add_touch_task(builder, scenario, **kwargs)
         parts.export(builder)
+        if render_mode == "rgb_array":  # the project's scene camera: its `color_image` output
+            add_scene_camera(builder, parts.world)
+        if meshcat is not None:
+            add_meshcat_visualizer(builder, parts.world.scene_graph, meshcat, scenario)
         self._control = parts.control
         diagram = builder.Build()
         simulator = Simulator(diagram)
@@ -129,6 +142,7 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
             return EventStatus.Succeeded()
 
         simulator.set_monitor(monitor)
+        self.metadata = dict(type(self).metadata)  # DrakeGymEnv writes into it
         super().__init__(
             simulator=simulator,
             time_step=scenario.control.control_period,
@@ -137,8 +151,11 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
             reward="reward",
             action_port_id="action",
             observation_port_id="observation",
+            render_rgb_port_id="color_image" if render_mode == "rgb_array" else None,
+            render_mode=render_mode or "human",
             reset_handler=lambda simulator, context, seed: self._control.reset(context),
         )
+        self.render_mode = render_mode
         # DrakeGymEnv 1.51 drops its `info_handler` argument (see tasks.push.env): set it here.
         self.info_handler = self._info
 
