@@ -335,7 +335,7 @@ VIDEO_KEYS = ("video", "policy", "seed", "frames", "fps", "size_px", "bytes", "s
 
 
 def format_record_video(out: dict) -> str:
-    from drake_tooluse.cli.learning import format_figures
+    from drake_tooluse.learning.figures import format_figures
 
     figures = format_figures(
         {k: v for k, v in out.items() if k not in VIDEO_KEYS}, out.get("object_name", "object")

@@ -51,11 +51,14 @@ def cmd_study(args) -> dict:
         seed_arg(seed, "--seeds")
     if args.archive_every is not None and not 0 < args.archive_every <= 7 * 24 * 3600:
         raise UsageError(f"--archive-every {args.archive_every}: seconds in (0, 604800]")
-    from drake_tooluse.experiments.paper_study_cells import check_cell_names
+    from drake_tooluse.experiments.paper_study_cells import check_cell_names, unreported
 
     cells, episodes, evaluation_seed = _cells(args)
     check_cell_names(cells, args.only)
     files = _files(args)
+    why_no_report = None if args.no_report else unreported(cells)
+    if why_no_report and args.update_docs:  # the docs' page is the paper's
+        raise UsageError(f"--update-docs: {why_no_report}")
     from drake_tooluse.experiments.paper_study import (
         ARCHIVE_EVERY,
         Study,
@@ -72,8 +75,12 @@ def cmd_study(args) -> dict:
         episodes,
         evaluation_seed,
         archive_every=args.archive_every or ARCHIVE_EVERY,
-        report_command=None if args.no_report else report_command(_file_options(args)),
+        report_command=None
+        if args.no_report or why_no_report
+        else report_command(_file_options(args)),
     )
+    if why_no_report and not args.states_only:
+        study.log(f"no report (the paper's page): {why_no_report}")
     if args.states_only:
         runs = queue_of(study, args.only, args.seeds)
         return {"runs": status(study, read_results(files.results), runs), "states_only": True}
@@ -91,6 +98,11 @@ def format_study(out: dict) -> str:
 def cmd_study_report(args) -> dict:
     count_arg(args.trajectories, "--trajectories", 1, 1000)
     cells, _, _ = _cells(args)
+    from drake_tooluse.experiments.paper_study_cells import unreported
+
+    why_not = unreported(cells)
+    if why_not:
+        raise UsageError(why_not)
     files = _files(args)
     from drake_tooluse.experiments.paper_study_report import make_report, page_is_current
 

@@ -45,10 +45,12 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
-from drake_tooluse.experiments.paper_study_cells import StudyFiles, check_cell_names
+from drake_tooluse.experiments.paper_study_cells import EARLY_END, StudyFiles, check_cell_names
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
+from drake_tooluse.learning.figures import format_figures
 from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
+from drake_tooluse.learning.task_envs import episode_metrics
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.tasks.push.legacy import current_kwargs
 from drake_tooluse.validation import check_int
@@ -60,7 +62,6 @@ ARCHIVE_EVERY = 20 * 60  # s between two archives of a run that is training
 ARCHIVE_MAX_CHECKPOINT = 4 << 20  # bytes: PPO's, TRPO's and A2C's are ~1 MB, DDPG's ~100 MB
 PROGRESS_POLL = 5.0  # s between two reads of the runs' training logs for the study's bar
 REPLAY_BUFFER = ("ddpg",)  # algorithms whose checkpoints hold a replay buffer (~100 MB)
-EARLY_END = {"end_at_success": True}
 
 
 def _log_to_stderr(text: str) -> None:
@@ -390,14 +391,17 @@ def run_one(study: Study, cell: str, seed: int, results: dict) -> dict:
             return {**result, command_key: shlex.join(cmd), "error": error}  # done stays
         e = json.loads(finished.stdout)
         episodes = e.pop("per_episode")  # kept as columns: the statistics resample episodes
-        e["per_episode"] = {
-            k: [r[k] for r in episodes] for k in ("final_object_to_goal_m", "success")
-        }
+        headline = episode_metrics(c["env"])[0]  # the task's first figure
+        e["per_episode"] = {k: [r[k] for r in episodes] for k in (headline.name, "success")}
         result[command_key], result[key] = shlex.join(cmd), e
+        base, _, unit = headline.name.rpartition("_")
+        figures = {
+            f"{base}_mean_{unit}": e[f"{base}_mean_{unit}"],
+            "success_rate": e["success_rate"],
+        }
         log(
-            f"{cell} seed {seed} ({key}): final box-goal mean "
-            f"{e['final_object_to_goal_mean_m'] * 100:.2f} cm, success {e['success_rate'] * 100:.0f}"
-            f" %, {summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min"
+            f"{cell} seed {seed} ({key}): {format_figures(figures, e.get('object_name', 'object'))}"
+            f", {summary['timesteps']} steps in {summary['wall_time_s'] / 60:.1f} min"
         )
     return result
 

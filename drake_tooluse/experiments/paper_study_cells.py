@@ -12,13 +12,15 @@ from pathlib import Path
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
+from drake_tooluse.learning.task_envs import check_env_kwargs
 from drake_tooluse.paths import PAPER_STUDY_CELLS
-from drake_tooluse.tasks.contract import check_serves
+from drake_tooluse.tasks.contract import check_serves, declaration
 from drake_tooluse.validation import check_int, check_mapping, check_one_of, check_seed, shown
 
 RESULTS_NAME = "paper_study.json"
 ARCHIVE_NAME = "paper_study"  # each run's small files: CELL/sSEED/
 PROTOCOLS = ("to-limit", "early-end")
+EARLY_END = {"end_at_success": True}  # the env kwargs of the "early-end" protocol
 CELL_KEYS = ("env", "algo", "timesteps", "seeds", "hyperparams", "protocol", "init_from")
 DEFAULT_OUT = Path("runs") / "study"
 MAX_SEEDS = 1000
@@ -99,8 +101,8 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
             )
         if not isinstance(c["env"], str):
             raise ValueError(f"{at}: env={shown(c['env'])} must be an env id")
-        try:  # a registered id whose task the study serves (its cells' figures are the push's)
-            check_serves(c["env"], "study")
+        try:  # a registered id of a task (any task's cells run; the report is the paper's)
+            declaration(c["env"])
         except ValueError as e:
             raise ValueError(f"{at}: {e}") from None
         check_one_of(c["algo"], ALGOS, f"{at}: algo")
@@ -114,11 +116,26 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
         if len(set(c["seeds"])) != len(c["seeds"]):
             raise ValueError(f"{at}: seeds={c['seeds']} repeats a seed")
         check_mapping(c.get("hyperparams"), f"{at}: hyperparams")
-        check_one_of(c.get("protocol", "early-end"), PROTOCOLS, f"{at}: protocol")
+        if check_one_of(c.get("protocol", "early-end"), PROTOCOLS, f"{at}: protocol") == (
+            "early-end"
+        ):
+            _check_ends_early(c["env"], at)
         source = c.get("init_from")
         if source is not None and (source not in cells or source == name):
             raise ValueError(f"{at}: init_from={shown(source)} must name another cell")
     return cells, episodes, seed
+
+
+def _check_ends_early(env_id: str, at: str) -> None:
+    """`env_id` ends an episode at its first success when asked (EARLY_END): else an error
+    saying its cells use the other protocol."""
+    try:
+        check_env_kwargs(env_id, EARLY_END)
+    except ValueError:
+        raise ValueError(
+            f"{at}: protocol early-end (the default): {env_id} ends no episode at its first "
+            "success; give the cell protocol: to-limit"
+        ) from None
 
 
 def check_cell_names(cells: dict, names) -> None:
@@ -126,3 +143,14 @@ def check_cell_names(cells: dict, names) -> None:
     unknown = [c for c in names or [] if c not in cells]
     if unknown:
         raise ValueError(f"unknown cell(s) {unknown}; the study's cells: {list(cells)}")
+
+
+def unreported(cells: dict) -> str | None:
+    """Why `study-report` cannot make the paper's page of `cells` (a cell of a task that does
+    not serve it: `tasks.contract.check_serves`), or None where it can."""
+    for name, c in cells.items():
+        try:
+            check_serves(c["env"], "study-report")
+        except ValueError as e:
+            return f"cell {name!r}: {e}"
+    return None

@@ -41,7 +41,7 @@ ENV_NAMESPACE = "drake_tooluse"
 
 
 # What each command needs of a task beyond the contract (an env class following `TaskEnv`:
-# `train`, `evaluate`, `sweep` and `train --init-from` need nothing more). A task's
+# `train`, `evaluate`, `sweep`, `study` and `train --init-from` need nothing more). A task's
 # `TaskDeclaration.serves` names those it gives; any other command refuses its policies and
 # envs before any work, saying what the task lacks (`check_serves`).
 COMMAND_NEEDS = {
@@ -51,7 +51,8 @@ COMMAND_NEEDS = {
     "observation can learn",
     "record-video": "an rgb_array render of its env",
     "evaluate --meshcat": "a Meshcat view of its env",
-    "study": "the paper's study cells",
+    "study-report": "the paper's figures (each run's final box–goal distance and success, "
+    "beside the paper's table)",
 }
 
 
@@ -181,7 +182,7 @@ def check_serves(env_id: str, command: str) -> TaskDeclaration:
     COMMAND_NEEDS); else a ValueError naming the command, what it needs and the task."""
     task = declaration(env_id)
     if command not in task.serves:
-        serves = ", ".join(sorted(task.serves)) or "only train, evaluate and sweep"
+        serves = ", ".join(sorted(task.serves)) or "only train, evaluate, sweep and study"
         raise ValueError(
             f"{command} needs {COMMAND_NEEDS[command]}, which the {task.name} task "
             f"({env_id}) does not give; it serves: {serves}"

@@ -99,16 +99,44 @@ def test_the_push_task_serves_every_command():
         assert check_serves(env_id, command).name == "push"
 
 
-def test_a_study_cell_of_the_pull_task_is_refused_before_any_work(tmp_path, capsys):
+PULL_CELLS = """\
+episodes: 2
+cells:
+  pull:
+    env: drake_tooluse/ToolPull-v1
+    algo: ppo
+    timesteps: 128
+    seeds: [0]
+    protocol: to-limit
+    hyperparams: {n_steps: 64, batch_size: 32, n_epochs: 1, eval_freq: 10000000}
+"""
+
+
+@pytest.mark.slow  # ~40 s: a training and two evaluations, as subprocesses; .ci/run runs it
+def test_a_study_cell_of_the_pull_task_runs_and_only_the_papers_page_is_refused(tmp_path, capsys):
+    """The study runs any task's cells and records the task's own first figure; the page it
+    makes is the paper's, so a pull cell's study makes none and says why, and study-report
+    refuses its cells before any work."""
+    import json
+
     cells = tmp_path / "cells.yaml"
-    cells.write_text(
-        "cells:\n  pull:\n    env: drake_tooluse/ToolPull-v1\n    algo: ppo\n"
-        "    timesteps: 256\n    seeds: [0]\n"
-    )
-    code = main(["study", "--cells", str(cells), "--out", str(tmp_path / "study")])
+    cells.write_text(PULL_CELLS)
+    study = tmp_path / "study"
+    code = main(["study", "--cells", str(cells), "--out", str(study), "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "no report (the paper's page): cell 'pull': study-report needs" in captured.err
+    assert "final cube to goal: mean" in captured.err
+    (run,) = json.loads(captured.out)["runs"]
+    assert run["state"].startswith("done"), run
+    entry = json.loads((study / "paper_study.json").read_text())["pull"]["seeds"]["0"]
+    assert len(entry["evaluate_best"]["per_episode"]["final_object_to_goal_m"]) == 2
+    assert not (study / "TRAINING.md").exists()
+    code = main(["study-report", "--cells", str(cells), "--out", str(study)])
     err = capsys.readouterr().err
-    assert code == 2 and "cell 'pull': study needs the paper's study cells" in err
-    assert not (tmp_path / "study").exists()
+    assert code == 2 and "study-report needs the paper's figures" in err and "pull task" in err
+    code = main(["study", "--cells", str(cells), "--update-docs"])
+    assert code == 2 and "--update-docs: cell 'pull'" in capsys.readouterr().err
 
 
 def test_a_reader_that_leaves_the_pipe_ends_no_command_in_a_traceback():

@@ -7,7 +7,7 @@ from drake_tooluse.tasks.contract import (
     register_tool_tasks,
 )
 
-# No tool-tip trajectory to replay, no transfer tools, no distillation, no study cells yet.
+# No tool-tip trajectory to replay, no transfer tools, no distillation; not the paper's figures.
 TASK = TaskDeclaration(
     "pull",
     "cube",
