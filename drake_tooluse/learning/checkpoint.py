@@ -24,6 +24,7 @@ from __future__ import annotations
 import random
 import re
 import shutil
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -154,9 +155,8 @@ def restore_checkpoint(
             _restore_vecnormalize(vec_normalize, read_json(norm, "normalisation"), norm)
         except (OSError, ValueError, KeyError) as e:
             raise ValueError(f"cannot restore the normalisation {str(norm)!r}: {e}") from None
-    buffer = folder / "replay_buffer.npz"
-    if getattr(model, "replay_buffer", None) is not None and buffer.is_file():
-        _restore_replay_buffer(model.replay_buffer, buffer)
+    if getattr(model, "replay_buffer", None) is not None:  # (every checkpoint of it has one)
+        _restore_replay_buffer(model.replay_buffer, folder / "replay_buffer.npz")
     _restore_random(state, saved)
     return state
 
@@ -222,18 +222,45 @@ def _save_replay_buffer(buffer, path: Path) -> None:
 
 
 def _restore_replay_buffer(buffer, path: Path) -> None:
-    with np.load(path, allow_pickle=False) as data:
-        for name in REPLAY_BUFFER_ARRAYS:
-            if name in data and getattr(buffer, name, None) is not None:
-                target = getattr(buffer, name)
-                saved = data[name]
-                if saved.shape[1:] != target.shape[1:] or len(saved) > len(target):
-                    raise ValueError(
-                        f"{str(path)!r}: {name} {list(saved.shape)} does not fit the replay "
-                        f"buffer {list(target.shape)} (was buffer_size changed?)"
-                    )
-                target[: len(saved)] = saved
-        buffer.pos, buffer.full = int(data["pos"]), bool(data["full"])
+    """Fills `buffer` from `path`, refusing a file that is not whole (a truncated or
+    damaged one would train on zeros where its transitions were)."""
+
+    def refused(why) -> ValueError:
+        return ValueError(f"cannot restore the replay buffer {str(path)!r}: {why}")
+
+    try:
+        with open(path, "rb") as f:
+            npz = f.read(4) == b"PK\x03\x04"  # (numpy's error for other files speaks of pickles)
+        if npz:
+            with np.load(path, allow_pickle=False) as data:
+                pos, full = int(data["pos"]), bool(data["full"])
+                saved = {
+                    name: data[name]
+                    for name in REPLAY_BUFFER_ARRAYS
+                    if getattr(buffer, name, None) is not None
+                }
+    except OSError as e:
+        raise refused(e.strerror or e) from None
+    except (EOFError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as e:
+        raise refused(e) from None
+    if not npz:
+        raise refused("not an .npz file")
+    size = buffer.buffer_size if full else pos
+    for name, values in saved.items():
+        target = getattr(buffer, name)
+        if values.shape[1:] != target.shape[1:] or len(values) > len(target):
+            raise refused(
+                f"{name} {list(values.shape)} does not fit the replay buffer "
+                f"{list(target.shape)} (was buffer_size changed?)"
+            )
+        if len(values) != size or not 0 <= pos < len(target):
+            raise refused(
+                f"{name} holds {len(values)} transitions where pos={pos}, full={full} "
+                f"say {size}: the file is damaged"
+            )
+    for name, values in saved.items():
+        getattr(buffer, name)[:size] = values
+    buffer.pos, buffer.full = pos, full
 
 
 # -- random generators ------------------------------------------------------------------------

@@ -23,12 +23,22 @@ TINY = {
     "eval_freq": 256,
     "eval_episodes": 1,
 }
+# DDPG's: the same checkpoints and evaluations; learning from step 64, with a small network and
+# a buffer that never fills in these runs (every transition stays to be compared).
+TINY_DDPG = {
+    "learning_starts": 64,
+    "batch_size": 32,
+    "buffer_size": 2048,
+    "policy_kwargs": {"net_arch": [32, 32]},
+    **{k: TINY[k] for k in ("checkpoint_freq", "eval_freq", "eval_episodes")},
+}
 KILLED = 137
 ORPHAN = re.compile(r"\.tmp-\d+@")
 
 
-def tiny_config(timesteps: int = 384, seed: int = 0, **overrides):
-    return resolve_config(ENV, "ppo", timesteps, 1, seed, overrides={**TINY, **overrides})
+def tiny_config(timesteps: int = 384, seed: int = 0, algo: str = "ppo", **overrides):
+    tiny = {"ppo": TINY, "ddpg": TINY_DDPG}[algo]
+    return resolve_config(ENV, algo, timesteps, 1, seed, overrides={**tiny, **overrides})
 
 
 def run_killed(target, *args, **kwargs) -> int:

@@ -7,11 +7,13 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
 import drake_tooluse.files as files
 import drake_tooluse.learning.train as train_module
+from drake_tooluse.learning.checkpoint import REPLAY_BUFFER_ARRAYS, restore_checkpoint
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.train import checkpoint_dirs, train
 from tests.faults.common import (
@@ -151,16 +153,33 @@ FAULTY = {"eval_freq": 192, "checkpoint_freq": 128}  # evaluations at 192, 384, 
 STEPS, KILL_AT, CHECKPOINT = 768, 620, 512  # killed after the evaluation at 576
 
 
-@pytest.fixture(scope="module")
-def uninterrupted(tmp_path_factory):
-    out = tmp_path_factory.mktemp("uninterrupted") / "run"
-    train(tiny_config(STEPS, seed=1, **FAULTY), out, progress_bar=False, command="first")
-    return out
+# The column each algorithm writes at every row (DDPG has two losses, no `train/loss`).
+LOSS = {"ppo": "train/loss", "ddpg": "train/critic_loss"}
 
 
-@pytest.mark.slow  # ~14 s with its uninterrupted twin; .ci/run runs it
-def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path):
-    out, config = tmp_path / "run", tiny_config(STEPS, seed=1, **FAULTY)
+def _config(algo: str):
+    return tiny_config(STEPS, seed=1, algo=algo, **FAULTY)
+
+
+def _replay_buffer(checkpoint: Path) -> dict:
+    with np.load(checkpoint / "replay_buffer.npz") as saved:
+        return {name: saved[name] for name in saved.files}
+
+
+@pytest.fixture(scope="module", params=list(LOSS))
+def uninterrupted(request, tmp_path_factory):
+    """(the algorithm, its run of STEPS steps that nothing stopped)."""
+    out = tmp_path_factory.mktemp(f"uninterrupted-{request.param}") / "run"
+    train(_config(request.param), out, progress_bar=False, command="first")
+    return request.param, out
+
+
+# Measured on 2 cores shared with a training run: PPO 4-14 s, DDPG 13-17 s, each with its
+# uninterrupted twin; .ci/run runs them.
+@pytest.mark.slow
+def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path, monkeypatch):
+    algo, uninterrupted = uninterrupted
+    out, config = tmp_path / "run", _config(algo)
 
     def killed_run():
         on_step = train_module._Run._on_step
@@ -176,13 +195,26 @@ def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path):
     assert run_killed(killed_run) == KILLED
     assert read_json(out / "checkpoints" / "latest.json")["timesteps"] == CHECKPOINT
     killed_best = read_json(out / "best" / "policy.json")["evaluation"]["timesteps"]
+    if algo == "ddpg":
+        saved = _replay_buffer(out / "checkpoints" / f"ckpt-{CHECKPOINT:012d}")
+    restored = []  # each session's replay buffer as its checkpoint restored it
+
+    def restoring(model, *args):
+        state = restore_checkpoint(model, *args)
+        if getattr(model, "replay_buffer", None) is not None:
+            buffer = model.replay_buffer
+            arrays = {n: getattr(buffer, n)[: buffer.pos].copy() for n in REPLAY_BUFFER_ARRAYS}
+            restored.append({"pos": buffer.pos, "full": buffer.full, **arrays})
+        return state
+
+    monkeypatch.setattr(train_module, "restore_checkpoint", restoring)
     summary = train(config, out, resume=True, progress_bar=False, command="second")
 
     # Logs: the rows of one run, none repeated or missing; those before the checkpoint kept.
     a, b = uninterrupted / "logs" / "progress.csv", out / "logs" / "progress.csv"
     assert csv_steps(b) == csv_steps(a)
     kept = sum(s <= CHECKPOINT for s in csv_steps(a))
-    assert csv_column(b, "train/loss")[:kept] == csv_column(a, "train/loss")[:kept]
+    assert csv_column(b, LOSS[algo])[:kept] == csv_column(a, LOSS[algo])[:kept]
     # TensorBoard: the killed session's events after the checkpoint are purged.
     steps = {}
     for run in (uninterrupted, out):
@@ -210,6 +242,25 @@ def test_kill_and_resume_keep_the_history_of_one_run(uninterrupted, tmp_path):
     assert summary["command"] == "first"
     assert read_json(out / "final" / "policy.json")["command"] == "first"
     assert summary["wall_time_s"] > read_json(uninterrupted / "summary.json")["wall_time_s"] / 3
+
+    if algo == "ddpg":
+        # The replay buffer: the resumed session starts from the checkpoint's transitions, all
+        # of them and no other (the killed session's after the checkpoint are gone).
+        assert (int(saved["pos"]), bool(saved["full"])) == (CHECKPOINT, False)
+        assert restored[0].keys() == saved.keys()
+        for name, values in saved.items():
+            np.testing.assert_array_equal(restored[0][name], values, err_msg=name)
+        # Up to the checkpoint they are the uninterrupted run's (the same seeds and steps); after
+        # it, the resumed session's own: its envs are seeded anew (`_resume_seed`), so its
+        # episodes differ from those the uninterrupted (and the killed) run had there.
+        final = _replay_buffer(out / "checkpoints" / f"ckpt-{STEPS:012d}")
+        twin = _replay_buffer(uninterrupted / "checkpoints" / f"ckpt-{STEPS:012d}")
+        assert int(final["pos"]) == int(twin["pos"]) == STEPS
+        for name in REPLAY_BUFFER_ARRAYS:
+            np.testing.assert_array_equal(final[name][:CHECKPOINT], saved[name], err_msg=name)
+            np.testing.assert_array_equal(final[name][:CHECKPOINT], twin[name][:CHECKPOINT])
+        after = (final["observations"][CHECKPOINT:], twin["observations"][CHECKPOINT:])
+        assert not np.array_equal(*after)
 
     # A resume with nothing left to do changes no history.
     rows, before = b.read_text(), evaluations(out)

@@ -2,9 +2,11 @@
 (`learning.sb3_state`, and the public attributes `learning.checkpoint` stores): every field
 exists with its type on real SB3 objects, SB3 itself still uses it, and a save/restore round
 trip through JSON gives equal values. A failure here after an SB3 upgrade means resume would
-silently lose that state: adapt `sb3_state` (or `checkpoint`) to the new release."""
+silently lose that state: adapt `sb3_state` (or `checkpoint`) to the new release. A replay
+buffer file that is not whole is refused in one line that names it."""
 
 import json
+import re
 
 import gymnasium as gym
 import numpy as np
@@ -201,11 +203,63 @@ def test_the_replay_buffer_s_fields_exist_and_round_trip(tmp_path):
     assert isinstance(buffer.buffer_size, int) and buffer.pos == 48
     path = tmp_path / "replay_buffer.npz"
     checkpoint._save_replay_buffer(buffer, path)
+    with np.load(path) as saved:  # the filled part only: 48 of the 100
+        assert {len(saved[name]) for name in checkpoint.REPLAY_BUFFER_ARRAYS} == {48}
     fresh = _model("ddpg").replay_buffer
     checkpoint._restore_replay_buffer(fresh, path)
     assert (fresh.pos, fresh.full) == (buffer.pos, buffer.full)
     for name in checkpoint.REPLAY_BUFFER_ARRAYS:
         np.testing.assert_array_equal(getattr(fresh, name), getattr(buffer, name))
+
+
+def _damage(path, how: str) -> None:
+    if how == "missing":
+        path.unlink()
+    elif how == "garbage":
+        path.write_bytes(b"not a replay buffer")
+    elif how == "truncated":
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    else:  # a whole .npz whose arrays and counters disagree
+        with np.load(path) as saved:
+            arrays = dict(saved)
+        if how == "an array missing":
+            del arrays["rewards"]
+        else:
+            arrays["pos"] = np.int64(40)
+        np.savez(path, **arrays)
+
+
+@pytest.mark.parametrize(
+    "how, says",
+    [
+        ("missing", "No such file"),
+        ("garbage", "not an .npz file"),
+        ("truncated", "not a zip file"),
+        ("an array missing", "rewards is not a file"),
+        ("pos disagrees", "holds 48 transitions where pos=40"),
+    ],
+)
+def test_a_damaged_replay_buffer_is_refused_naming_the_file(tmp_path, how, says):
+    """A resume from a checkpoint whose replay buffer is not whole stops with one line that
+    names the file; it never trains on a buffer that lost its transitions."""
+    model = _model("ddpg", 48)
+    checkpoint.write_checkpoint(
+        tmp_path,
+        model,
+        None,
+        _evaluation(tmp_path, "e"),
+        iterations=48,
+        wall_time_s=1.0,
+        resumes=[],
+    )
+    folder, state = checkpoint.latest_checkpoint(tmp_path)
+    fresh = _model("ddpg")
+    checkpoint.restore_checkpoint(fresh, None, folder, state)  # whole, it restores
+    assert fresh.replay_buffer.pos == 48
+    _damage(folder / "replay_buffer.npz", how)
+    with pytest.raises(ValueError, match=re.escape(str(folder / "replay_buffer.npz"))) as e:
+        checkpoint.restore_checkpoint(_model("ddpg"), None, folder, state)
+    assert says in str(e.value) and "\n" not in str(e.value)
 
 
 def test_the_normalisation_s_fields_exist_and_round_trip(tmp_path):
