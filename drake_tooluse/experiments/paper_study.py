@@ -59,9 +59,10 @@ from drake_tooluse.validation import check_int
 # needs none of them, and a resume rewrites the events).
 ARCHIVED = ("config.json", "summary.json", "best", "logs/progress.csv", "eval/evaluations.npz")
 ARCHIVE_EVERY = 20 * 60  # s between two archives of a run that is training
-ARCHIVE_MAX_CHECKPOINT = 4 << 20  # bytes: PPO's, TRPO's and A2C's are ~1 MB, DDPG's ~100 MB
+ARCHIVE_MAX_CHECKPOINT = 4 << 20  # bytes: PPO's, TRPO's and A2C's are ~1 MB, DDPG's ~82 MB (a full
+# buffer of 300k transitions of ToolPush-v1, 264 bytes each)
 PROGRESS_POLL = 5.0  # s between two reads of the runs' training logs for the study's bar
-REPLAY_BUFFER = ("ddpg",)  # algorithms whose checkpoints hold a replay buffer (~100 MB)
+REPLAY_BUFFER = ("ddpg",)  # algorithms whose checkpoints hold a replay buffer
 
 
 def _log_to_stderr(text: str) -> None:
