@@ -327,6 +327,7 @@ def cmd_record_video(args) -> dict:
         colors=args.colors,
         env_kwargs=env_kwargs,
         trust_pickle=args.trust_pickle,
+        progress=True,
     )
 
 

@@ -18,6 +18,7 @@ from PIL import Image
 
 from drake_tooluse.files import atomic_write_bytes, check_output_file
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.progress import progress_bar
 from drake_tooluse.validation import check_int, check_seed
 
 HOLD_LAST_S = 1.5  # s the last frame stays before the GIF loops: the push's end, readable
@@ -32,12 +33,14 @@ def record_video(
     colors: int = 96,
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
+    progress: bool = False,
 ) -> dict:
     """Runs one deterministic episode of the policy in `policy_dir` from `reset(seed=seed)`
     (to the step limit, or to its success for a policy trained to end there, as `evaluate`)
     and writes it to `out` (.gif). `env_kwargs` go over the policy's own (e.g. `render_size`,
     `render_camera_position`, `render_camera_target`); `render_mode` is "rgb_array". Returns
-    the file, its frames and size, and the episode's figures (the task's metrics)."""
+    the file, its frames and size, and the episode's figures (the task's metrics).
+    `progress`: a bar of the episode's steps where stderr is a terminal."""
     out = check_output_file(out, "out", ".gif")
     check_seed(seed, "seed")
     check_int(every, 1, 100, "every")
@@ -47,13 +50,17 @@ def record_video(
     task_env = type(env.unwrapped)
     to_time_limit = not task_env.ends_at_success(env.spec.kwargs if env.spec else {})
     frames = []
+    limit = env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else None
+    bar = progress_bar(limit, "steps", "step", enabled=progress)  # (a terminal's stderr only)
 
     def keep(step: int, info) -> None:
+        bar.update(step > 0)  # (step 0 is the reset)
         if step % every == 0:
             frames.append(env.render())
 
     try:
-        info, steps = run_episode(env, policy, seed, on_step=keep, to_time_limit=to_time_limit)
+        with bar:
+            info, steps = run_episode(env, policy, seed, on_step=keep, to_time_limit=to_time_limit)
         if steps % every:  # the last state always shown
             frames.append(env.render())
         fps = env.unwrapped.metadata.get("render_fps", 25) / every
