@@ -6,7 +6,7 @@ with the other task's tool.
 
 1. **Reality** (the goal: ≥ 70 % success): N seeded instances (seeds SEED … SEED+N−1, apart from
    the training's and the shipped evaluation's). Each draws a hook from HookTool's ranges,
-   and the pull world as reality meets it (`tool_choice.task_scenarios("pull")`: actuation
+   and the pull world as reality meets it (`task_worlds.task_scenarios("pull")`: actuation
    delay, conservative joint limits, camera noise) with the seed's draw of the cube's start,
    mass, friction and the grasp. The head camera measures the hook (`measure_hook_belief`);
    the policy pulls with what it measured, to the step limit, judged where the cube ends.
@@ -27,14 +27,12 @@ import time
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.experiments.task_worlds import measure, task_scenarios, tool_label
 from drake_tooluse.experiments.tool_choice import (
     LearnedPolicy,
     Outcome,
     ScriptedPolicy,
-    measure,
     run_outcome,
-    task_scenarios,
-    tool_label,
 )
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.paths import PULL_POLICY, TRANSFER_POLICY

@@ -225,7 +225,7 @@ def cmd_demo(args) -> dict:
         tool = f"straight:{tool_length_arg(args.tool_length)}"
     seed_arg(args.seed)
     from drake_tooluse.experiments.demo import SCRIPTED, run_demo
-    from drake_tooluse.experiments.tool_choice import parse_tool
+    from drake_tooluse.experiments.task_worlds import parse_tool
 
     try:
         tool = None if tool is None else parse_tool(tool)

@@ -34,18 +34,20 @@ from matplotlib.patches import Circle, Patch
 
 from drake_tooluse.builders.visualization import start_meshcat
 from drake_tooluse.experiments.runs import quiet_log, stderr_log
-from drake_tooluse.experiments.tool_choice import (
+from drake_tooluse.experiments.task_worlds import (
     TASKS,
     TOOL_TASKS,
-    LearnedPolicy,
-    ScriptedPolicy,
-    clamped,
     holding,
     measure,
-    no_policy_reason,
     parse_tool,
     task_scenarios,
     tool_label,
+)
+from drake_tooluse.experiments.tool_choice import (
+    LearnedPolicy,
+    ScriptedPolicy,
+    clamped,
+    no_policy_reason,
 )
 from drake_tooluse.files import (
     atomic_dir,

@@ -4,7 +4,7 @@ by rolling out that tool's policy in its own nominal simulation of the measured 
 the best, and does the task with it in the perturbed "reality".
 
 - **Task instances** (`TaskInstance`, seeded), of the tasks the task packages declare
-  (`tasks.contract.ToolTask`, read by `task_scenarios`, `no_policy_reason`, `Policies`): `push` (the push world, `diagrams/push.yaml`,
+  (`tasks.contract.ToolTask`, read by `task_worlds.task_scenarios`, `no_policy_reason`, `Policies`): `push` (the push world, `diagrams/push.yaml`,
   goal 0.20 m along y), `push-far` (the same, goal 0.10 m further: ToolPushFar-v1's) and
   `pull` (`diagrams/pull.yaml`: a cube beyond the bare gripper's reach, pulled 0.20 m
   back). The seed draws the instance's randomization (`world.randomization`): the box's
@@ -44,23 +44,27 @@ from typing import Protocol
 
 import numpy as np
 
-from drake_tooluse.builders.hook_measurement import measure_hook_belief
-from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.experiments.task_worlds import (
+    TASKS,
+    TOOL_TASKS,
+    holding,
+    measure,
+    parse_tool,
+    task_scenarios,
+    tool_label,
+)
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
+from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool
-from drake_tooluse.tasks.contract import declaration, scripted_reference, tool_tasks
+from drake_tooluse.tasks.contract import declaration, scripted_reference
 from drake_tooluse.tasks.deploy import deploy, run_controller
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
+from drake_tooluse.world.scenario import Scenario, validate_scenario
 
-# The tasks the robot chooses a tool for, as their tasks declare them (`tasks.contract.ToolTask`).
-TOOL_TASKS = tool_tasks()
-TASKS = tuple(TOOL_TASKS)
 MIN_TOOLS, MAX_TOOLS = 1, 5
 MAX_ROLLOUTS = 20
 DEFAULT_ROLLOUTS = 3
@@ -94,29 +98,6 @@ class TaskInstance:
         check_seed(self.seed, "seed")
 
 
-def tool_label(tool) -> str:
-    """`straight:0.3` or `hook:0.25,0.05,90` (what `parse_tool` reads)."""
-    if isinstance(tool, HookTool):
-        return f"hook:{tool.handle_length:g},{tool.hook_length:g},{tool.angle:g}"
-    return f"straight:{tool.length:g}"
-
-
-def parse_tool(text: str):
-    """A tool from `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, °); ValueError names the
-    text and the forms allowed."""
-    forms = "straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg), e.g. hook:0.25,0.05,90"
-    kind, _, values = str(text).partition(":")
-    try:
-        numbers = [float(v) for v in values.split(",")]
-    except ValueError:
-        raise ValueError(f"tool {text!r} is not {forms}") from None
-    if kind == "straight" and len(numbers) == 1:
-        return StraightTool(numbers[0])
-    if kind == "hook" and len(numbers) == 3:
-        return HookTool(*numbers)
-    raise ValueError(f"tool {text!r} is not {forms}")
-
-
 def check_rack(rack) -> tuple:
     rack = tuple(parse_tool(t) if isinstance(t, str) else t for t in rack)
     if not MIN_TOOLS <= len(rack) <= MAX_TOOLS:
@@ -125,46 +106,6 @@ def check_rack(rack) -> tuple:
         if not isinstance(tool, (StraightTool, HookTool)):
             raise ValueError(f"tool {tool!r} must be a StraightTool or a HookTool")
     return rack
-
-
-# -- the worlds --------------------------------------------------------------------------
-
-
-def pull_reality(pull: Scenario, reality: Scenario) -> Scenario:
-    """The pull world as reality meets it: `pull` with reality's actuation delay,
-    conservative joint limits and camera noise."""
-    return validate_scenario(
-        dc.replace(
-            pull,
-            control=dc.replace(pull.control, actuation_delay=reality.control.actuation_delay),
-            robot=dc.replace(pull.robot, conservative_limits=reality.robot.conservative_limits),
-            camera=dc.replace(pull.camera, noise_sigma=reality.camera.noise_sigma),
-        )
-    )
-
-
-def task_scenarios(task: str) -> tuple[Scenario, Scenario]:
-    """(nominal, reality) scenarios of a task (a name of TASKS), before any tool or draw: its
-    world with its goal, and reality as its task declares it (`ToolTask.reality_world`)."""
-    declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
-    reality = load_scenario(REALITY_SCENARIO)
-    nominal = load_scenario(SCENARIOS_DIR / declared.world)
-    goal = list(nominal.goal_offset)
-    goal[1] += declared.goal_extra
-    nominal = dc.replace(nominal, goal_offset=goal)
-    if not declared.reality_world:
-        return nominal, pull_reality(nominal, reality)
-    return nominal, dc.replace(reality, goal_offset=goal)
-
-
-def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scenario:
-    """`scenario` with `tool` in the hand (and, if given, held `grasp_along` m along it)."""
-    s = with_tool(scenario, tool)
-    if grasp_along is not None:
-        s = validate_scenario(
-            dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=grasp_along))
-        )
-    return s
 
 
 # -- the policies ------------------------------------------------------------------------
@@ -267,14 +208,6 @@ class Policies:
 
 
 # -- measuring, predicting, choosing -----------------------------------------------------
-
-
-def measure(reality: Scenario, tool, seed: int, save_images_dir=None):
-    """(what the robot believes of `tool`, held in `reality`, after the head camera measures
-    it; the measurement): the straight tool's or the hook's measurement, by the tool's kind.
-    With `save_images_dir`, the annotated views are written there."""
-    measure_kind = measure_hook_belief if isinstance(tool, HookTool) else measure_belief
-    return measure_kind(reality, save_images_dir=save_images_dir, seed=seed)
 
 
 def believed_tool_label(belief: RobotBelief) -> str:

@@ -7,6 +7,12 @@ from types import SimpleNamespace
 import pytest
 
 from drake_tooluse.cli import EXIT_USAGE, main
+from drake_tooluse.experiments.task_worlds import (
+    parse_tool,
+    pull_reality,
+    task_scenarios,
+    tool_label,
+)
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     Policies,
@@ -15,11 +21,7 @@ from drake_tooluse.experiments.tool_choice import (
     check_rack,
     choose_tool,
     no_policy_reason,
-    parse_tool,
-    pull_reality,
     rollout_delays,
-    task_scenarios,
-    tool_label,
 )
 from drake_tooluse.paths import TRANSFER_POLICY
 from drake_tooluse.robot.tool import HookTool, StraightTool

@@ -1,0 +1,98 @@
+"""The tasks that use tools of a kind, their worlds and their tools, as the task packages
+declare them (`tasks.contract.ToolTask`): what `choose-tool` and `transfer` share.
+
+A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg) (`parse_tool`,
+`tool_label`). A task's worlds (`task_scenarios`): its nominal world with its goal, and
+reality as it declares it: `diagrams/reality.yaml` with the task's goal, or the task's world
+with what reality changes (actuation delay, conservative joint limits, camera noise:
+`pull_reality`). The head camera measures a tool by its kind (`measure`).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from drake_tooluse.builders.hook_measurement import measure_hook_belief
+from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.paths import REALITY_SCENARIO, SCENARIOS_DIR
+from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.tasks.contract import tool_tasks
+from drake_tooluse.validation import check_one_of
+from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
+
+# The tasks that use tools of a kind, as their tasks declare them (`tasks.contract.ToolTask`).
+TOOL_TASKS = tool_tasks()
+TASKS = tuple(TOOL_TASKS)
+
+
+def tool_label(tool) -> str:
+    """`straight:0.3` or `hook:0.25,0.05,90` (what `parse_tool` reads)."""
+    if isinstance(tool, HookTool):
+        return f"hook:{tool.handle_length:g},{tool.hook_length:g},{tool.angle:g}"
+    return f"straight:{tool.length:g}"
+
+
+def parse_tool(text: str):
+    """A tool from `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, °); ValueError names the
+    text and the forms allowed."""
+    forms = "straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg), e.g. hook:0.25,0.05,90"
+    kind, _, values = str(text).partition(":")
+    try:
+        numbers = [float(v) for v in values.split(",")]
+    except ValueError:
+        raise ValueError(f"tool {text!r} is not {forms}") from None
+    if kind == "straight" and len(numbers) == 1:
+        return StraightTool(numbers[0])
+    if kind == "hook" and len(numbers) == 3:
+        return HookTool(*numbers)
+    raise ValueError(f"tool {text!r} is not {forms}")
+
+
+def pull_reality(pull: Scenario, reality: Scenario) -> Scenario:
+    """The pull world as reality meets it: `pull` with reality's actuation delay,
+    conservative joint limits and camera noise."""
+    return validate_scenario(
+        dc.replace(
+            pull,
+            control=dc.replace(pull.control, actuation_delay=reality.control.actuation_delay),
+            robot=dc.replace(pull.robot, conservative_limits=reality.robot.conservative_limits),
+            camera=dc.replace(pull.camera, noise_sigma=reality.camera.noise_sigma),
+        )
+    )
+
+
+def task_scenarios(task: str) -> tuple[Scenario, Scenario]:
+    """(nominal, reality) scenarios of a task (a name of TASKS), before any tool or draw: its
+    world with its goal, and reality as its task declares it (`ToolTask.reality_world`)."""
+    declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
+    reality = load_scenario(REALITY_SCENARIO)
+    nominal = load_scenario(SCENARIOS_DIR / declared.world)
+    goal = list(nominal.goal_offset)
+    goal[1] += declared.goal_extra
+    nominal = dc.replace(nominal, goal_offset=goal)
+    if not declared.reality_world:
+        return nominal, pull_reality(nominal, reality)
+    return nominal, dc.replace(reality, goal_offset=goal)
+
+
+def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scenario:
+    """`scenario` with `tool` in the hand (and, if given, held `grasp_along` m along it)."""
+    s = with_tool(scenario, tool)
+    if grasp_along is not None:
+        s = validate_scenario(
+            dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=grasp_along))
+        )
+    return s
+
+
+def tool_task_of(env_id: str):
+    """The tool task whose policy acts in `env_id` (`ToolTask.env_id`), or None."""
+    return next((t for t in TOOL_TASKS.values() if t.env_id == env_id), None)
+
+
+def measure(reality: Scenario, tool, seed: int, save_images_dir=None):
+    """(what the robot believes of `tool`, held in `reality`, after the head camera measures
+    it; the measurement): the straight tool's or the hook's measurement, by the tool's kind.
+    With `save_images_dir`, the annotated views are written there."""
+    measure_kind = measure_hook_belief if isinstance(tool, HookTool) else measure_belief
+    return measure_kind(reality, save_images_dir=save_images_dir, seed=seed)
