@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
-from drake_tooluse.experiments.task_worlds import measure, task_scenarios, tool_label
+from drake_tooluse.experiments.task_worlds import measure, task_scenarios
 from drake_tooluse.experiments.tool_choice import (
     LearnedPolicy,
     Outcome,
@@ -37,7 +37,7 @@ from drake_tooluse.experiments.tool_choice import (
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.paths import PULL_POLICY, TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.robot.tool import HookTool, StraightTool, tool_label
 from drake_tooluse.tasks.pull.hook import draw_hook
 
 

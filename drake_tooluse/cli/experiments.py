@@ -18,7 +18,9 @@ from drake_tooluse.cli.common import (
     output_dir_arg,
     output_file_arg,
     policy_dir_arg,
+    policy_env_id,
     seed_arg,
+    serves_arg,
     serving_policy_arg,
     tool_length_arg,
 )
@@ -29,6 +31,9 @@ from drake_tooluse.experiments.choices import (
     MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
+    check_tool_kinds,
+    task_tools,
+    transfer_tool,
 )
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.tasks.contract import tool_tasks
@@ -179,20 +184,26 @@ def cmd_transfer(args) -> dict:
     if args.tip_poses is not None:
         choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
-    for tool in args.tools:
-        tool_length_arg(tool, "--tools")
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
     runs = count_arg(args.runs, "--runs", 1, 10_000)
     seed_arg(args.seed, "--seed", runs)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
-    serving_policy_arg(args.policy, "transfer")
+    policy = serving_policy_arg(args.policy, "transfer")
+    if args.mode == "open-loop":  # it replays the policy's tool-tip trajectory
+        serves_arg(policy_env_id(policy), "trajectory", f"--mode open-loop --policy {policy}")
+    env_id = policy_env_id(policy)
+    try:
+        tools = [transfer_tool(t) for t in args.tools or task_tools(env_id)]
+        check_tool_kinds(env_id, tools)
+    except ValueError as e:
+        raise UsageError(f"--tools: {e}") from None
     from drake_tooluse.experiments.transfer import transfer_experiment
 
     return transfer_experiment(
         out,
         args.policy,
-        args.tools,
+        tools,
         args.runs,
         args.mode,
         args.seed,
@@ -225,7 +236,7 @@ def cmd_demo(args) -> dict:
         tool = f"straight:{tool_length_arg(args.tool_length)}"
     seed_arg(args.seed)
     from drake_tooluse.experiments.demo import SCRIPTED, run_demo
-    from drake_tooluse.experiments.task_worlds import parse_tool
+    from drake_tooluse.robot.tool import parse_tool
 
     try:
         tool = None if tool is None else parse_tool(tool)
@@ -445,11 +456,11 @@ def add_parsers(sub) -> None:
     p.add_argument("--policy", type=Path, default=TRANSFER_POLICY, help="policy directory")
     p.add_argument(
         "--tools",
-        type=float,
         nargs="+",
-        default=list(PAPER_TOOL_LENGTHS),
-        metavar="L",
-        help="true tool lengths (m)",
+        metavar="TOOL",
+        help="the true tools, of the kind the policy uses: straight tools' lengths (m, or "
+        "straight:L), hooks as hook:HANDLE,HOOK,ANGLE (m, m, deg) (default: the policy's "
+        f"task's; the push's are the paper's lengths {' '.join(map(str, PAPER_TOOL_LENGTHS))})",
     )
     p.add_argument("--runs", type=int, default=10, help="runs per tool (seeds seed … seed+runs-1)")
     p.add_argument("--mode", default="closed-loop", help="closed-loop or open-loop")
@@ -486,8 +497,18 @@ def add_parsers(sub) -> None:
     )
     add_tip_poses_arg(p, "open loop: ")
     add_calibration_arg(p)
-    p.add_argument("--nominal", type=Path, default=DEFAULT_SCENARIO, help="nominal scenario YAML")
-    p.add_argument("--reality", type=Path, default=REALITY_SCENARIO, help="reality scenario YAML")
+    p.add_argument(
+        "--nominal",
+        type=Path,
+        help="nominal scenario YAML (default: the policy's task's world, for the push "
+        f"{DEFAULT_SCENARIO.name})",
+    )
+    p.add_argument(
+        "--reality",
+        type=Path,
+        help="reality scenario YAML (default: the policy's task's reality, for the push "
+        f"{REALITY_SCENARIO.name})",
+    )
     p.add_argument(
         "--length-only",
         action="store_true",

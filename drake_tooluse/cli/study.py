@@ -51,7 +51,11 @@ def cmd_study(args) -> dict:
         seed_arg(seed, "--seeds")
     if args.archive_every is not None and not 0 < args.archive_every <= 7 * 24 * 3600:
         raise UsageError(f"--archive-every {args.archive_every}: seconds in (0, 604800]")
-    from drake_tooluse.experiments.paper_study_cells import check_cell_names, unreported
+    from drake_tooluse.experiments.paper_study_cells import (
+        check_cell_names,
+        check_protocols,
+        unreported,
+    )
 
     cells, episodes, evaluation_seed = _cells(args)
     check_cell_names(cells, args.only)
@@ -59,6 +63,7 @@ def cmd_study(args) -> dict:
     why_no_report = None if args.no_report else unreported(cells)
     if why_no_report and args.update_docs:  # the docs' page is the paper's
         raise UsageError(f"--update-docs: {why_no_report}")
+    check_protocols(cells)
     from drake_tooluse.experiments.paper_study import (
         ARCHIVE_EVERY,
         Study,

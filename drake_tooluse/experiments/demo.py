@@ -39,9 +39,7 @@ from drake_tooluse.experiments.task_worlds import (
     TOOL_TASKS,
     holding,
     measure,
-    parse_tool,
     task_scenarios,
-    tool_label,
 )
 from drake_tooluse.experiments.tool_choice import (
     LearnedPolicy,
@@ -59,6 +57,7 @@ from drake_tooluse.files import (
 from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
 from drake_tooluse.progress import progress_bar
+from drake_tooluse.robot.tool import parse_tool, tool_label
 from drake_tooluse.systems.camera import (  # noqa: F401 (GOAL_RGB: the demo's figures' green)
     GOAL_RGB,
     SceneView,

@@ -116,26 +116,27 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
         if len(set(c["seeds"])) != len(c["seeds"]):
             raise ValueError(f"{at}: seeds={c['seeds']} repeats a seed")
         check_mapping(c.get("hyperparams"), f"{at}: hyperparams")
-        if check_one_of(c.get("protocol", "early-end"), PROTOCOLS, f"{at}: protocol") == (
-            "early-end"
-        ):
-            _check_ends_early(c["env"], at)
+        check_one_of(c.get("protocol", "early-end"), PROTOCOLS, f"{at}: protocol")
         source = c.get("init_from")
         if source is not None and (source not in cells or source == name):
             raise ValueError(f"{at}: init_from={shown(source)} must name another cell")
     return cells, episodes, seed
 
 
-def _check_ends_early(env_id: str, at: str) -> None:
-    """`env_id` ends an episode at its first success when asked (EARLY_END): else an error
-    saying its cells use the other protocol."""
-    try:
-        check_env_kwargs(env_id, EARLY_END)
-    except ValueError:
-        raise ValueError(
-            f"{at}: protocol early-end (the default): {env_id} ends no episode at its first "
-            "success; give the cell protocol: to-limit"
-        ) from None
+def check_protocols(cells: dict) -> None:
+    """Each "early-end" cell's env ends an episode at its first success when asked
+    (EARLY_END); else an error naming the cell. It imports the envs' modules (Drake): the
+    command line checks its arguments first."""
+    for name, c in cells.items():
+        if c.get("protocol", "early-end") != "early-end":
+            continue
+        try:
+            check_env_kwargs(c["env"], EARLY_END)
+        except ValueError:
+            raise ValueError(
+                f"cell {name!r}: protocol early-end (the default): {c['env']} ends no episode "
+                "at its first success; give the cell protocol: to-limit"
+            ) from None
 
 
 def check_cell_names(cells: dict, names) -> None:

@@ -1,8 +1,8 @@
 """The tasks that use tools of a kind, their worlds and their tools, as the task packages
 declare them (`tasks.contract.ToolTask`): what `choose-tool` and `transfer` share.
 
-A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg) (`parse_tool`,
-`tool_label`). A task's worlds (`task_scenarios`): its nominal world with its goal, and
+A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg)
+(`robot.tool.parse_tool`, `robot.tool.tool_label`). A task's worlds (`task_scenarios`): its nominal world with its goal, and
 reality as it declares it: `diagrams/reality.yaml` with the task's goal, or the task's world
 with what reality changes (actuation delay, conservative joint limits, camera noise:
 `pull_reality`). The head camera measures a tool by its kind (`measure`).
@@ -15,7 +15,7 @@ import dataclasses as dc
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.paths import REALITY_SCENARIO, SCENARIOS_DIR
-from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.robot.tool import HookTool
 from drake_tooluse.tasks.contract import tool_tasks
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
@@ -23,29 +23,6 @@ from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scena
 # The tasks that use tools of a kind, as their tasks declare them (`tasks.contract.ToolTask`).
 TOOL_TASKS = tool_tasks()
 TASKS = tuple(TOOL_TASKS)
-
-
-def tool_label(tool) -> str:
-    """`straight:0.3` or `hook:0.25,0.05,90` (what `parse_tool` reads)."""
-    if isinstance(tool, HookTool):
-        return f"hook:{tool.handle_length:g},{tool.hook_length:g},{tool.angle:g}"
-    return f"straight:{tool.length:g}"
-
-
-def parse_tool(text: str):
-    """A tool from `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, °); ValueError names the
-    text and the forms allowed."""
-    forms = "straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg), e.g. hook:0.25,0.05,90"
-    kind, _, values = str(text).partition(":")
-    try:
-        numbers = [float(v) for v in values.split(",")]
-    except ValueError:
-        raise ValueError(f"tool {text!r} is not {forms}") from None
-    if kind == "straight" and len(numbers) == 1:
-        return StraightTool(numbers[0])
-    if kind == "hook" and len(numbers) == 3:
-        return HookTool(*numbers)
-    raise ValueError(f"tool {text!r} is not {forms}")
 
 
 def pull_reality(pull: Scenario, reality: Scenario) -> Scenario:
@@ -83,11 +60,6 @@ def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scena
             dc.replace(s, tool=dc.replace(s.tool, grasp_offset_along=grasp_along))
         )
     return s
-
-
-def tool_task_of(env_id: str):
-    """The tool task whose policy acts in `env_id` (`ToolTask.env_id`), or None."""
-    return next((t for t in TOOL_TASKS.values() if t.env_id == env_id), None)
 
 
 def measure(reality: Scenario, tool, seed: int, save_images_dir=None):

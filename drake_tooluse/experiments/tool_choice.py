@@ -49,16 +49,14 @@ from drake_tooluse.experiments.task_worlds import (
     TOOL_TASKS,
     holding,
     measure,
-    parse_tool,
     task_scenarios,
-    tool_label,
 )
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_label
 from drake_tooluse.tasks.contract import declaration, scripted_reference
 from drake_tooluse.tasks.deploy import deploy, run_controller
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed

@@ -32,6 +32,12 @@ distance, the reality/nominal travel ratio and the two tools' travel difference 
 experiment's criteria, `goals`: ratio ≥ 0.9, difference ≤ 1 cm; not the env's success, the box
 at the goal), and a box plot like the paper's.
 
+A policy of another tool task (`tasks.contract.ToolTask`: the pull's hook policy) transfers the
+same way, closed loop, to the tools its task uses (hooks, each `hook:HANDLE,HOOK,ANGLE`, the
+camera measuring each as `choose-tool` does) in its task's worlds (`task_worlds`), by default
+to the tools its task declares (`ToolTask.transfer_tools`). Open loop replays a straight
+tool's tip trajectory: hooks are refused there.
+
 A run that fails (the simulation fails, or the camera finds no tool) is recorded with its
 error and counted (`failed_runs`, `sim_errors`); the experiment goes on, and the travel
 figures are those of the runs that completed.
@@ -57,9 +63,15 @@ from drake_tooluse.experiments.choices import (
     MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
+    check_tool_kinds,
+    hook_text,
+    task_tools,
+    tool_text,
+    transfer_tool,
 )
 from drake_tooluse.experiments.line_contact import describe_choice, line_contact_for_task
 from drake_tooluse.experiments.runs import stderr_log
+from drake_tooluse.experiments.task_worlds import measure, task_scenarios
 from drake_tooluse.experiments.trajectory_extraction import (
     extract,
     filter_reachable,
@@ -73,16 +85,16 @@ from drake_tooluse.files import (
     check_output_dir,
 )
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO
+from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.robot.tool import check_tool_length
+from drake_tooluse.robot.tool import HookTool, StraightTool, tool_label
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
+from drake_tooluse.tasks.contract import declaration, tool_task_of
 from drake_tooluse.tasks.deploy import MAX_STEPS, deploy
 from drake_tooluse.tasks.push.diagram import run_open_loop
 from drake_tooluse.tasks.rollout import Rollout
 from drake_tooluse.validation import check_int, check_one_of, check_seed
-from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, load_scenario, with_tool
 from drake_tooluse.world.scene import initial_box_pose
@@ -96,7 +108,7 @@ TOOL_DIFFERENCE_GOAL = 0.01  # m
 @dc.dataclass
 class TransferRun:
     world: str  # "nominal" or "reality"
-    tool_length: float  # m, the truth
+    tool_length: float | None  # m, the truth (a straight tool; None for a hook)
     believed_length: float  # m, what the robot's IK holds (measured in reality)
     believed_grasp_along: float  # m, where it believes the hand holds the tool (measured or 0)
     seed: int
@@ -105,6 +117,7 @@ class TransferRun:
     error: str | None = None
     believed_box_xy: tuple | None = None  # where the replay took the box to start (box frame)
     box_xy_error: float | None = None  # m, from where it started
+    tool: str = ""  # the true tool, as `task_worlds.tool_label` writes it
 
     @property
     def failed(self) -> bool:
@@ -116,6 +129,7 @@ class TransferRun:
         return {
             "world": self.world,
             "seed": self.seed,
+            "tool": self.tool,
             "tool_length_m": self.tool_length,
             "believed_length_m": self.believed_length,
             "believed_grasp_along_m": self.believed_grasp_along,
@@ -220,19 +234,43 @@ def check_same_task(nominal: Scenario, reality: Scenario) -> None:
         )
 
 
-def check_transfer_args(tools, runs: int, mode: str, seed: int = 0) -> list[float]:
+def check_transfer_args(tools, runs: int, mode: str, seed: int = 0) -> list:
+    """The experiment's arguments, checked; its tools as `transfer_tool` gives them."""
     check_one_of(mode, MODES, "mode")
     check_int(runs, 1, 10_000, "runs")
     check_seed(seed, "seed", runs)
-    tools = [check_tool_length(t, "tool length") for t in tools]
+    tools = [transfer_tool(t) for t in tools]
     if not tools:
-        raise ValueError("give at least one tool length")
+        raise ValueError("give at least one tool")
+    hooks = [tool_label(t) for t in tools if isinstance(t, HookTool)]
+    if mode == "open-loop" and hooks:
+        raise ValueError(
+            f"open-loop transfer replays a straight tool's tip trajectory; {hooks[0]} is a hook "
+            "(give straight tools, or --mode closed-loop)"
+        )
     return tools
+
+
+def task_worlds(env_id: str) -> tuple[Scenario, Scenario, Path, Path, str | None]:
+    """(nominal, reality, their files, how reality differs from its file) of a transfer of
+    `env_id`'s policy: its tool task's worlds (`task_worlds.task_scenarios`), else
+    diagrams/push.yaml and diagrams/reality.yaml."""
+    task = tool_task_of(env_id)
+    if task is None:
+        nominal, reality = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)
+        return nominal, reality, DEFAULT_SCENARIO, REALITY_SCENARIO, None
+    nominal, reality = task_scenarios(task.name)
+    world = SCENARIOS_DIR / task.world
+    if not task.reality_world:
+        note = f"the {task.name} task's world with the reality's delay, limits and noise"
+        return nominal, reality, world, REALITY_SCENARIO, note
+    note = f"with the {task.name} task's goal" if task.goal_extra else None
+    return nominal, reality, world, REALITY_SCENARIO, note
 
 
 def run_transfer(
     policy_dir,
-    tools=PAPER_TOOL_LENGTHS,
+    tools=None,
     runs: int = 10,
     mode: str = "closed-loop",
     seed: int = 0,
@@ -251,17 +289,21 @@ def run_transfer(
     holds the camera's estimate of where the hand holds the tool along it as well as the
     length; without, the length only (the paper's measurement). `log(text)` receives a line
     per run.
-    `trust_pickle` lets `policy_dir` be of the older pickle format."""
-    tools = check_transfer_args(tools, runs, mode, seed)
+    `trust_pickle` lets `policy_dir` be of the older pickle format. `tools`: straight
+    tools' lengths (m) or hooks (`transfer_tool`), of the kind the policy uses; default its
+    task's (`task_tools`). The worlds default to the policy's task's (`task_worlds`)."""
     policy = load_policy(policy_dir, trust_pickle=trust_pickle)
-    check_policy_env(policy)  # as every command checks a policy and its env
+    env_id, _ = check_policy_env(policy)  # as every command checks a policy and its env
+    tools = check_transfer_args(task_tools(env_id) if tools is None else tools, runs, mode, seed)
+    check_tool_kinds(env_id, tools)
     if mode == "open-loop" and trajectory is None:
         raise ValueError(
             "open-loop transfer needs a trajectory (experiments.trajectory_extraction.extract "
             "or TipTrajectory.load)"
         )
-    nominal_scenario = nominal_scenario or load_scenario(DEFAULT_SCENARIO)
-    reality_scenario = reality_scenario or load_scenario(REALITY_SCENARIO)
+    task_nominal, task_reality, *_ = task_worlds(env_id)
+    nominal_scenario = nominal_scenario or task_nominal
+    reality_scenario = reality_scenario or task_reality
     check_same_task(nominal_scenario, reality_scenario)
     if isinstance(trajectory, dict) and not set(tools) <= set(trajectory):
         missing = sorted(set(tools) - set(trajectory))
@@ -270,7 +312,9 @@ def run_transfer(
     start = time.perf_counter()
     per_tool = []
     bar = progress_bar(len(tools) * runs, "runs", "run")  # (a terminal's stderr only)
+    thing = declaration(env_id).object_name
     for tool in tools:
+        label = tool_label(tool if isinstance(tool, HookTool) else StraightTool(tool))
         results = {w: [] for w in WORLDS}
         measured, grasp_errors = [], []
         tool_trajectory = trajectory.get(tool) if isinstance(trajectory, dict) else trajectory
@@ -279,14 +323,19 @@ def run_transfer(
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
-            measurement, measure_error = attempt(
-                measure_belief, reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
-            )
+            if isinstance(tool, HookTool):  # the hook's measurement, by its marker bands
+                measurement, measure_error = attempt(measure, reality, tool, run_seed)
+            else:
+                measurement, measure_error = attempt(
+                    measure_belief, reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
+                )
             believed = None
             if measurement is not None:
                 believed, measurement = measurement
-                measured.append(measurement.length)
-                grasp_errors.append(believed.grasp_offset[1] - reality.tool.grasp_offset_along)
+                measured.append(measurement.measured_dimensions())
+                if not isinstance(tool, HookTool):  # (the hook's grasp is not estimated)
+                    error = believed.grasp_offset[1] - reality.tool.grasp_offset_along
+                    grasp_errors.append(error)
             # The nominal world's robot knows its true tool, grasp included, and its box.
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
             box_xy = {"nominal": initial_box_pose(nominal).translation()[:2]}
@@ -320,7 +369,7 @@ def run_transfer(
                 results[world].append(
                     TransferRun(
                         world,
-                        tool,
+                        None if isinstance(tool, HookTool) else tool,
                         belief.tool_length if belief is not None else float("nan"),
                         belief.grasp_offset[1] if belief is not None else float("nan"),
                         run_seed,
@@ -331,23 +380,36 @@ def run_transfer(
                         None
                         if believed_box is None
                         else float(np.linalg.norm(believed_box - truth)),
+                        tool=label,
                     )
                 )
             n, r = results["nominal"][-1], results["reality"][-1]
-            seen = (
-                f"measured {measurement.length:.4f} m, grasp {believed.grasp_offset[1] * 1000:+.1f}"
-                f" mm along (truth {reality.tool.grasp_offset_along * 1000:+.1f})"
-                if believed is not None
-                else f"measurement failed ({measure_error})"
-            )
+            if believed is None:
+                seen = f"measurement failed ({measure_error})"
+            elif isinstance(tool, HookTool):
+                seen = f"measured {hook_text(measurement.measured_dimensions())}"
+            else:
+                seen = (
+                    f"measured {measurement.length:.4f} m, grasp "
+                    f"{believed.grasp_offset[1] * 1000:+.1f} mm along (truth "
+                    f"{reality.tool.grasp_offset_along * 1000:+.1f})"
+                )
             log(
-                f"tool {tool:.3f} m, run {i + 1}/{runs}: {seen}; box travel nominal "
+                f"tool {tool_text(tool)}, run {i + 1}/{runs}: {seen}; {thing} travel nominal "
                 f"{_travel_text(n)}, reality {_travel_text(r)} ({time.perf_counter() - t0:.1f} s)"
             )
+        lengths = [m["length_m"] for m in measured if "length_m" in m]
         entry = {
-            "tool_length_m": tool,
-            "measured_length_mean_m": float(np.mean(measured)) if measured else None,
-            "measured_length_std_m": float(np.std(measured)) if measured else None,
+            "tool": label,
+            "tool_length_m": None if isinstance(tool, HookTool) else tool,
+            # each dimension the camera measured (`measured_dimensions`), its mean over runs
+            "measured_mean": {
+                name: float(np.mean([m[name] for m in measured])) for name in measured[0]
+            }
+            if measured
+            else None,
+            "measured_length_mean_m": float(np.mean(lengths)) if lengths else None,
+            "measured_length_std_m": float(np.std(lengths)) if lengths else None,
             # what the robot believes of the grasp along the tool minus the truth
             "grasp_along_error_max_m": (
                 float(np.max(np.abs(grasp_errors))) if grasp_errors else None
@@ -380,6 +442,8 @@ def run_transfer(
     goals["tool_difference_met"] = difference is not None and difference <= TOOL_DIFFERENCE_GOAL
     return {
         "policy": str(Path(policy_dir).absolute()),
+        "env_id": env_id,
+        "object_name": thing,
         "mode": mode,
         "runs": runs,
         "seed": seed,
@@ -442,10 +506,15 @@ def transfer_figure(result: dict) -> Figure:
                     zorder=3,
                 )
         ticks.append(3 * i + 0.5)
-        labels.append(f"tool {tool['tool_length_m'] * 100:.1f} cm {MARKER_SYMBOLS[marker]}")
+        name = (
+            tool["tool"]
+            if tool.get("tool_length_m") is None
+            else f"tool {tool['tool_length_m'] * 100:.1f} cm"
+        )
+        labels.append(f"{name} {MARKER_SYMBOLS[marker]}")
     ax.set_xticks(ticks, labels)
     ax.set_xlim(-0.8, 3 * len(result["tools"]) - 1.2)
-    ax.set_ylabel("box travel (cm)")
+    ax.set_ylabel(f"{result.get('object_name', 'box')} travel (cm)")
     shape = (
         "each run a point over its box"
         if result["runs"] >= MIN_RUNS_FOR_BOXES
@@ -472,12 +541,12 @@ def plot_transfer(result: dict, path) -> Path:
 def transfer_experiment(
     out,
     policy_dir,
-    tools=PAPER_TOOL_LENGTHS,
+    tools=None,
     runs: int = 10,
     mode: str = "closed-loop",
     seed: int = 0,
-    nominal_path=DEFAULT_SCENARIO,
-    reality_path=REALITY_SCENARIO,
+    nominal_path=None,
+    reality_path=None,
     trajectory_path=None,
     episodes: int = 100,
     align: str = "start",
@@ -499,17 +568,22 @@ def transfer_experiment(
     `calibration_draws` randomized replays in the nominal simulation), or `paper`, one kept
     to the poses every tool reaches under the conservative limits (`trajectory.npz`). Everything is written into a staging
     directory that becomes `out` only when complete. Every path in the result is absolute (as
-    the demo's metrics.json). Returns the result."""
-    tools = check_transfer_args(tools, runs, mode, seed)
+    the demo's metrics.json). `tools` and the worlds (`nominal_path`, `reality_path`) default
+    to the policy's task's (`task_tools`, `task_worlds`). Returns the result."""
+    env_id, _ = check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))
+    tools = check_transfer_args(task_tools(env_id) if tools is None else tools, runs, mode, seed)
+    check_tool_kinds(env_id, tools)
     check_int(calibration_draws, 0, MAX_CALIBRATION_DRAWS, "calibration_draws")
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(extraction, EXTRACTIONS, "extraction")
     record = EXTRACTION_RECORDS[extraction] if record is None else record
     check_one_of(record, RECORDS, "record")
     out = check_output_dir(out, "the transfer's directory")
-    check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))  # before any work
-    nominal = load_scenario(nominal_path)
-    reality = load_scenario(reality_path)
+    nominal, reality, nominal_file, reality_file, reality_note = task_worlds(env_id)
+    if nominal_path is not None:
+        nominal, nominal_file = load_scenario(nominal_path), nominal_path
+    if reality_path is not None:
+        reality, reality_file, reality_note = load_scenario(reality_path), reality_path, None
     # A line-contact trajectory (extracted here, or a file `drake-tooluse trajectory` wrote) is
     # made for the nominal box start: each run replays it at its own box's start.
     box_frame = mode == "open-loop" and extraction == "line-contact"
@@ -571,8 +645,10 @@ def transfer_experiment(
             trust_pickle=trust_pickle,
             box_frame=box_frame,
         )
-        result["nominal_scenario"] = str(Path(nominal_path).absolute())
-        result["reality_scenario"] = str(Path(reality_path).absolute())
+        result["nominal_scenario"] = str(Path(nominal_file).absolute())
+        result["reality_scenario"] = str(Path(reality_file).absolute())
+        if reality_note:
+            result["reality_note"] = reality_note
         if made is not None:
             result["trajectory"] = made
         plot_transfer(result, work / "transfer_boxplot.png")
@@ -616,9 +692,11 @@ def format_transfer(out: dict) -> str:
     success ("box at the goal", per run) and the experiment's criteria (travel kept, tools
     alike)."""
     runs = out["runs"]
+    hooks = all(t.get("tool_length_m") is None for t in out["tools"])
+    what = "hook" if hooks else "length and grasp" if out["use_grasp_estimate"] else "length only"
     lines = [
         f"{out['mode']}, {_runs(runs)} per tool, the robot's model from the camera's measured "
-        f"{'length and grasp' if out['use_grasp_estimate'] else 'length only'}:"
+        f"{what}:"
     ]
 
     def cm(x) -> str:
@@ -629,6 +707,7 @@ def format_transfer(out: dict) -> str:
             return cm(mean)
         return f"{mean * 100:.1f} ± {std * 100:.1f} cm"
 
+    thing = out.get("object_name", "box")
     made = out.get("trajectory", {})
     by_tool = made.get("by_tool")
     if out.get("box_frame"):
@@ -650,7 +729,8 @@ def format_transfer(out: dict) -> str:
     for t in out["tools"]:
         n, r = t["nominal"], t["reality"]
         done = {w: sum(not x["failed"] for x in t[w]["per_run"]) for w in ("nominal", "reality")}
-        contact = (by_tool or {}).get(f"{t['tool_length_m']:g}")
+        length = t.get("tool_length_m")
+        contact = (by_tool or {}).get(f"{length:g}") if length is not None else None
         tilt = (
             f", tool tilted {contact['tilt_deg']} deg"
             + ("" if contact["followed"] else " (the IK jumps on it: no tilt is followed)")
@@ -658,36 +738,39 @@ def format_transfer(out: dict) -> str:
             if contact
             else ""
         )
-        if t["measured_length_mean_m"] is None:
+        if t.get("measured_mean") is None and t["measured_length_mean_m"] is None:
             measured = "not measured"
+        elif length is None:  # a hook: each dimension's mean
+            measured = f"measured {hook_text(t['measured_mean'])}"
         else:
             measured = f"measured {t['measured_length_mean_m'] * 1000:.1f} mm"
             if done["reality"] > 1 and t["measured_length_std_m"] is not None:
                 measured += f" ± {t['measured_length_std_m'] * 1000:.2f} mm"
         ratio = "n/a" if t["travel_ratio"] is None else f"{t['travel_ratio'] * 100:.0f} %"
         failed = n["failed_runs"] + r["failed_runs"]
+        name = t["tool"] if length is None else f"tool {length * 1000:.0f} mm"
         lines.append(
-            f"  tool {t['tool_length_m'] * 1000:.0f} mm (camera {measured}): box travel nominal "
+            f"  {name} (camera {measured}): {thing} travel nominal "
             f"{spread(n['object_travel_mean_m'], n['object_travel_std_m'], done['nominal'])}, reality "
             f"{spread(r['object_travel_mean_m'], r['object_travel_std_m'], done['reality'])} "
             f"({ratio} of nominal){tilt}"
             + (f"; {failed} run(s) failed (see per_run errors)" if failed else "")
         )
         lines.append(
-            f"    box at the goal (the env's success) in {n['success_rate'] * 100:.0f} % of "
-            f"nominal and {r['success_rate'] * 100:.0f} % of reality runs; final box-goal "
+            f"    {thing} at the goal (the env's success) in {n['success_rate'] * 100:.0f} % of "
+            f"nominal and {r['success_rate'] * 100:.0f} % of reality runs; final {thing}-goal "
             f"distance in reality {cm(r['final_object_to_goal_mean_m'])}"
         )
     g = out["goals"]
-    lines.append("  the experiment's criteria (the skill transfers; not the box at the goal):")
+    lines.append(f"  the experiment's criteria (the skill transfers; not the {thing} at the goal):")
     if g["travel_ratio_min"] is not None:
         lines.append(
-            f"    reality keeps >= {g['travel_ratio_goal'] * 100:.0f} % of the nominal box "
+            f"    reality keeps >= {g['travel_ratio_goal'] * 100:.0f} % of the nominal {thing} "
             f"travel for every tool: {'met' if g['travel_ratio_met'] else 'not met'} (lowest "
             f"{g['travel_ratio_min'] * 100:.0f} %)"
         )
     else:
-        lines.append("    reality/nominal box travel: n/a (no completed runs)")
+        lines.append(f"    reality/nominal {thing} travel: n/a (no completed runs)")
     if g["tool_travel_difference_m"] is not None:
         lines.append(
             f"    the tools' mean reality travel within {g['tool_travel_difference_goal_m'] * 100:g}"

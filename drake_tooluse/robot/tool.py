@@ -485,3 +485,29 @@ class HookTool(Tool):
             Piece("corner_marker", shape, Pose((0, 0, self.handle_length - m / 2))),
             Piece("tip_marker", shape, self._hook_pose(self.hook_length - m / 2)),
         )
+
+
+# -- tools as text ------------------------------------------------------------------------
+
+
+def tool_label(tool) -> str:
+    """`straight:0.3` or `hook:0.25,0.05,90` (what `parse_tool` reads)."""
+    if isinstance(tool, HookTool):
+        return f"hook:{tool.handle_length:g},{tool.hook_length:g},{tool.angle:g}"
+    return f"straight:{tool.length:g}"
+
+
+def parse_tool(text: str):
+    """A tool from `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, °); ValueError names the
+    text and the forms allowed."""
+    forms = "straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg), e.g. hook:0.25,0.05,90"
+    kind, _, values = str(text).partition(":")
+    try:
+        numbers = [float(v) for v in values.split(",")]
+    except ValueError:
+        raise ValueError(f"tool {text!r} is not {forms}") from None
+    if kind == "straight" and len(numbers) == 1:
+        return StraightTool(numbers[0])
+    if kind == "hook" and len(numbers) == 3:
+        return HookTool(*numbers)
+    raise ValueError(f"tool {text!r} is not {forms}")

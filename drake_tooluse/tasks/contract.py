@@ -46,7 +46,8 @@ ENV_NAMESPACE = "drake_tooluse"
 # envs before any work, saying what the task lacks (`check_serves`).
 COMMAND_NEEDS = {
     "trajectory": "a tool-tip trajectory from the policy's episodes to replay open loop",
-    "transfer": "tools of other lengths to run the policy with and a reality to judge them in",
+    "transfer": "other tools of its kind to run the policy with and a reality to judge them "
+    "in (its ToolTask)",
     "distill": "a tool-tip position teacher whose actions a student on the paper's "
     "observation can learn",
     "record-video": "an rgb_array render of its env",
@@ -87,7 +88,9 @@ class ToolTask:
     where reality is diagrams/reality.yaml itself (with this task's goal); False where it is
     this task's world with reality's actuation delay, joint limits and camera noise.
     `demo_tool`: the tool `drake-tooluse demo --task NAME` hands the robot (as `choose-tool
-    --tools` writes one: "straight:0.125", "hook:0.25,0.05,75")."""
+    --tools` writes one: "straight:0.125", "hook:0.25,0.05,75"). `transfer_tools`: the tools
+    `drake-tooluse transfer` uses by default with its policy, written the same way (none:
+    the paper's tool lengths)."""
 
     name: str
     env_id: str
@@ -98,6 +101,7 @@ class ToolTask:
     demo_tool: str
     goal_extra: float = 0.0
     reality_world: bool = True
+    transfer_tools: tuple = ()
 
 
 # The declarations of the registered ids (`register_task_envs`), and the tool-choice tasks
@@ -115,6 +119,11 @@ def register_tool_tasks(tasks) -> None:
 def tool_tasks() -> dict:
     """The declared tool-choice tasks, {name: ToolTask}, in the order they were declared."""
     return dict(_TOOL_TASKS)
+
+
+def tool_task_of(env_id: str):
+    """The declared tool task whose policy acts in `env_id` (`ToolTask.env_id`), or None."""
+    return next((t for t in _TOOL_TASKS.values() if t.env_id == env_id), None)
 
 
 def register_task_envs(

@@ -70,10 +70,38 @@ def test_the_toy_task_is_evaluated_in_meshcat(toy_policy, monkeypatch, capsys):
     assert code == 0 and "final distance: mean" in out
 
 
-@pytest.mark.parametrize("command", ["trajectory", "transfer", "distill"])
+@pytest.mark.parametrize("command", ["trajectory", "distill"])
 def test_the_pull_task_is_refused_before_any_work(command, tmp_path, capsys):
     argv = _argv(command, str(PULL_POLICY), tmp_path)
     _refused_before_work(capsys, argv, tmp_path, command, "pull")
+
+
+def test_the_pull_policy_s_open_loop_transfer_and_straight_tools_are_refused_before_any_work(
+    tmp_path, capsys
+):
+    """Open loop replays a tool-tip trajectory, which the pull task does not make; its policy
+    uses hooks."""
+    argv = _argv("transfer", str(PULL_POLICY), tmp_path)
+    _refused_before_work(capsys, [*argv, "--mode", "open-loop"], tmp_path, "trajectory", "pull")
+    code = main([*argv, "--tools", "0.2"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--tools: tool 0.200 m: the policy of drake_tooluse/ToolPull-v1" in err
+    assert "hook tools" in err and not any(tmp_path.iterdir())
+
+
+@pytest.mark.slow  # ~10 s: a hook measured and pulled with, in both worlds; .ci/run runs it
+def test_the_pull_policy_transfers_to_a_hook_closed_loop(tmp_path, capsys):
+    import json
+
+    argv = _argv("transfer", str(PULL_POLICY), tmp_path)
+    code = main([*argv, "--tools", "hook:0.25,0.05,90", "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    (tool,) = json.loads(captured.out)["tools"]
+    assert tool["tool"] == "hook:0.25,0.05,90" and tool["tool_length_m"] is None
+    assert abs(tool["measured_mean"]["angle_deg"] - 90) < 3
+    assert tool["reality"]["runs"] == 1 and tool["reality"]["failed_runs"] == 0
+    assert "cube travel nominal" in captured.err
 
 
 def test_the_pull_policy_records_a_video_framed_as_asked(tmp_path, capsys):
@@ -186,3 +214,12 @@ def test_every_tasks_figures_print_in_words_with_units():
         "success 67 %; episode length 12.0 steps; tool touched in 50 % of episodes; "
         "1 simulation failure(s); past a physical limit: arm_too_fast in 1"
     )
+
+
+def test_an_early_end_cell_of_an_env_that_never_ends_early_is_refused(tmp_path, capsys):
+    cells = tmp_path / "cells.yaml"
+    cells.write_text(PULL_CELLS.replace("    protocol: to-limit\n", ""))
+    code = main(["study", "--cells", str(cells), "--out", str(tmp_path / "study")])
+    err = capsys.readouterr().err
+    assert code == 2 and "cell 'pull': protocol early-end (the default)" in err
+    assert not (tmp_path / "study").exists()

@@ -8,10 +8,8 @@ import pytest
 
 from drake_tooluse.cli import EXIT_USAGE, main
 from drake_tooluse.experiments.task_worlds import (
-    parse_tool,
     pull_reality,
     task_scenarios,
-    tool_label,
 )
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
@@ -24,7 +22,7 @@ from drake_tooluse.experiments.tool_choice import (
     rollout_delays,
 )
 from drake_tooluse.paths import TRANSFER_POLICY
-from drake_tooluse.robot.tool import HookTool, StraightTool
+from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_label
 from drake_tooluse.tasks.deploy import run_controller
 from drake_tooluse.tasks.pull.env import with_hook
 from drake_tooluse.tasks.pull.scripted import ScriptedPull

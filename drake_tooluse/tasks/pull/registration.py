@@ -7,11 +7,12 @@ from drake_tooluse.tasks.contract import (
     register_tool_tasks,
 )
 
-# No tool-tip trajectory to replay, no transfer tools, no distillation; not the paper's figures.
+# No tool-tip trajectory to replay (so no open-loop transfer), no distillation; not the
+# paper's figures.
 TASK = TaskDeclaration(
     "pull",
     "cube",
-    frozenset({"record-video", "evaluate --meshcat"}),
+    frozenset({"record-video", "evaluate --meshcat", "transfer"}),
     scripted="drake_tooluse.tasks.pull.scripted:ScriptedPull",
 )
 
@@ -29,6 +30,8 @@ TOOL_TASKS = (
         "the pull's control acts on a hook's inner corner, which a straight tool lacks",
         "hook:0.25,0.05,75",
         reality_world=False,
+        # The demo's hook and the rack's L-hook: two geometries of the ranges it trained over.
+        transfer_tools=("hook:0.25,0.05,75", "hook:0.25,0.05,90"),
     ),
 )
 # The earlier behaviour (`ToolPullEnvV0`), kept while the policy trained on it is shipped.
