@@ -2,60 +2,69 @@
 results (`experiments.paper_study`: docs/results/paper_study.json) and its runs' archived files
 (docs/results/paper_study/: the training curves and best policies).
 
-Statistics are rliable's (Agarwal et al. 2021) over the seeds of a cell, each seed's score its
-mean over the 100 evaluation episodes (the same seeded starts for every run): the mean and the
-interquartile mean (IQM) of the final box–goal distance and the mean success rate, each with a
-95 % bootstrap confidence interval (2,000 resamples of the seeds, seeded: the page is the same
-every time it is made; with three seeds the interval is wide, as it should be).
-Figures: Env1's reward curves of the four algorithms with seed bands (the paper's four-panel
-figure), PPO with the paper's action beside the position action, Env3 fine-tuned against from
-scratch, and N generated tool-tip trajectories per algorithm with their mean (the paper's 3-D
-figure; a cell with no finished seed is left out). A figure draws the seeds whose files it has;
-its legend counts them. The paper's figures stand beside the cells judged in its protocol only.
+Every figure judges a run's best policy in the paper's protocol: each of 100 seeded episodes
+runs to its 100-step limit and is judged where the box ends (the evaluation
+`evaluate_best_time_limit`). Statistics are rliable's (Agarwal et al. 2021) over the seeds of a
+cell, each seed's score its mean over the episodes: the interquartile mean (IQM) and the mean
+of the final box–goal distance and the mean success rate, each with a 95 % bootstrap
+confidence interval (2,000 resamples of the seeds, seeded: the page is the same every time it
+is made). Each cell stands beside the paper's figure for its algorithm. Figures: each cell's
+training reward with its seeds' band, and N generated tool-tip trajectories per cell with their
+mean (the paper's 3-D figure). The study's costs are its runs' wall times (their summary.json,
+which the results hold).
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RollPitchYaw, RotationMatrix
 
-from drake_tooluse.experiments.paper_study import order, read_results, run_dir, run_state
+from drake_tooluse.experiments.paper_study import (
+    REPLAY_BUFFER,
+    order,
+    read_results,
+    run_dir,
+    run_state,
+)
 from drake_tooluse.experiments.paper_study_cells import StudyFiles
 from drake_tooluse.experiments.trajectory_extraction import record_episodes
 from drake_tooluse.files import atomic_write_figure, atomic_write_text
-from drake_tooluse.robot.model import TOOL_DOWN_RPY
-from drake_tooluse.systems.tip_target import Workspace, apply_action
 from drake_tooluse.tasks.push.registration import MAX_EPISODE_STEPS
 from drake_tooluse.validation import EnvironmentProblem
 
-# The paper's figures, set beside the cells judged in its protocol (to the step limit) only.
-# Its PPO acted with the 7-d action (position and quaternion change), so its figure stands
-# beside both PPO cells: the one with that action and the one with the position action.
-PAPER_CM = {
-    "hold_ppo_env1_paper": 7.74,
-    "hold_ppo_env1": 7.74,
-    "hold_trpo_env1": 11.9,
-    "hold_a2c_env1": 40.9,
-}
+# The paper's final box–goal distance (cm, mean of 100 episodes of one run) per algorithm. Its
+# PPO acted with the 7-d action, so its figure stands beside every PPO cell.
+PAPER_CM = {"ppo": 7.74, "trpo": 11.9, "ddpg": 35.1, "a2c": 40.9}
 PAPER_STEPS = 1_250_000  # the paper's budget per algorithm
-ALGORITHMS = {"ppo_env1": "PPO", "trpo_env1": "TRPO", "a2c_env1": "A2C", "ddpg_env1": "DDPG"}
+PAPER_CPU_HOURS = 7 * 32  # per algorithm: ~7 h on 32 cores
+# The reference machine's cores: the runs record wall time, not CPU time, and each keeps both
+# busy (two env processes and the learner).
+MACHINE_CORES = 2
+EVALUATION = "evaluate_best_time_limit"  # the paper's protocol (`paper_study.EVALUATIONS`)
 BOOTSTRAP_REPS = 2000
+# The runs' files record no commit. Cell -> the commit its runs so far were trained at: the
+# -v1 study's job ran from a clean checkout of it, made a second before its first run and not
+# moved since. A cell of runs trained elsewhere gets its own entry, or none (not known).
+TRAINED_AT = {"v1_ppo": "7de66a6"}
+# Where the earlier study (the -v0 envs, both protocols, Env2, Env3) and its page stay.
+EARLIER = "tag `figures-v0` (commit ef1f4b4)"
+COLORS = ("tab:blue", "tab:purple", "tab:orange", "tab:green", "tab:red", "tab:brown")
 
 
 def finished(results: dict, cell: str) -> dict:
-    """seed → entry of the cell's evaluated runs."""
+    """seed → entry of the cell's runs evaluated in the paper's protocol."""
     seeds = results.get(cell, {}).get("seeds", {})
-    return {int(s): e for s, e in seeds.items() if "evaluate_best" in e}
+    return {int(s): e for s, e in seeds.items() if EVALUATION in e}
 
 
-def interval_estimates(entries: dict, evaluation: str = "evaluate_best") -> dict:
+def interval_estimates(entries: dict, evaluation: str = EVALUATION) -> dict:
     """Over the seeds: the mean and IQM of each run's mean final distance (cm), and the mean of
     each run's success rate (%), with 95 % stratified-bootstrap CIs (rliable: the runs of the
     one task resampled; None with fewer than two seeds), of one of the runs' evaluations
@@ -95,17 +104,16 @@ def interval_estimates(entries: dict, evaluation: str = "evaluate_best") -> dict
 _STATS: dict = {}
 
 
-def cell_stats(results: dict, cell: str, evaluation: str = "evaluate_best") -> dict | None:
-    """`interval_estimates` of a cell's finished seeds, computed once (the page quotes them in
-    more than one place, and a bootstrap's resamples are drawn again on every call); None if
-    none is finished or one lacks that evaluation."""
+def cell_stats(results: dict, cell: str) -> dict | None:
+    """`interval_estimates` of a cell's finished seeds, computed once (a bootstrap's resamples
+    are drawn again on every call); None if none is finished."""
     done = finished(results, cell)
-    if not done or not all(evaluation in e for e in done.values()):
+    if not done:
         return None
     # The evaluations themselves are the key: two results files never share statistics.
-    key = (cell, evaluation, json.dumps([done[s][evaluation]["per_episode"] for s in sorted(done)]))
+    key = (cell, json.dumps([done[s][EVALUATION]["per_episode"] for s in sorted(done)]))
     if key not in _STATS:
-        _STATS[key] = interval_estimates(done, evaluation)
+        _STATS[key] = interval_estimates(done)
     return _STATS[key]
 
 
@@ -116,103 +124,145 @@ def _ci(d: dict, key: str, digits: int) -> str:
     return f"{d[key]:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
+def label(spec: dict) -> str:
+    """The cell's algorithm and action, as the page names them."""
+    mode = spec.get("hyperparams", {}).get("env_kwargs", {}).get("action_mode")
+    action = "the paper's 7-d action" if mode in ("paper", "position_quaternion") else "position"
+    return f"{spec['algo'].upper()}, {action}"
+
+
+def paper_figure(spec: dict) -> float | None:
+    """The paper's figure (cm) that the cell stands beside: its algorithm's, in the paper's
+    protocol only (a cell trained with the early end was taught to stop at the success)."""
+    return PAPER_CM.get(spec["algo"]) if spec.get("protocol") == "to-limit" else None
+
+
+def against_paper(stats: dict, paper: float) -> str:
+    """Where the paper's figure lies against the CI of the cell's mean distance."""
+    ci = stats["distance_cm"]["mean_ci"]
+    if ci is None:
+        return "one seed: no CI"
+    if paper > ci[1]:
+        return "lower: the CI's upper end is below it"
+    if paper < ci[0]:
+        return "higher: the CI's lower end is above it"
+    return "the CI holds it"
+
+
 def study_table(results: dict, cells: dict) -> str:
     lines = [
-        "| cell | protocol (trained and judged) | env | algo, action | seeds done | steps per run | wall per run (min) | "
-        "final box–goal mean (cm) [95 % CI] | IQM (cm) [95 % CI] | success (%) [95 % CI] | "
-        "per seed: mean cm / success | box travel (cm) | tool / gripper touched | "
-        "run on to the 100-step limit: final box–goal mean (cm) [95 % CI], success (%) | paper |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| cell | algorithm, action | seeds done | final box–goal IQM (cm) [95 % CI] | "
+        "mean (cm) [95 % CI] | success (%) [95 % CI] | per seed: mean cm / success | "
+        "the paper (cm, 1 run) | ours against the paper's |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for cell, c in cells.items():
-        done = finished(results, cell)
-        action = (
-            "paper 7-d"
-            if c.get("hyperparams", {}).get("env_kwargs", {}).get("action_mode")
-            in ("paper", "position_quaternion")
-            else "position"
-        )
-        protocol = "to the limit" if c.get("protocol") == "to-limit" else "early end"
-        head = (
-            f"| {cell} | {protocol} | {c['env'].split('/')[1]} | {c['algo']}, {action} | "
-            f"{len(done)} of {len(c['seeds'])} |"
-        )
-        paper = f"{PAPER_CM[cell]} cm (1 run)" if cell in PAPER_CM else ""
+        done, paper = finished(results, cell), paper_figure(c)
+        head = f"| {cell} | {label(c)} | {len(done)} of {len(c['seeds'])} |"
+        shown = "" if paper is None else f"{paper}"
         if not done:
-            lines.append(head + f" {c['timesteps']} | | | | | | | | | {paper} |")
+            lines.append(head + f" | | | | {shown} | |")
             continue
         stats = cell_stats(results, cell)
-        evals = [e["evaluate_best"] for e in done.values()]
         per_seed = ", ".join(
-            f"s{s}: {e['evaluate_best']['final_object_to_goal_mean_m'] * 100:.2f} / "
-            f"{e['evaluate_best']['success_rate'] * 100:.0f} %"
+            f"s{s}: {e[EVALUATION]['final_object_to_goal_mean_m'] * 100:.2f} / "
+            f"{e[EVALUATION]['success_rate'] * 100:.0f} %"
             for s, e in sorted(done.items())
         )
-        wall = np.mean([e["train"]["wall_time_s"] for e in done.values()]) / 60
-        steps = int(np.mean([e["train"]["timesteps"] for e in done.values()]))
+        verdict = "" if paper is None else against_paper(stats, paper)
         lines.append(
-            head + f" {steps} | {wall:.0f} | {_ci(stats['distance_cm'], 'mean', 2)} | "
-            f"{_ci(stats['distance_cm'], 'iqm', 2)} | {_ci(stats['success_pct'], 'mean', 0)} | "
-            f"{per_seed} | {np.mean([e['object_travel_mean_m'] for e in evals]) * 100:.1f} | "
-            f"{np.mean([e['tool_touched_rate'] for e in evals]) * 100:.0f} % / "
-            f"{np.mean([e['gripper_touched_rate'] for e in evals]) * 100:.0f} % | "
-            f"{_at_limit(results, cell)} | {paper} |"
+            head
+            + f" {_ci(stats['distance_cm'], 'iqm', 2)} | {_ci(stats['distance_cm'], 'mean', 2)}"
+            f" | {_ci(stats['success_pct'], 'mean', 0)} | {per_seed} | {shown} | {verdict} |"
         )
     return "\n".join(lines) + "\n"
 
 
-def _at_limit(results: dict, cell: str) -> str:
-    stats = cell_stats(results, cell, "evaluate_best_time_limit")
-    if stats is None:
-        done = finished(results, cell)
-        have = sum("evaluate_best_time_limit" in e for e in done.values())
-        return f"{have} of {len(done)} seeds evaluated so"
-    return f"{_ci(stats['distance_cm'], 'mean', 2)}, {_ci(stats['success_pct'], 'mean', 0)}"
+def _settings(cells: dict) -> str:
+    """Each cell's settings over the hyperparameter files', and its budget where it is not the
+    paper's."""
+    notes = [
+        f"`{cell}`: {json.dumps(c['hyperparams'])}"
+        for cell, c in cells.items()
+        if "hyperparams" in c
+    ]
+    notes += [
+        f"`{cell}` trains {c['timesteps']:,} steps, not the paper's {PAPER_STEPS:,} (its "
+        "comment in the study file says why)"
+        for cell, c in cells.items()
+        if c["timesteps"] != PAPER_STEPS
+    ]
+    return "".join(f"- {n}\n" for n in notes)
+
+
+def _rate(results: dict, cells) -> float | None:
+    """Mean training speed (steps/s) of the finished runs of `cells`; None without any."""
+    rates = [e["train"]["steps_per_s"] for c in cells for e in finished(results, c).values()]
+    return float(np.mean(rates)) if rates else None
 
 
 def missing_runs(results: dict, cells: dict, runs_dir: Path) -> str:
     """What is still to run, in the order the job runs it (the runner's `order`), and about
-    how long each run takes here (its cell's finished runs), so that the rest can be planned."""
+    how long each run takes here (its cell's finished runs, else the study's: not for an
+    algorithm with a replay buffer, a gradient step per env step makes it several times slower),
+    so that the rest can be planned."""
     queue = [(cell, seed) for cell, c in cells.items() for seed in c["seeds"]]
-    lines = []
+    lines, minutes = [], []
     for cell, seed in order(cells, queue, runs_dir, results):
         state = run_state(cells, runs_dir, runs_dir, results, cell, seed)
         if state.startswith("done"):
             continue
-        rates = [
-            e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e
-        ]
-        minutes = cells[cell]["timesteps"] / np.mean(rates) / 60 if rates else None
-        took = f"; ~{minutes:.0f} min here" if minutes else ""
+        own = _rate(results, [cell])
+        study = _rate(results, cells) if cells[cell]["algo"] not in REPLAY_BUFFER else None
+        took = "; no estimate yet (none of its runs has finished)"
+        if own or study:
+            minutes.append(cells[cell]["timesteps"] / (own or study) / 60)
+            took = f"; ~{minutes[-1]:.0f} min here" + ("" if own else " (at the study's rate)")
         lines.append(f"- `{cell}` seed {seed}: {state}{took}")
-    return "\n".join(lines) + "\n" if lines else "Every cell has all its seeds.\n"
+    if not lines:
+        return "Every cell has all its seeds.\n"
+    total = ""
+    if minutes:
+        unknown = len(lines) - len(minutes)
+        total = f"\nAbout {sum(minutes) / 60:.1f} h in all, one run at a time" + (
+            f", besides the {unknown} run{'s' if unknown > 1 else ''} with no estimate.\n"
+            if unknown
+            else ".\n"
+        )
+    return "\n".join(lines) + "\n" + total
 
 
-def earlier_runs(path: Path) -> str:
-    """The single-seed runs of an earlier session (docs/results/paper_experiments.json): most
-    trained with the first-order IK since retired; one is where the demo's policy comes from."""
-    if not path.is_file():
-        return ""
+def costs(results: dict, cells: dict) -> str:
+    """Wall time per run and CPU hours, per cell and in all, from the runs' summaries."""
     lines = [
-        "## Earlier single-seed runs (before the fast IK)\n",
-        "One seed each, at budgets below the paper's, from `docs/results/paper_experiments.json`"
-        " (an earlier version of the runner). Every run but `ppo_env1_fullik` and `ppo_env1_tip`"
-        " trained with the first-order differential IK, since retired; the evaluations are of "
-        "the current code. The study above supersedes them; they stay for `ppo_env1_tip`, the run "
-        "the demo's shipped policy (`models/policies/ppo_toolpush_tip`) comes from.\n",
-        "| run | steps | final box–goal mean / median (cm) | success | box travel (cm) | "
-        "tool / gripper touched |",
+        "| cell | runs done | steps per run | wall per run (min) | steps/s | CPU hours |",
         "| --- | --- | --- | --- | --- | --- |",
     ]
-    for name, r in json.loads(path.read_text()).items():
-        e, t = r["evaluate_best"], r["train"]
+    walls = []
+    for cell in cells:
+        done = finished(results, cell)
+        if not done:
+            continue
+        train = {s: e["train"] for s, e in sorted(done.items())}
+        wall = [t["wall_time_s"] for t in train.values()]
+        walls += wall
+        per_run = ", ".join(f"s{s}: {t['wall_time_s'] / 60:.0f}" for s, t in train.items())
+        steps = int(np.mean([t["timesteps"] for t in train.values()]))
         lines.append(
-            f"| {name} | {t['timesteps']} | {e['final_object_to_goal_mean_m'] * 100:.2f} / "
-            f"{e['final_object_to_goal_median_m'] * 100:.2f} | {e['success_rate'] * 100:.0f} % | "
-            f"{e['object_travel_mean_m'] * 100:.1f} | {e['tool_touched_rate'] * 100:.0f} % / "
-            f"{e['gripper_touched_rate'] * 100:.0f} % |"
+            f"| {cell} | {len(done)} | {steps:,} | {per_run} | "
+            f"{np.mean([t['steps_per_s'] for t in train.values()]):.0f} | "
+            f"{sum(wall) * MACHINE_CORES / 3600:.1f} |"
         )
-    return "\n".join(lines) + "\n"
+    if not walls:
+        return "No run has finished yet.\n"
+    total = (
+        f"In all: {len(walls)} runs, {sum(walls) / 3600:.1f} h of wall time, "
+        f"{sum(walls) * MACHINE_CORES / 3600:.1f} CPU hours on this {MACHINE_CORES}-core machine "
+        f"(wall time × {MACHINE_CORES} cores: a run records its wall time, not its CPU time, "
+        "and keeps both cores busy with its two env processes and its learner). The paper: ~7 h "
+        f"on 32 cores per algorithm, ~{PAPER_CPU_HOURS} CPU hours."
+    )
+    return "\n".join(lines) + "\n\n" + textwrap.fill(total, 100) + "\n"
 
 
 def _curve(run: Path):
@@ -230,7 +280,7 @@ def _curve(run: Path):
     )
 
 
-def plot_band(ax, runs_dir: Path, cell: str, seeds, label: str, color: str, offset: float = 0.0):
+def plot_band(ax, runs_dir: Path, cell: str, seeds, label: str, color: str) -> bool:
     """The finished seeds' mean training reward and their range (the band), on a common
     grid; whether there was a curve to draw."""
     curves = [_curve(run_dir(runs_dir, cell, s)) for s in seeds]
@@ -240,7 +290,7 @@ def plot_band(ax, runs_dir: Path, cell: str, seeds, label: str, color: str, offs
     end = min(c[0][-1] for c in curves)
     grid = np.linspace(max(c[0][0] for c in curves), end, 200)
     ys = np.array([np.interp(grid, t, r) for t, r in curves])
-    x = (grid + offset) / 1e6
+    x = grid / 1e6
     seeds = f"{len(curves)} seed{'s' if len(curves) > 1 else ''}"
     ax.plot(x, ys.mean(axis=0), color=color, label=f"{label} ({seeds})")
     ax.fill_between(x, ys.min(axis=0), ys.max(axis=0), color=color, alpha=0.2)
@@ -254,58 +304,44 @@ def _no_curve(results: dict, cell: str) -> str:
     return "evaluated (see the table), but the\ncurves were lost; they train again"
 
 
-def figure_algorithms(results: dict, runs_dir: Path, figures: Path) -> Path | None:
-    path = figures / "training_env1_algorithms.png"
-    if not any(finished(results, cell) for cell in ALGORITHMS):
+def figure_curves(results: dict, cells: dict, runs_dir: Path, figures: Path) -> Path | None:
+    """One panel per cell: its seeds' training reward, mean and band (the paper's four-panel
+    figure)."""
+    path = figures / "training_curves.png"
+    if not any(finished(results, cell) for cell in cells):
         path.unlink(missing_ok=True)  # no stale figure beside the page
         return None
-    fig = Figure(figsize=(10, 7))
-    axes = fig.subplots(2, 2, sharey=True)
-    for ax, (cell, name), color in zip(
-        axes.flat, ALGORITHMS.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red")
-    ):
-        plot_band(ax, runs_dir, cell, finished(results, cell), name, color)
-        ax.set_title(f"{name}, Env1, position action", fontsize=9)
+    columns = 2 if len(cells) <= 4 else 3
+    rows = math.ceil(len(cells) / columns)
+    fig = Figure(figsize=(5 * columns, 3.5 * rows))
+    axes = list(fig.subplots(rows, columns, sharex=True, sharey=True, squeeze=False).flat)
+    for ax, (cell, c), color in zip(axes, cells.items(), COLORS * len(cells)):
+        plot_band(ax, runs_dir, cell, finished(results, cell), cell, color)
+        ax.set_title(f"{cell}: {label(c)}", fontsize=9)
         ax.set_xlabel("env steps (millions)")
         ax.set_ylabel("training episode reward")
+        ax.tick_params(labelbottom=True)  # a shared axis labels only the last row's
         ax.grid(alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=8, loc="lower right")
         else:
             ax.text(0.5, 0.5, _no_curve(results, cell), ha="center", transform=ax.transAxes)
-    fig.suptitle("Env1 (ToolPush-v0): mean over seeds, band = the seeds' range", fontsize=10)
+    for ax in axes[len(cells) :]:  # the grid's panels left over
+        ax.set_visible(False)
+    envs = ", ".join(sorted({c["env"].split("/")[-1] for c in cells.values()}))
+    fig.suptitle(f"{envs}: mean over seeds, band = the seeds' range", fontsize=10)
     fig.tight_layout()
     return atomic_write_figure(path, fig)
 
 
-def figure_pair(results: dict, runs_dir: Path, figures: Path, pairs, title: str, name: str):
-    path = figures / f"{name}.png"
-    if not any(finished(results, cell) for cell, *_ in pairs):
-        path.unlink(missing_ok=True)  # no stale figure beside the page
-        return None
-    fig = Figure(figsize=(6.5, 4))
-    ax = fig.subplots()
-    missing = []
-    for cell, label, color, offset in pairs:
-        if not plot_band(ax, runs_dir, cell, finished(results, cell), label, color, offset):
-            missing.append(f"{label}: {_no_curve(results, cell)}".replace("\n", " "))
-    ax.set_xlabel("env steps (millions)")
-    ax.set_ylabel("training episode reward")
-    ax.grid(alpha=0.3)
-    if missing:
-        ax.text(0.5, 0.5, "\n".join(missing), ha="center", fontsize=8, transform=ax.transAxes)
-    if ax.lines:
-        ax.legend(fontsize=8, loc="lower right")
-    ax.set_title(title, fontsize=9)
-    fig.tight_layout()
-    return atomic_write_figure(path, fig)
-
-
-def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) -> Path | None:
-    """N tool-tip paths per algorithm (its first finished seed's best policy) and their mean."""
-    seeds = {  # each algorithm's first finished seed whose best policy is here
+def figure_trajectories(
+    results: dict, cells: dict, runs_dir: Path, figures: Path, n: int
+) -> Path | None:
+    """N tool-tip paths per cell (its first finished seed's best policy) and their mean."""
+    path = figures / "training_trajectories.png"
+    seeds = {  # each cell's first finished seed whose best policy is here
         cell: min(have)
-        for cell in ALGORITHMS
+        for cell in cells
         if (
             have := [
                 s
@@ -314,202 +350,53 @@ def figure_trajectories(results: dict, runs_dir: Path, figures: Path, n: int) ->
             ]
         )
     }
-    cells = list(seeds)
-    if not cells:
-        (figures / "training_env1_trajectories.png").unlink(missing_ok=True)
+    if not seeds:
+        path.unlink(missing_ok=True)
         return None
-    fig = Figure(figsize=(5 * len(cells), 4.5))
-    for i, cell in enumerate(cells):
-        seed = seeds[cell]
+    fig = Figure(figsize=(5 * len(seeds), 4.5))
+    for i, (cell, seed) in enumerate(seeds.items()):
         tips = record_episodes(run_dir(runs_dir, cell, seed) / "best", n, seed=1000)[0]
-        ax = fig.add_subplot(1, len(cells), i + 1, projection="3d")
+        ax = fig.add_subplot(1, len(seeds), i + 1, projection="3d")
         for p in tips:
             ax.plot(p[:, 0], p[:, 1], p[:, 2], color="tab:blue", alpha=0.35, lw=0.8)
         m = tips.mean(axis=0)
         ax.plot(m[:, 0], m[:, 1], m[:, 2], color="tab:red", lw=2.5, label="mean")
-        ax.set_title(f"{ALGORITHMS[cell]} (seed {seed}): {n} episodes", fontsize=9)
+        ax.set_title(f"{cell} (seed {seed}): {n} episodes", fontsize=9)
         ax.set_xlabel("x (m)")
         ax.set_ylabel("y (m)")
         ax.set_zlabel("z (m)")
         ax.legend(fontsize=7)
-    fig.suptitle("Generated tool-tip trajectories, Env1, evaluation seeds 1000+", fontsize=10)
+    fig.suptitle("Generated tool-tip trajectories, evaluation seeds 1000+", fontsize=10)
     fig.tight_layout()
-    return atomic_write_figure(figures / "training_env1_trajectories.png", fig)
+    return atomic_write_figure(path, fig)
 
 
-def orientation_drift(std: float, steps: int, episodes: int = 2000) -> float:
-    """Mean tilt (rad) of the tool after `steps` steps of the paper's action with Gaussian
-    exploration noise of `std` on it (the mean action zero, clipped to [-1, 1] as actions are),
-    each step applied by the env's own `systems.tip_target.apply_action`: the quaternion change
-    is added to the current quaternion and normalized, so the orientation random-walks with
-    nothing pulling it back."""
-    rng = np.random.default_rng(0)
-    workspace = Workspace(np.full(3, -np.inf), np.full(3, np.inf))  # position: irrelevant here
-    start = np.concatenate([np.zeros(3), RollPitchYaw(TOOL_DOWN_RPY).ToQuaternion().wxyz()])
-    targets = np.tile(start, (episodes, 1))
-    for _ in range(steps):
-        noise = np.clip(rng.normal(0.0, std, (episodes, 4)), -1.0, 1.0)
-        for target, quaternion_change in zip(targets, noise):
-            action = np.concatenate([np.zeros(3), quaternion_change])
-            target[:] = apply_action(target, action, "position_quaternion", workspace)
+FIGURES = (
+    ("training_curves.png", "Training reward per cell, seed bands"),
+    ("training_trajectories.png", "Generated tool-tip trajectories"),
+)
 
-    def axis(quaternion):  # the tool's axis (z of the tip frame), as a copy
-        return np.array(RotationMatrix(Quaternion(quaternion)).matrix())[:, 2]
-
-    z0 = axis(start[3:])
-    return float(np.mean([np.arccos(np.clip(axis(t[3:]) @ z0, -1.0, 1.0)) for t in targets]))
-
-
-def _brief(results: dict, cell: str) -> str | None:
-    done = finished(results, cell)
-    if not done:
-        return None
-    st = cell_stats(results, cell)
-    d, s = st["distance_cm"], st["success_pct"]
-    return (
-        f"{_ci(d, 'mean', 2)} cm and {_ci(s, 'mean', 0)} % success over "
-        f"{len(done)} seed{'s' if len(done) > 1 else ''}"
-    )
-
-
-def _at_limit_brief(results: dict, cell: str) -> str | None:
-    st = cell_stats(results, cell, "evaluate_best_time_limit")
-    if st is None:
-        return None
-    d, s = st["distance_cm"], st["success_pct"]
-    return f"{_ci(d, 'mean', 2)} cm, {_ci(s, 'mean', 0)} % at the goal at the limit"
-
-
-def budget_note(results: dict, cells: dict, cell: str, name: str) -> str | None:
-    """For a cell trained below the paper's 1.25 M steps: how far, and why, in this machine's
-    own measured speed (its finished runs)."""
-    if cell not in cells:
-        return None
-    steps = cells[cell]["timesteps"]
-    if steps >= PAPER_STEPS:
-        return None
-    rates = [e["train"]["steps_per_s"] for e in finished(results, cell).values() if "train" in e]
-    speed = (
-        f"it trained at {np.mean(rates):.0f} steps/s here ({steps / np.mean(rates) / 60:.0f} min "
-        f"per run; the paper's 1.25 M would take ~{PAPER_STEPS / np.mean(rates) / 3600:.1f} h "
-        "per seed)"
-        if rates
-        else "its speed here is not measured yet (no run has finished)"
-    )
-    return (
-        f"{name}'s runs are {steps:,} steps, not the paper's {PAPER_STEPS / 1e6:.2f} M, as far "
-        f"as this 2-core machine allows: one gradient step per env step makes it the slowest "
-        f"per step; {speed}."
-    )
-
-
-def discussion(results: dict, cells: dict) -> str:
-    """What the table shows, each figure computed here from the results."""
-    steps = 50
-    wide, narrow = orientation_drift(1.0, steps), orientation_drift(float(np.exp(-1)), steps)
-    paper = _brief(results, "ppo_env1_paper") or "— (not run yet)"
-    control = _brief(results, "ppo_env1_paper_std1") or "— (not run yet)"
-    algorithms = "; ".join(
-        f"{name} {_brief(results, cell)}" if finished(results, cell) else f"{name}: not run yet"
-        for cell, name in ALGORITHMS.items()
-    )
-    short = [budget_note(results, cells, cell, name) for cell, name in ALGORITHMS.items()]
-    short = " ".join(note for note in short if note)
-    cells = {**ALGORITHMS, "ppo_env1_paper": "PPO with the paper's action"}
-    briefs = [f"{name} {_at_limit_brief(results, c)}" for c, name in cells.items()]
-    briefs = [b for b, c in zip(briefs, cells) if _at_limit_brief(results, c)]
-    at_limit = (
-        f"the same policies give {'; '.join(briefs)} (the paper's PPO: 7.74 cm)"
-        if briefs
-        else "no cell has all its seeds evaluated so yet"
-    )
-    return f"""## What it shows
-
-**The paper's 7-d action (tip position change + quaternion change) learns the task once the
-exploration noise on it is smaller.** The action moves the target from where the tip is now,
-so Gaussian exploration noise on the quaternion change random-walks the tool's orientation with
-nothing pulling it back: with SB3's default initial noise (std 1) the tool tilts
-{np.degrees(wide):.0f}° on average after {steps} steps (an episode is at most
-{MAX_EPISODE_STEPS}), with std e⁻¹ ≈ 0.37 {np.degrees(narrow):.0f}° (`orientation_drift` in
-`drake_tooluse/experiments/paper_study_report.py`: the action's own arithmetic, no
-simulation). A tilted tool meets the box with its side or misses it, and PPO has to learn to
-cancel the noise in four dimensions before it can learn the push. `log_std_init = -1` — the one change, chosen on seed 0
-at 300k steps; the action's meaning, scale and normalisation are the paper's — gives {paper};
-the same training with std 1: {control}. The goal: ≤ 4 cm and ≥ 80 % over ≥ 3 seeds within
-1.25 M steps, on seeds it was not tuned on.
-
-**The four algorithms on Env1** (position action; the paper's figures are one run each):
-{algorithms}. {short}
-
-**Where our figures and the paper's differ, and why.** Our episodes end at the success
-(d(x, x*) + d(x, y) ≤ 5 cm, the paper's criterion), so a successful episode's final box–goal
-distance is at most ~2.4 cm by construction (the tip touching the box is ~2.6 cm from its
-centre). The paper does not say whether its episodes ended there (Gym's Fetch envs, which
-its env followed, run to their step limit); its PPO moved the box 27.3 cm for a final distance
-of 7.74 cm, which reads as pushing on. Judged as a protocol without an early end would — each
-episode run on to the 100-step limit and measured where the box ends (the column "run on to
-the 100-step limit") — {at_limit}. Trained on episodes that stop at the goal, the policies
-were never taught to stop there, and push the box on past it.
-Both columns are of the same 100 seeded episodes; the paper's figures are one run each at
-1.25 M steps in another simulator (MuJoCo, a Fetch-style env with mocap control), so neither
-column is a like-for-like comparison.
-{env2_paragraph(results)}"""
-
-
-def env2_paragraph(results: dict) -> str:
-    """Env2 (reward −d(box, goal) only), per seed: does the policy push, and with what."""
-    done = finished(results, "ppo_env2")
-    if not done:
-        return ""
-    seeds = [
-        f"s{s}: {e['evaluate_best']['final_object_to_goal_mean_m'] * 100:.2f} cm, tool "
-        f"{e['evaluate_best']['tool_touched_rate'] * 100:.0f} % / gripper "
-        f"{e['evaluate_best']['gripper_touched_rate'] * 100:.0f} % of episodes"
-        for s, e in sorted(done.items())
-    ]
-    idle = sum(
-        e["evaluate_best"]["tool_touched_rate"] == 0
-        and e["evaluate_best"]["gripper_touched_rate"] == 0
-        for e in done.values()
-    )
-    pushers = [e["evaluate_best"] for e in done.values() if e["evaluate_best"]["tool_touched_rate"]]
-    with_what = (
-        "No seed pushes the box with the tool"
-        if not pushers
-        else "The seeds that do find the box push it with the tool"
-        + (", never the gripper" if all(e["gripper_touched_rate"] == 0 for e in pushers) else "")
-    )
-    return f"""
-**Env2 (reward −d(box, goal) only) learns or not by the seed.** Of {len(done)} seeds
-({"; ".join(seeds)}), {idle} never touch the box: its reward stays at −0.20 (the box where it
-started) whatever the arm does until something reaches the box, so nothing draws the tool to it
-(Env1's tip–box term does). {with_what} (the paper's Env2 policy pushed with the gripper).
-"""
-
-
-HEADER = """# Training: the paper's study at its scale, with statistics
+HEADER = """# Training: the paper's study on the `-v1` envs, with statistics
 
 Made by `drake-tooluse study-report --update-docs` from `docs/results/paper_study.json`, which
 `drake-tooluse study --update-docs` writes run by run (a re-run picks up every run where it
-stopped; it also makes this page again after each run it finishes, so the page is current when
-a session ends; committing both is yours). Every run is a `drake-tooluse train` command
-(its exact command is in the JSON), on the exact tool-tip IK, with randomized starts (box ±2 cm,
-yaw ±0.2 rad, mass and friction ±30 %, the grasp ±1 cm along and ±0.5 cm across the tool), two
-env processes, observation and reward normalisation and the hyperparameters of
-`drake_tooluse/learning/hyperparams/`. Every figure is `drake-tooluse evaluate` of the run's
-best policy (by periodic evaluation) over **100 episodes, seeds 1000–1099**. Statistics: rliable
-(Agarwal et al. 2021) over the seeds of a cell, each seed's score its mean over the 100
-episodes: mean and interquartile mean (IQM) with 95 % bootstrap confidence intervals over the
-seeds ({reps} resamples; with 3 seeds wide, as they should be). The paper's figures are one run
-each.
+stopped; it also makes this page again after each run it finishes; committing both is yours).
+The cells are `drake_tooluse/experiments/paper_study.yaml`'s. The earlier study, on the `-v0`
+envs (both protocols, Env2, Env3 fine-tuning, DDPG at 300k steps), and its tables stay at
+{earlier}: its docs/TRAINING.md.
 
-Two protocols, each row saying which it trained and was judged in. **To the limit** (the
-paper's, and the envs' default): every episode runs to its 100-step limit and is judged where
-the box ends, so a policy must push the box to the goal and hold it there; the `hold_*` cells.
-**Early end** (this study's first table): an episode ends at its first success
-(`end_at_success`), so a success's distance is at most ~2.4 cm and no policy learned to stop;
-its last column judges the same policies to the limit. The paper's figures stand beside the
-rows of its protocol only.
+- **Env:** {envs}.
+{protocol}
+{commit}
+- **Runs:** each a `drake-tooluse train` command (its exact command is in the JSON), on the
+  exact tool-tip IK, with randomized starts (box ±2 cm, yaw ±0.2 rad, mass and friction ±30 %,
+  the grasp ±1 cm along and ±0.5 cm across the tool), two env processes, observation and reward
+  normalisation and the hyperparameters of `drake_tooluse/learning/hyperparams/`.
+- **Figures:** `drake-tooluse evaluate --to-time-limit` of each run's best policy (by periodic
+  evaluation) over **100 episodes, seeds 1000–1099**. Statistics: rliable (Agarwal et al. 2021)
+  over the seeds of a cell, each seed's score its mean over the 100 episodes: interquartile mean
+  (IQM) and mean with 95 % bootstrap confidence intervals over the seeds ({reps} resamples; with
+  3 seeds the IQM is the mean and the intervals are wide, as they should be).
 
 ```bash
 drake-tooluse study --update-docs --status        # what is done and what is missing
@@ -523,51 +410,90 @@ drake-tooluse study --out runs/mine               # the same study, all files un
 ## The study
 
 {table}
-The paper: PPO 7.74 cm, TRPO 11.9 cm, DDPG 35.1 cm, A2C 40.9 cm (final box–goal distance, one
-run each at 1.25 M steps, ~7 h on 32 cores).
+The paper: PPO 7.74 cm, TRPO 11.9 cm, DDPG 35.1 cm, A2C 40.9 cm (final box–goal distance, mean
+of 100 episodes of one run each at 1.25 M steps, ~7 h on 32 cores, in MuJoCo with a Fetch-style
+env and mocap control: beside ours, not like for like). Its PPO acted with the 7-d action; its
+figure stands beside both PPO cells. "Ours against the paper's" places the paper's figure
+against the CI of our mean.
 
+{settings}
 **Still to run**, in the order the job runs it (each run resumes where it stopped):
 
 {missing}
-"""
+## Figures
+
+{figures}
+
+## The study's costs
+
+Each run's wall time over all its sessions (its summary.json, which the results hold), on this
+machine (2 cores, shared with other work: a run's wall time moves with what runs beside it).
+
+{costs}"""
+
+
+def _protocol(cells: dict) -> str:
+    """The page's protocol bullet: the paper's, and the cells trained otherwise."""
+    early = [cell for cell, c in cells.items() if c.get("protocol") != "to-limit"]
+    text = (
+        f"- **Protocol:** the paper's. Every episode runs to its {MAX_EPISODE_STEPS}-step limit and is judged "
+        "where the box ends, in training and in every figure here: a policy must push the box "
+        "to the goal and hold it there."
+    )
+    if early:
+        text += (
+            f" Trained with an early end at the first success (judged as the rest): "
+            f"{', '.join(f'`{c}`' for c in early)}; no paper figure stands beside them."
+        )
+    return textwrap.fill(text, 100, subsequent_indent="  ")
+
+
+def _commit(results: dict, cells: dict) -> str:
+    """The page's commit bullet: what each cell with finished runs was trained at."""
+    done = [cell for cell in cells if finished(results, cell)]
+    known = [f"`{c}` at `{TRAINED_AT[c]}`" for c in done if c in TRAINED_AT]
+    unknown = [f"`{c}`" for c in done if c not in TRAINED_AT]
+    text = "- **Commit:** the runs' files record none."
+    if known:
+        text += (
+            f" Known by the job that trained them: {', '.join(known)} (it ran from a clean "
+            "checkout of that commit, made a second before its first run and not moved since)."
+        )
+    if unknown:
+        text += f" Not known for {', '.join(unknown)}."
+    return textwrap.fill(text, 100, subsequent_indent="  ")
 
 
 def training_page(results: dict, cells: dict, files: StudyFiles) -> str:
-    """docs/TRAINING.md's text: the table, what is still to run (of the runs' archive), the
-    discussion, the figures that exist and the earlier runs."""
-    table = study_table(results, cells)
-    page = HEADER.format(
-        reps=f"{BOOTSTRAP_REPS:,}", table=table, missing=missing_runs(results, cells, files.archive)
+    """docs/TRAINING.md's text: the setting, the table, what is still to run (of the runs'
+    archive), the figures that exist and the costs."""
+    where = Path(os.path.relpath(files.figures, files.page.parent))
+    figures = "\n\n".join(
+        f"![{caption}]({(where / name).as_posix()})"
+        for name, caption in FIGURES
+        if (files.figures / name).is_file()
     )
-    page += "\n" + discussion(results, cells)
-    figures = files.figures
-    where = Path(os.path.relpath(figures, files.page.parent))
-    page += (
-        "\n## Figures\n\n"
-        + "\n\n".join(
-            f"![{caption}]({(where / name).as_posix()})"
-            for name, caption in (
-                ("training_env1_algorithms.png", "Env1: the four algorithms, seed bands"),
-                (
-                    "training_env1_paper_action.png",
-                    "PPO: the paper's action and the position action",
-                ),
-                ("training_env3_finetune.png", "Env3: fine-tuned against from scratch"),
-                ("training_env1_trajectories.png", "Generated tool-tip trajectories"),
-            )
-            if (figures / name).is_file()
-        )
-        + "\n"
+    settings = _settings(cells)
+    return HEADER.format(
+        earlier=EARLIER,
+        envs=", ".join(f"`{e}`" for e in dict.fromkeys(c["env"] for c in cells.values())),
+        protocol=_protocol(cells),
+        commit=_commit(results, cells),
+        reps=f"{BOOTSTRAP_REPS:,}",
+        table=study_table(results, cells),
+        settings=f"Settings over the hyperparameter files':\n\n{settings}" if settings else "",
+        missing=missing_runs(results, cells, files.archive),
+        figures=figures or "No cell has finished runs yet.",
+        costs=costs(results, cells),
     )
-    page += "\n" + earlier_runs(files.results.parent / "paper_experiments.json")
-    return page
 
 
 def without_queue(page: str) -> str:
     """The page without its list of runs still to run, which tells the state of the run
     directories of the machine that made it (a run training there is "training now"), not the
     results."""
-    start, end = page.find("**Still to run**"), page.find("## What it shows")
+    start = page.find("**Still to run**")
+    end = page.find("\n## ", start)
     return page[:start] + page[end:] if 0 <= start < end else page
 
 
@@ -582,37 +508,9 @@ def make_report(cells: dict, files: StudyFiles, trajectories: int = 10) -> dict:
     """Writes the page and its figures from the results and the runs' archive; the files
     written and the study's table."""
     results = read_results(files.results)
-    runs_dir, figures = files.archive, files.figures
     written = [
-        figure_algorithms(results, runs_dir, figures),
-        figure_pair(
-            results,
-            runs_dir,
-            figures,
-            [
-                ("ppo_env1", "position action", "tab:blue", 0.0),
-                ("ppo_env1_paper", "the paper's 7-d action", "tab:purple", 0.0),
-            ],
-            "PPO on Env1: the paper's action against the position action",
-            "training_env1_paper_action",
-        ),
-        figure_pair(
-            results,
-            runs_dir,
-            figures,
-            [
-                ("ppo_env3_scratch", "from scratch", "tab:gray", 0.0),
-                (
-                    "ppo_env3_finetune",
-                    "fine-tuned from Env1 (after its 1.25 M)",
-                    "tab:green",
-                    cells.get("ppo_env1", {}).get("timesteps", PAPER_STEPS),
-                ),
-            ],
-            "Env3 (ToolPushFar-v0): fine-tuned from Env1 against from scratch",
-            "training_env3_finetune",
-        ),
-        figure_trajectories(results, runs_dir, figures, trajectories),
+        figure_curves(results, cells, files.archive, files.figures),
+        figure_trajectories(results, cells, files.archive, files.figures, trajectories),
     ]
     atomic_write_text(files.page, training_page(results, cells, files))
     return {

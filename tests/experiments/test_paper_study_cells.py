@@ -1,14 +1,15 @@
-"""The study files: the -v1 study's cells."""
+"""The study file: the paper's study on the -v1 envs."""
 
 
-def test_the_v1_study_is_the_papers_protocol_on_the_v1_envs():
-    """The -v1 study's cells: the paper's four algorithms on a -v1 id, episodes to the step
+def test_the_study_is_the_papers_protocol_on_the_v1_envs():
+    """The shipped study's cells: the paper's four algorithms on a -v1 id, episodes to the step
     limit, the paper's budget but for DDPG's stated smaller one."""
-    from drake_tooluse.experiments.paper_study_cells import PAPER_STUDY_CELLS, load_cells
+    from drake_tooluse.experiments.paper_study_cells import load_cells
     from drake_tooluse.learning.config import load_hyperparams
 
-    cells, episodes, _ = load_cells(PAPER_STUDY_CELLS.parent / "paper_study_v1.yaml")
-    assert episodes == 100
+    cells, episodes, seed = load_cells()
+    assert episodes == 100 and seed == 1000
+    assert list(cells)[:2] == ["v1_ppo", "v1_ppo_paper_action"]
     assert {c["algo"] for c in cells.values()} == {"ppo", "trpo", "a2c", "ddpg"}
     for cell in cells.values():
         assert cell["env"].endswith("-v1") and cell["protocol"] == "to-limit"

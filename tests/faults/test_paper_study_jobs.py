@@ -334,8 +334,8 @@ def test_the_study_file_is_checked(tmp_path):
         assert says in str(e.value) and str(path) in str(e.value)
     # The shipped study loads, in its order.
     cells, episodes, seed = load_cells()
-    assert list(cells)[:2] == ["hold_ppo_env1_paper", "hold_ppo_env1"] and episodes == 100
-    assert seed == 1000 and cells["ppo_env3_finetune"]["init_from"] == "ppo_env1"
+    assert list(cells)[:2] == ["v1_ppo", "v1_ppo_paper_action"] and episodes == 100
+    assert seed == 1000
 
 
 def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys):
@@ -346,11 +346,11 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
     finished; the test sets it back to how an earlier job left it: seed 1 trained but its
     evaluation lost, seed 2 stopped at a checkpoint."""
     results = ROOT / "docs" / "results" / "paper_study.json"
-    archived = ROOT / "docs" / "results" / "paper_study" / "hold_ppo_env1_paper"
+    archived = ROOT / "docs" / "results" / "paper_study" / "v1_ppo"
     (tmp_path / "pyproject.toml").write_text("")
     (tmp_path / "docs" / "results").mkdir(parents=True)
     committed = json.loads(results.read_text())
-    seeds = committed["hold_ppo_env1_paper"]["seeds"]
+    seeds = committed["v1_ppo"]["seeds"]
     seeds["1"] = {"error": "an earlier try failed"}
     del seeds["2"]
     (tmp_path / "docs" / "results" / "paper_study.json").write_text(json.dumps(committed))
@@ -372,22 +372,22 @@ def test_the_committed_study_resumes_in_a_checkout(tmp_path, monkeypatch, capsys
     monkeypatch.setattr(paper_study, "train_and_archive", lambda study, cmd, *a: refused(cmd))
     monkeypatch.setattr(jobs.Commands, "run", lambda self, cmd: refused(cmd))
     monkeypatch.chdir(tmp_path)
-    argv = ["study", "--update-docs", "--only", "hold_ppo_env1_paper", "--seeds", "1", "2"]
+    argv = ["study", "--update-docs", "--only", "v1_ppo", "--seeds", "1", "2"]
     assert cli_main(argv) == 3  # a run failed (here: every command)
-    runs = tmp_path / "runs" / "paper" / "hold_ppo_env1_paper"
+    runs = tmp_path / "runs" / "paper" / "v1_ppo"
     assert (runs / "s2" / "checkpoints" / "latest.json").is_file()  # restored from the archive
-    hyperparams = json.dumps(load_cells()[0]["hold_ppo_env1_paper"]["hyperparams"])
     assert [" ".join(c) for c in issued] == [
-        f"drake-tooluse evaluate --policy {runs}/s1/best --env drake_tooluse/ToolPush-v0 "
+        f"drake-tooluse evaluate --policy {runs}/s1/best --env drake_tooluse/ToolPush-v1 "
         "--episodes 100 --seed 1000 --no-progress --per-episode --json",
-        "drake-tooluse train --env drake_tooluse/ToolPush-v0 --algo ppo --timesteps 500000 "
-        f"--seed 2 --no-progress --resume {runs}/s2 --hyperparams {hyperparams}",
+        "drake-tooluse train --env drake_tooluse/ToolPush-v1 --algo ppo --timesteps 1250000 "
+        f"--seed 2 --no-progress --resume {runs}/s2",
     ]
     after = json.loads((tmp_path / "docs" / "results" / "paper_study.json").read_text())
     before = committed
-    assert after["hold_ppo_env1_paper"]["seeds"]["2"]["error"] == "stopped by the test"
-    assert {c: v for c, v in after.items() if c != "hold_ppo_env1_paper"} == {
-        c: v for c, v in before.items() if c != "hold_ppo_env1_paper"
+    assert after["v1_ppo"]["seeds"]["2"]["error"] == "stopped by the test"
+    assert after["v1_ppo"]["seeds"]["0"] == before["v1_ppo"]["seeds"]["0"]
+    assert {c: v for c, v in after.items() if c != "v1_ppo"} == {
+        c: v for c, v in before.items() if c != "v1_ppo"
     }
     assert "restored" in capsys.readouterr().err
 
