@@ -49,9 +49,9 @@ PAPER_CPU_HOURS = 7 * 32  # per algorithm: ~7 h on 32 cores
 MACHINE_CORES = 2
 EVALUATION = "evaluate_best_time_limit"  # the paper's protocol (`paper_study.EVALUATIONS`)
 BOOTSTRAP_REPS = 2000
-# The runs' files record no commit. Cell -> the commit its runs so far were trained at: the
-# -v1 study's job ran from a clean checkout of it, made a second before its first run and not
-# moved since. A cell of runs trained elsewhere gets its own entry, or none (not known).
+# Cell -> the commit its runs were trained at, for runs trained before `train` recorded its
+# commit (summary.json "code"): the -v1 study's first job ran from a clean checkout of it, made
+# a second before its first run and not moved since.
 TRAINED_AT = {"v1_ppo": "7de66a6"}
 # Where the earlier study (the -v0 envs, both protocols, Env2, Env3) and its page stay.
 EARLIER = "tag `figures-v0` (commit ef1f4b4)"
@@ -448,16 +448,35 @@ def _protocol(cells: dict) -> str:
     return textwrap.fill(text, 100, subsequent_indent="  ")
 
 
+def _recorded_commits(results: dict, cell: str) -> list[str]:
+    """The commits a cell's finished runs record (`train`'s summary.json "code"; a checkout
+    with changes marked "+changes"), in seed order, without repeats."""
+    commits = []
+    for entry in finished(results, cell).values():
+        code = (entry.get("train") or {}).get("code") or {}
+        if code.get("commit"):
+            text = code["commit"][:7] + (" +changes" if code.get("modified") else "")
+            if text not in commits:
+                commits.append(text)
+    return commits
+
+
 def _commit(results: dict, cells: dict) -> str:
-    """The page's commit bullet: what each cell with finished runs was trained at."""
+    """The page's commit bullet: what each cell with finished runs was trained at, as its runs
+    record it, else as TRAINED_AT knows it."""
     done = [cell for cell in cells if finished(results, cell)]
-    known = [f"`{c}` at `{TRAINED_AT[c]}`" for c in done if c in TRAINED_AT]
-    unknown = [f"`{c}`" for c in done if c not in TRAINED_AT]
-    text = "- **Commit:** the runs' files record none."
+    recorded = {c: _recorded_commits(results, c) for c in done}
+    parts = [f"`{c}` at {', '.join(f'`{x}`' for x in recorded[c])}" for c in done if recorded[c]]
+    known = [f"`{c}` at `{TRAINED_AT[c]}`" for c in done if not recorded[c] and c in TRAINED_AT]
+    unknown = [f"`{c}`" for c in done if not recorded[c] and c not in TRAINED_AT]
+    text = "- **Commit:**"
+    if parts:
+        text += f" as the runs record it (`train`'s summary.json): {', '.join(parts)}."
     if known:
         text += (
-            f" Known by the job that trained them: {', '.join(known)} (it ran from a clean "
-            "checkout of that commit, made a second before its first run and not moved since)."
+            f" Runs that record none, known by the job that trained them: {', '.join(known)} "
+            "(it ran from a clean checkout of that commit, made a second before its first run "
+            "and not moved since)."
         )
     if unknown:
         text += f" Not known for {', '.join(unknown)}."

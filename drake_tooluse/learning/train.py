@@ -98,6 +98,7 @@ from drake_tooluse.learning.sb3_state import (
     set_call_count,
 )
 from drake_tooluse.learning.task_envs import env_spaces, episode_metrics
+from drake_tooluse.provenance import code_version
 from drake_tooluse.validation import check_int, check_seed
 
 
@@ -488,6 +489,8 @@ def train(
             "resumes": run.resumes,
             "command": first_command,
             "out": str(out),
+            # the code of the session that finished it (a resumed run's sessions may differ)
+            "code": code_version(),
             **_best_source(evaluation),
         }
         atomic_write_json(out / "summary.json", summary)

@@ -143,3 +143,20 @@ def test_a_malformed_results_file_is_a_one_line_error(tmp_path, capsys):
         err = capsys.readouterr().err
         assert "Traceback" not in err and len(err.strip().splitlines()) == 1
         assert err.startswith(f"drake-tooluse study-report: error: {results}: ") and says in err
+
+
+def test_the_commit_is_what_the_runs_record_else_what_the_job_knew():
+    from drake_tooluse.experiments import paper_study_report as report
+
+    def entry(code):
+        return {report.EVALUATION: {}, "train": {"code": code} if code else {}}
+
+    results = {
+        "a": {"seeds": {"0": entry({"commit": "abcdef0123", "modified": False})}},
+        "b": {"seeds": {"0": entry({"commit": "1234567890", "modified": True})}},
+        "v1_ppo": {"seeds": {"0": entry(None)}},
+        "c": {"seeds": {"0": entry(None)}},
+    }
+    text = " ".join(report._commit(results, dict.fromkeys(results)).split())
+    assert "`a` at `abcdef0`" in text and "`b` at `1234567 +changes`" in text
+    assert f"`v1_ppo` at `{report.TRAINED_AT['v1_ppo']}`" in text and "Not known for `c`" in text

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+import drake_tooluse
 from drake_tooluse.cli import main
 from drake_tooluse.learning.config import resolve_config
 from drake_tooluse.learning.evaluate import evaluate
@@ -37,6 +39,10 @@ def test_smoke_run_per_algorithm(algo, tmp_path):
     config = resolve_config(ENV, algo, 1000, 1, 0, overrides={**TINY, **PER_ALGO[algo]})
     summary = train(config, tmp_path / "run", progress_bar=False)
     assert summary["timesteps"] >= 1000
+    # The code it was made with: this checkout's commit (None where installed from a wheel).
+    code = summary["code"]
+    assert code["version"] == drake_tooluse.__version__
+    assert code["commit"] is None or re.fullmatch(r"[0-9a-f]{40}", code["commit"])
     for sub in ("final", "best"):
         assert (tmp_path / "run" / sub / "policy.safetensors").is_file()
         assert not list((tmp_path / "run" / sub).glob("*.pkl"))
