@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def command_chain(meta: dict) -> list[str]:
     """The commands that made a policy, first to last: its own, after those of the policy it
-    went on from (`--init-from DIR`, as long as DIR still holds a policy.json)."""
+    went on from (`--init-from DIR`, as long as DIR still holds a policy.json; all of them
+    where DIR is a shipped policy, its metrics.json's `made_with`)."""
     chain = [meta["command"]]
     seen = set()
     while True:
@@ -41,6 +42,10 @@ def command_chain(meta: dict) -> list[str]:
         if earlier in seen or not (earlier / "policy.json").is_file():
             return chain
         seen.add(earlier)
+        shipped = earlier / "metrics.json"  # a shipped policy's whole chain
+        made_with = json.loads(shipped.read_text()).get("made_with") if shipped.is_file() else None
+        if made_with:
+            return list(made_with) + chain
         chain.insert(0, json.loads((earlier / "policy.json").read_text())["command"])
 
 
@@ -84,6 +89,8 @@ def main() -> None:
     shutil.rmtree(tmp, ignore_errors=True)
     shutil.copytree(source, tmp)
     meta = json.loads((tmp / "policy.json").read_text())
+    # Before the target is replaced: the policy it went on from may be the one shipped there.
+    made_with = command_chain(meta)
     evaluate = [
         "drake-tooluse",
         "evaluate",
@@ -113,7 +120,7 @@ def main() -> None:
         {
             "trained_with": meta["command"],  # as run (cwd: the repository)
             # Where it went on from an earlier policy: the commands that made that one first.
-            "made_with": command_chain(meta),
+            "made_with": made_with,
             "trained_timesteps": meta["trained_timesteps"],
             "training_wall_time_s": wall_time,  # None: not a training run's
             "evaluated_with": " ".join(evaluate),
