@@ -42,6 +42,7 @@ import os
 import re
 import sys
 import warnings
+from pathlib import Path
 
 from drake_tooluse.cli import experiments, learning, maintenance, measure, robot, study
 from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition, exported here)
@@ -50,6 +51,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
     EXIT_NOT_REACHED,
     EXIT_OK,
     EXIT_USAGE,
+    path_arg,
 )
 from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
@@ -126,11 +128,13 @@ class Parser(argparse.ArgumentParser):
     """argparse's parser that raises its errors for `main` to report (as JSON too, with
     `--json`) instead of printing them and exiting. A value such as `-inf`, `-nan` or `-1e-3`
     is taken as an option's value (argparse's own pattern knows only `-1` and `-.5`, and
-    read `--hook-length -inf` as a missing value), so the option's range check names it."""
+    read `--hook-length -inf` as a missing value), so the option's range check names it.
+    Every `type=Path` option parses with `common.path_arg` (no empty path, no NUL byte)."""
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = NEGATIVE_NUMBER
+        self.register("type", Path, path_arg)
 
     def error(self, message):
         raise ArgumentsRefused(self, message)
@@ -255,7 +259,11 @@ def main(argv=None) -> int:
         else show(out)
     )
     try:
-        print(text)
+        try:
+            print(text)
+        except UnicodeEncodeError:  # a name stdout cannot encode (a file name of non-UTF-8
+            encoding = sys.stdout.encoding or "utf-8"  # bytes, a strict locale): escaped
+            print(text.encode(encoding, "backslashreplace").decode(encoding))
         sys.stdout.flush()
     except BrokenPipeError:  # the reader left (`| head -1`): the work is done, quietly
         # Python would report the pipe again when it flushes stdout at exit: point it nowhere.

@@ -24,6 +24,20 @@ def add_tool_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-tool", action="store_true", help="the tip frame is the gripper frame")
 
 
+def path_arg(text: str) -> Path:
+    """A path option's value (argparse's `type=Path`, as `cli.Parser` registers it for every
+    option): an empty or blank one — an unset shell variable — would name the current
+    directory, and one holding a NUL byte no file at all; both are refused at the parse, with
+    the option named."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a path (it is empty or blank)")
+    if "\x00" in text:
+        from drake_tooluse.validation import shown
+
+        raise argparse.ArgumentTypeError(f"{shown(text)} holds a NUL byte, which no path can")
+    return Path(text)
+
+
 def tool_length_arg(value, option: str = "--tool-length") -> float:
     """A tool-length option: a number in (0, 0.60] m (`robot.tool`: checked before Drake is
     imported)."""
@@ -133,7 +147,7 @@ def parse_json_arg(text: str | None, name: str) -> dict | None:
     from drake_tooluse.files import parse_json
     from drake_tooluse.validation import shown
 
-    if not text:
+    if text is None:
         return None
     try:
         value = parse_json(text, name)

@@ -77,7 +77,11 @@ def cmd_ik(args) -> dict:
     from drake_tooluse.robot.model import RobotBelief
 
     measured = {}
+    if args.scenario is not None and not args.measure:
+        raise UsageError("--scenario is the world --measure measures: give --measure with it")
     if args.measure:
+        if args.scenario is None:
+            args.scenario = DEFAULT_SCENARIO
         belief, measured = measured_belief(scenario_from_args(args))
     else:
         belief = RobotBelief(tool_length_from_args(args))
@@ -258,8 +262,7 @@ def add_parsers(sub) -> None:
     p.add_argument(
         "--scenario",
         type=Path,
-        default=DEFAULT_SCENARIO,
-        help="scenario YAML (with --measure)",
+        help=f"scenario YAML, with --measure (default: {DEFAULT_SCENARIO})",
     )
     p.set_defaults(run=cmd_ik, show=format_ik, status=ik_status)
 

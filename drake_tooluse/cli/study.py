@@ -21,6 +21,8 @@ def _files(args):
     (--update-docs: the current directory is the checkout)."""
     from drake_tooluse.experiments.paper_study_cells import DEFAULT_OUT, StudyFiles
 
+    if args.runs_dir is not None:
+        output_dir_arg(args.runs_dir, "--runs-dir", must_be_new=False)
     if args.update_docs:
         if args.out is not None:
             raise UsageError("give --out DIR or --update-docs, not both")

@@ -311,13 +311,20 @@ def render_all(figures_dir, check: bool = False, names=None) -> dict:
     figures_dir = Path(figures_dir)
     if not figures_dir.is_dir():
         raise FileNotFoundError(
-            f"{figures_dir} is not a folder (the checkout's docs/figures: run from the checkout)"
+            f"{str(figures_dir)!r} is not a folder (the checkout's docs/figures: run from the "
+            "checkout)"
         )
     names = list(SCREENSHOTS) if names is None else list(names)
     unknown = [n for n in names if n not in SCREENSHOTS]
     if unknown:
         raise ValueError(f"unknown screenshot {unknown[0]!r}; there are {sorted(SCREENSHOTS)}")
-    if not check:
+    rerun = "run `drake-tooluse dev render-figures`"
+    if check:  # before any simulation
+        for name in names:
+            png, meta_path = figures_dir / f"{name}.png", figures_dir / f"{name}.json"
+            if not png.is_file() or not meta_path.is_file():
+                raise ValueError(f"{png} or its {meta_path.name} is missing; {rerun}")
+    else:
         find_chromium()  # before any simulation
     out = {}
     for name in names:
@@ -327,9 +334,6 @@ def render_all(figures_dir, check: bool = False, names=None) -> dict:
             html = shot.record(Path(tmp) / f"{name}.html")
             digest = scene_digest(Path(html).read_text(), shot.window)
             if check:
-                rerun = "run `drake-tooluse dev render-figures`"
-                if not png.is_file() or not meta_path.is_file():
-                    raise ValueError(f"{png} or its {meta_path.name} is missing; {rerun}")
                 recorded = json.loads(meta_path.read_text())
                 for key in ("scene_sha256", "window_px", "camera", "playback_s"):
                     if recorded.get(key) != digest[key]:

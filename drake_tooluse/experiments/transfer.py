@@ -579,6 +579,14 @@ def transfer_experiment(
     record = EXTRACTION_RECORDS[extraction] if record is None else record
     check_one_of(record, RECORDS, "record")
     out = check_output_dir(out, "the transfer's directory")
+    given = None
+    if trajectory_path is not None:  # read before any work; closed loop has no use for it
+        if mode != "open-loop":
+            raise ValueError(
+                f"trajectory_path={str(trajectory_path)!r} is replayed in open loop only; "
+                f"mode={mode!r}"
+            )
+        given = TipTrajectory.load(trajectory_path)
     nominal, reality, nominal_file, reality_file, reality_note = task_worlds(env_id)
     if nominal_path is not None:
         nominal, nominal_file = load_scenario(nominal_path), nominal_path
@@ -589,8 +597,8 @@ def transfer_experiment(
     box_frame = mode == "open-loop" and extraction == "line-contact"
     with atomic_dir(out) as work:
         trajectory, made = None, None
-        if mode == "open-loop" and trajectory_path is not None:
-            trajectory = TipTrajectory.load(trajectory_path)
+        if given is not None:
+            trajectory = given
             made = {
                 "file": str(Path(trajectory_path).absolute()),
                 "poses": len(trajectory),

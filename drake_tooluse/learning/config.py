@@ -156,15 +156,15 @@ def check_hyperparams(algo: str, env_id: str, hp, name: str = "hyperparameters")
         hp["env_kwargs"] = check_env_kwargs(env_id, hp["env_kwargs"], f"{name}: env_kwargs")
     if "policy_kwargs" in hp:
         check_policy_kwargs(hp["policy_kwargs"], f"{name}: policy_kwargs")
+    for key, value in hp.items():  # (named here, before JSON's message that names none)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"{name}: {key}={value} must be finite")
     try:
         json.dumps(hp, allow_nan=False)
     except (TypeError, ValueError) as e:
         raise ValueError(
             f"{name} must be plain JSON values (numbers, strings, lists): {e}"
         ) from None
-    for key, value in hp.items():
-        if isinstance(value, float) and not math.isfinite(value):
-            raise ValueError(f"{name}: {key}={value} must be finite")
     return hp
 
 

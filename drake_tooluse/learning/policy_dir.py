@@ -41,13 +41,12 @@ import gymnasium as gym
 import numpy as np
 import torch
 from safetensors import SafetensorError
-from safetensors.torch import load_file, save_file
+from safetensors.torch import load, save
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 from drake_tooluse.files import (
     MAX_JSON_BYTES,
     atomic_dir,
-    library_write,
     parse_json,
     read_json,
     to_json,
@@ -256,8 +255,10 @@ def save_policy(
         "action_shape": json.dumps(meta.action_shape),
     }
     with atomic_dir(directory, replace=True) as tmp:
-        with library_write(Path(directory) / WEIGHTS):  # a full disk: an OSError naming it
-            save_file(tensors, str(tmp / WEIGHTS), metadata=header)
+        try:  # (written by Python: safetensors' own file calls take only UTF-8 paths)
+            (tmp / WEIGHTS).write_bytes(save(tensors, metadata=header))
+        except OSError as e:  # a full disk: named by the policy's path, not the staging one
+            raise OSError(e.errno, e.strerror, str(Path(directory) / WEIGHTS)) from None
         if vec_normalize is not None:
             (tmp / NORMALIZATION).write_text(to_json(_normalization_dict(vec_normalize)) + "\n")
         (tmp / META).write_text(to_json(dc.asdict(meta)) + "\n")
@@ -419,7 +420,7 @@ def _load_weights(directory: Path, meta: PolicyMeta):
         raise ValueError(f"cannot load {str(path)!r}: {e}") from None
     _check_header(meta, directory, shapes, metadata)
     try:
-        tensors = load_file(str(path), device="cpu")
+        tensors = load(path.read_bytes())  # (any path: see save_policy)
     except (SafetensorError, OSError, ValueError) as e:
         raise ValueError(f"cannot load {str(path)!r}: {e}") from None
     for name, tensor in tensors.items():

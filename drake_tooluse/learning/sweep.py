@@ -51,6 +51,7 @@ import io
 import itertools
 import logging
 import os
+import re
 import shutil
 import socket
 import tarfile
@@ -94,6 +95,8 @@ MAX_CELLS = 10_000  # runs in one grid: past this Tune's own bookkeeping takes m
 CONFIG_FILE = "sweep_config.json"
 CELL_FILE = "cell.json"  # in a cell's run directory once it has finished
 REFUSED = "refused"  # the metric a refused cell reports to Tune instead of its evaluation
+# The addresses `ray.init` joins a cluster by: 'auto', 'local', or HOST:PORT (IPv6 in brackets).
+RAY_ADDRESS = re.compile(r"auto|local|([\w.-]+|\[[0-9A-Fa-f:.]+\]):\d{1,5}")
 
 
 def _run_name(algo: str, env_id: str, seed: int) -> str:
@@ -546,6 +549,11 @@ def check_sweep(
             f"address={address!r} is a Ray Client address, which is not supported: start the "
             "sweep on a node of the cluster (address 'auto' or 'HEAD_IP:6379'), where its "
             "results are written"
+        )
+    if address is not None and not RAY_ADDRESS.fullmatch(address):
+        raise ValueError(
+            f"address={shown(address)} is not a Ray cluster's address: 'auto' (the cluster "
+            "this node is in) or HEAD_IP:PORT, e.g. 10.0.0.1:6379"
         )
     if address is None:  # the CPUs this process may use (taskset, a container's cpuset)
         local = num_cpus if num_cpus is not None else len(os.sched_getaffinity(0))

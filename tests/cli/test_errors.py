@@ -204,6 +204,44 @@ CASES = [
         ],
         r"--calibration-draws=1001 is outside the allowed range \[0, 1000\]",
     ),
+    # paths that name no file (an unset shell variable: the current directory), values
+    # dropped or checked only after the work
+    (["measure", "--scenario", "", "--json"], r"argument --scenario: '' is not a path"),
+    (["train", "--out", " ", "--json"], r"argument --out: ' ' is not a path"),
+    (["demo", "--out", "a\x00b", "--json"], r"argument --out: 'a\\x00b' holds a NUL byte"),
+    (["train", "--out", "{d}/run", "--hyperparams", ""], r"--hyperparams is not valid JSON .*''"),
+    (
+        ["train", "--out", "{d}/run", "--hyperparams", '{"n_steps": NaN}'],
+        r"n_steps=nan must be finite",
+    ),
+    (
+        ["ik", "--tool-length", "0.1", "--position", "0.6", "0", "0", "--scenario", "{d}/a_dir"],
+        r"--scenario is the world --measure measures: give --measure with it",
+    ),
+    (
+        ["sweep", "--out", "{d}/s", "--address", "nowhere"],
+        r"address='nowhere' is not a Ray cluster's address",
+    ),
+    (
+        ["transfer", "--runs", "1", "--trajectory", "{d}/a_file", "--out", "{d}/t"],
+        r"trajectory_path='.*a_file' is replayed in open loop only; mode='closed-loop'",
+    ),
+    (
+        ["study", "--out", "{d}/st", "--status", "--runs-dir", "{d}/a_file"],
+        r"--runs-dir '.*a_file' is a file",
+    ),
+    (
+        [
+            "dev",
+            "render-figures",
+            "--check",
+            "--figures-dir",
+            "{d}/a_dir",
+            "--only",
+            "simulate_meshcat",
+        ],
+        r"simulate_meshcat.png or its simulate_meshcat.json is missing",
+    ),
 ]
 
 
@@ -212,6 +250,14 @@ def test_bad_input_is_one_line_and_exit_2(files, capsys, argv, message):
     argv = [str(a).replace("{d}", str(files)) for a in argv]
     line = assert_one_line_error(capsys, argv, message)
     assert "Errno" not in line and ".zip.zip" not in line
+
+
+def test_a_result_naming_a_file_of_non_utf8_bytes_prints_under_a_strict_locale(monkeypatch, capsys):
+    # (capsys' stdout is strict UTF-8, as under a UTF-8 locale)
+    monkeypatch.setattr(robot_cli, "cmd_fk", lambda args: {"file": "/tmp/a\udcffb"})
+    monkeypatch.setattr(robot_cli, "format_fk", lambda out: f"wrote {out['file']}")
+    assert main(["fk", "--no-tool", "--q", *["0"] * 7]) == 0
+    assert capsys.readouterr().out == "wrote /tmp/a\\udcffb\n"
 
 
 def test_a_read_only_directory_is_refused_before_work(tmp_path, capsys):

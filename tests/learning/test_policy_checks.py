@@ -132,3 +132,11 @@ def test_every_command_checks_a_policy_the_same_way(policy, command, capsys, tmp
     assert main([*argv, "--policy", str(policy)]) == 2
     assert "unknown env 'Nope-v0'" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_policy_saves_and_loads_at_a_path_of_non_utf8_bytes(tmp_path):
+    """(safetensors' own file calls take only UTF-8 paths; a file name may be any bytes)"""
+    from drake_tooluse.learning.policy_dir import convert_policy
+
+    where = convert_policy(TRANSFER_POLICY, tmp_path / "a\udcffb" / "policy", trust_pickle=True)
+    assert load_policy(where).meta == load_policy(TRANSFER_POLICY).meta
