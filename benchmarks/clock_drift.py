@@ -2,12 +2,13 @@
 minimal Drake diagram and for the project's push and pull envs, how many control steps end off
 the period grid and how many hold no control update or two.
 
-`pydrake.gym.DrakeGymEnv.step` (1.51.1) and this project's -v0 envs advance with
+`pydrake.gym.DrakeGymEnv.step` (1.51.1) advances with
 `AdvanceTo(context.get_time() + time_step)`: each step's end is the sum of the ones before, so
 floating-point error accumulates, and a step that ends a few 1e-15 s before its period leaves
 that period's controller update (the IK) to the next step: one action never acts, the next
-acts twice. Advancing to `k * time_step` (k the integer step count), as the -v1 envs do
-(`builders.task_gym_env.CountedClockGymEnv`), holds every step on the grid. The minimal
+acts twice. Each env is stepped both ways: by Drake's own `DrakeGymEnv.step` called on it, and
+by its own step, which advances to `k * time_step` (k the integer step count,
+`builders.task_gym_env.CountedClockGymEnv`) and holds every step on the grid. The minimal
 diagram is the reproduction written up for Drake in docs/CLOCK.md.
 
     python benchmarks/clock_drift.py [--steps 300]
@@ -17,9 +18,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 
 import gymnasium as gym
+from pydrake.gym import DrakeGymEnv
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
@@ -27,12 +28,7 @@ import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.cli.common import count_arg, run_script
 
 PERIOD, PLANT_STEP = 0.04, 0.02  # the envs' control period and plant step (s)
-ENV_IDS = (  # the summed clock (-v0) and the counted one (-v1), per task
-    "drake_tooluse/ToolPush-v0",
-    "drake_tooluse/ToolPush-v1",
-    "drake_tooluse/ToolPull-v0",
-    "drake_tooluse/ToolPull-v1",
-)
+ENV_IDS = ("drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1")  # one per task
 
 
 class UpdateCounter(LeafSystem):
@@ -67,27 +63,43 @@ def minimal(steps: int, summed: bool) -> tuple[int, int, int]:
     return off_grid, updates.count(0), updates.count(2)
 
 
-def env_off_grid(env_id: str, steps: int) -> int:
-    """Steps of `env_id` (random actions, seed 0, reset at each episode's end) whose
-    simulated time ends below k * period, k the step's count in its episode."""
-    with warnings.catch_warnings():  # Gymnasium's "out of date" warning of the -v0 ids
-        warnings.simplefilter("ignore", DeprecationWarning)
-        env = gym.make(env_id)
+def env_clock(env_id: str, steps: int, drake_step: bool) -> tuple[int, int, int]:
+    """(steps ending below k * period, steps holding no IK solve, steps holding two) of
+    `env_id`, random actions from seed 0, reset every episode's step limit (k counts the steps
+    of the episode), each step `DrakeGymEnv.step` (`drake_step`) or the env's own."""
+    env = gym.make(env_id)
+    inner, limit = env.unwrapped, env.spec.max_episode_steps
+    step = (lambda a: DrakeGymEnv.step(inner, a)) if drake_step else inner.step
+    solves = [0]
+    env.action_space.seed(0)
+    below, solved = 0, []
     try:
-        env.reset(seed=0)
-        env.action_space.seed(0)
-        inner, k, below = env.unwrapped, 0, 0
-        for _ in range(steps):
-            _, _, terminated, truncated, _ = env.step(env.action_space.sample())
-            k += 1
-            t = inner.simulator.get_context().get_time()
-            below += t < k * PERIOD
-            if terminated or truncated:
-                env.reset()
-                k = 0
-        return below
+        for n in range(steps):
+            k = n % limit
+            if k == 0:
+                env.reset(seed=n)
+                _count_solves(inner.ik_system.ik, solves)
+            before = solves[0]
+            step(env.action_space.sample())
+            below += inner.simulator.get_context().get_time() < (k + 1) * PERIOD
+            solved.append(solves[0] - before)
+        return below, solved.count(0), solved.count(2)
     finally:
         env.close()
+
+
+def _count_solves(ik, solves: list) -> None:
+    """Counts `ik`'s solves into solves[0] (wrapped once: an env may keep its IK)."""
+    if getattr(ik.solve, "counted", False):
+        return
+    solve = ik.solve
+
+    def counted(*args, **kwargs):
+        solves[0] += 1
+        return solve(*args, **kwargs)
+
+    counted.counted = True
+    ik.solve = counted
 
 
 def main(argv=None) -> int:
@@ -104,8 +116,14 @@ def main(argv=None) -> int:
         how = "context.get_time() + period" if summed else "k * period (integer count)"
         print(f"  {how:30s} {off:5d} end off the grid; {none} hold no update, {two} hold two")
     for env_id in ENV_IDS:
-        below = env_off_grid(env_id, steps)
-        print(f"{env_id}: {below} of {steps} random steps end below their period")
+        print(f"{env_id}, {steps} random steps:")
+        for drake_step in (True, False):
+            below, none, two = env_clock(env_id, steps, drake_step)
+            how = "DrakeGymEnv.step" if drake_step else "its own step (integer count)"
+            print(
+                f"  {how:30s} {below:5d} end below their period; {none} hold no IK solve, "
+                f"{two} hold two"
+            )
     return 0
 
 

@@ -45,7 +45,7 @@ def rss_mb() -> float:
 
 
 def step_loop(steps: int, warmup: int) -> dict:
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     env.reset(seed=0)
     env.action_space.seed(0)
     resets, samples = 0, []
@@ -73,7 +73,7 @@ def step_loop(steps: int, warmup: int) -> dict:
 
 
 def _cycle() -> None:
-    env = gym.make("drake_tooluse/ToolPush-v0")
+    env = gym.make("drake_tooluse/ToolPush-v1")
     env.reset(seed=0)
     env.step(env.action_space.sample())
     env.close()

@@ -3,7 +3,7 @@ the table, box speed and arm joint speed over N steps of the push env, as its `i
 (`drake_tooluse.tasks.sanity`), and how many steps were past each limit.
 
     python benchmarks/env_sanity.py [--steps 2000] [--actions extreme|uniform] [--seed 0]
-        [--env-id drake_tooluse/ToolPush-v0] [--env-kwargs '{"action_mode": "pose"}'] [--json]
+        [--env-id drake_tooluse/ToolPush-v1] [--env-kwargs '{"action_mode": "pose"}'] [--json]
 
 `extreme` actions are ±1 in every component, drawn at random each step (bang-bang: the largest
 commands a policy can give); `uniform` are uniform in [-1, 1]. Episodes run to their step limit
@@ -71,7 +71,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--actions", choices=("extreme", "uniform"), default="extreme")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--env-id", default="drake_tooluse/ToolPush-v0")
+    parser.add_argument("--env-id", default="drake_tooluse/ToolPush-v1")
     parser.add_argument("--env-kwargs", type=json.loads, default={})
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()

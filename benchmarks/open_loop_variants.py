@@ -12,20 +12,15 @@ transfer --mode open-loop` replays its trajectory.
 Variants, each changing one thing of the one above it:
 
   paper        the paper's: where the tip got at each step, the per-step mean of the episodes
-               from their start, each as long as the policy's own env runs it (to its first
-               success where that env ends an episode there, the -v0 ids; else to the step
-               limit, where the -v1 ids judge it), an episode that ends early holding its last
-               pose; smoothed over 5 steps, the poses the IK reaches under the conservative
-               limits kept
+               from their start, each to the step limit, where the env judges it (an episode
+               that ends early, by a simulation failure, holding its last pose); smoothed over
+               5 steps, the poses the IK reaches under the conservative limits kept
   commanded    the tip poses each step commanded instead (Baxter's arm lags them by ~2 cm)
   box-frame    each episode shifted by where its box started before averaging, and the replay
                by where the run's box starts: in reality as the robot's hand camera measures it
                at home (`builders.box_measurement`), in the nominal world the truth
   medoid       the one episode nearest all the others (mean tip distance, in the box frame)
                instead of their mean
-  full-length  box-frame, with the episodes recorded past their success to the 100-step limit
-               (the paper's Fetch episodes had no early end): the same as box-frame for a
-               policy whose env runs to the limit (the -v1 ids)
   centred      box-frame, moved across the push so that the tool runs through the box's centre
                line while it pushes (the mean pushes ~0.4 cm to one side)
   line-contact centred, the tool tilted about the push direction (its tip leaning away from
@@ -102,7 +97,6 @@ class Variant(NamedTuple):
     columns: slice  # the recorded tip poses: ACHIEVED or COMMANDED
     box_frame: bool = False
     medoid: bool = False
-    full_length: bool = False
     centred: bool = False
     line_contact: bool = False
 
@@ -112,7 +106,6 @@ VARIANTS = {
     "commanded": Variant(COMMANDED),
     "box-frame": Variant(COMMANDED, box_frame=True),
     "medoid": Variant(COMMANDED, box_frame=True, medoid=True),
-    "full-length": Variant(COMMANDED, box_frame=True, full_length=True),
     "centred": Variant(COMMANDED, box_frame=True, centred=True),
     "line-contact": Variant(COMMANDED, box_frame=True, line_contact=True),
 }
@@ -124,7 +117,7 @@ def _pose(X) -> np.ndarray:
 
 class _Recorder:
     """`run_episode`'s on_step: rows [achieved tip pose (7), commanded tip pose (7)] (row 0 the
-    start), the row of the first success (None: none) and the box's start (3)."""
+    start), the step of the first success (None: none) and the box's start (3)."""
 
     def __init__(self, env):
         self.env, self.rows, self.success, self.box = env.unwrapped, [], None, None
@@ -142,38 +135,29 @@ class _Recorder:
 
 
 def record(policy_dir, episodes: int):
-    """Each episode run on to the step limit (`_Recorder`'s rows, first success and box start),
-    the control period, and whether the policy's env ends an episode at its first success (its
-    protocol: the -v0 ids do; the -v1 ids run to the step limit and judge it there)."""
+    """Each episode run to the step limit (`_Recorder`'s rows, first success and box start),
+    and the control period."""
     policy, env = make_policy_env(policy_dir)
-    ends_at_success = type(env.unwrapped).ends_at_success(
-        env.spec.kwargs if env.spec is not None else {}
-    )
     recorded = []
     for ep in range(episodes):
         recorder = _Recorder(env)
-        run_episode(env, policy, ep, on_step=recorder, to_time_limit=True)
+        run_episode(env, policy, ep, on_step=recorder)
         recorded.append((np.array(recorder.rows), recorder.success, recorder.box))
     period = env.unwrapped.scenario.control.control_period
     env.close()
-    return recorded, period, ends_at_success
+    return recorded, period
 
 
-def trajectory(
-    recorded, period: float, variant: str, nominal_box: np.ndarray, ends_at_success: bool
-) -> TipTrajectory:
-    """One trajectory of the recorded episodes, in the nominal box start's frame if the
-    variant is in the box frame (see the module docstring). Each episode is cut where the
-    policy's protocol ends it (`ends_at_success`: at its first success; else at the step
-    limit), or kept to the limit (`full-length`). A -v1 policy, which is not stopped at its first
-    success, reaches it at the success threshold (the box ~18 of its 20 cm, the tip ~3 cm from
-    the box's centre) and pushes on to the goal after it: cut there, the mean push ends on the
-    threshold and half its replays stop short of it."""
-    columns, box_frame, medoid, full_length, _, _ = VARIANTS[variant]
+def trajectory(recorded, period: float, variant: str, nominal_box: np.ndarray) -> TipTrajectory:
+    """One trajectory of the recorded episodes, each to the step limit, in the nominal box
+    start's frame if the variant is in the box frame (see the module docstring). Not cut at
+    the first success: a policy reaches it at the success threshold (the box ~18 of its 20 cm,
+    the tip ~3 cm from the box's centre) and pushes on to the goal after it; cut there, the
+    mean push would end on the threshold and half its replays stop short of it."""
+    columns, box_frame, medoid, _, _ = VARIANTS[variant]
     episodes = []
-    for rows, success, box in recorded:
-        cut = ends_at_success and not full_length and success is not None
-        ep = rows[: success + 1 if cut else None, columns].copy()
+    for rows, _, box in recorded:
+        ep = rows[:, columns].copy()
         if box_frame:
             ep[:, :2] -= (box - nominal_box)[:2]
         episodes.append(ep)
@@ -237,7 +221,7 @@ def main() -> None:
 def study(args) -> None:
     """Records, builds every variant's trajectory, replays them, prints and writes the table."""
     start = time.perf_counter()
-    recorded, period, ends_at_success = record(args.policy, args.episodes)
+    recorded, period = record(args.policy, args.episodes)
     nominal_s, reality_s = load_scenario(DEFAULT_SCENARIO), load_scenario(REALITY_SCENARIO)
     nominal_box = initial_box_pose(nominal_s).translation()
     successes = sum(success is not None for _, success, _ in recorded)
@@ -263,7 +247,7 @@ def study(args) -> None:
     rows = []
     for variant, tilts, offset in specs:
         v = VARIANTS[variant]
-        base = trajectory(recorded, period, variant, nominal_box, ends_at_success)
+        base = trajectory(recorded, period, variant, nominal_box)
         if v.centred:
             base = centred(base, push_direction, nominal_box, box_size)
         for tool in args.tools:

@@ -1,4 +1,4 @@
-"""The scripted pull (`tasks.pull.scripted.ScriptedPull`) on drake_tooluse/ToolPull-v0: its
+"""The scripted pull (`tasks.pull.scripted.ScriptedPull`) on drake_tooluse/ToolPull-v1: its
 success rate and final cube–goal distance over N seeded episodes (seeds 0 … N−1), each with
 a hook drawn from HookTool's ranges and a randomized start, judged at the step limit.
 
@@ -36,7 +36,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.episodes < 1:
         ap.error(f"--episodes={args.episodes} must be at least 1")
-    env = gym.make("drake_tooluse/ToolPull-v0")
+    env = gym.make("drake_tooluse/ToolPull-v1")
     start = time.perf_counter()
     infos = [run_episode(env, args.seed + i) for i in range(args.episodes)]
     seconds = time.perf_counter() - start
@@ -44,7 +44,7 @@ def main() -> None:
     success = np.array([i["is_success"] for i in infos])
     final = np.array([i["object_to_goal"] for i in infos])
     travel = np.array([i["object_travel"] for i in infos])
-    print(f"ScriptedPull on ToolPull-v0, seeds {args.seed}…{args.seed + args.episodes - 1}\n")
+    print(f"ScriptedPull on ToolPull-v1, seeds {args.seed}…{args.seed + args.episodes - 1}\n")
     print("| episodes | success rate | final cube–goal mean (m) | median (m) | travel mean (m) |")
     print("| --- | --- | --- | --- | --- |")
     print(

@@ -30,15 +30,13 @@ from drake_tooluse.experiments.transfer import check_transfer_args, run_transfer
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.paths import POLICIES_DIR
-from drake_tooluse.tasks.push.registration import ENV_IDS, LEGACY_ENV_IDS
+from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
 from drake_tooluse.validation import check_int, check_seed
-
-PUSH_ENV_IDS = {**ENV_IDS, **LEGACY_ENV_IDS}
 
 ROOT = Path(__file__).resolve().parent.parent
 POLICIES = ("ppo_toolpush_tip", "ppo_toolpush", "ppo_toolpush_paper_action")
 # The paper's task whatever the policy trained over (its other env kwargs stand: the action
-# and observation modes, and `bound_joint_speed`, which is part of how the arm moves).
+# and observation modes).
 PAPER_TASK = {"tool_length_range": None, "actuation_delay_range": None}
 SIM_DISTANCE_GOAL = 0.03  # m
 SIM_SUCCESS_GOAL = 0.80

@@ -41,31 +41,6 @@ IK_ATTEMPTS = 1
 HOME_IK_ATTEMPTS = 16
 
 
-@dataclass(frozen=True)
-class ControlBehaviour:
-    """How a policy's action reaches the joints. The defaults are the one behaviour of every
-    task's `-v1` env and of its deployed diagram:
-
-    - `max_joint_speed` (7, rad/s): the joint targets move at most at Baxter's rated joint
-      speeds (`V_MAX`), so that no action flings the arm through the table;
-    - `continuous_quaternion`: a `position_quaternion` action is added to the tip quaternion
-      taken in the initial one's hemisphere, not with Drake's sign, which jumps at this
-      scene's home orientation (`systems.tip_target`);
-    - `target_from_observed_state`: the target moves from the arm state the policy observed,
-      not from the plant's state one plant step later (`ToolTipIKSystem`).
-
-    `BEHAVIOUR_V0` is the earlier behaviour, which the `-v0` ids keep only so that the policies
-    trained on them still run as they were trained."""
-
-    max_joint_speed: tuple | None = tuple(V_MAX)
-    continuous_quaternion: bool = True
-    target_from_observed_state: bool = True
-
-
-BEHAVIOUR_V1 = ControlBehaviour()
-BEHAVIOUR_V0 = ControlBehaviour(None, False, False)
-
-
 @dataclass
 class TipControl:
     target: TipTargetSystem | None  # None under trajectory control
@@ -187,14 +162,16 @@ def add_tip_control(
     action_mode: str,
     home=None,
     workspace=None,
-    behaviour: ControlBehaviour = BEHAVIOUR_V1,
 ) -> TipControl:
     """Adds the tip target, the IK system and the joint command, connected to the world's
     plant. The target moves the IK's frame; `position` actions hold the orientation of `home`
     (X_WF; default `home_tip_pose`), and the target stays in `workspace` (default
     `Workspace.above_table`). The target's `action` input is left for the caller to connect.
-    `behaviour`: how the action reaches the joints (`ControlBehaviour`; default the `-v1`
-    envs')."""
+
+    The joint targets move at most at Baxter's rated joint speeds (`V_MAX`), so that no
+    action flings the arm through the table, and the IK solves in the plant's update batch, so
+    that the target moves from the arm state the policy observed, not from the plant's state
+    one plant step later (`ToolTipIKSystem`)."""
     s = world.scenario
     target = builder.AddNamedSystem(
         "tip_target",
@@ -203,7 +180,6 @@ def add_tip_control(
             ik.chain,
             pose_to_vector(home_tip_pose(s) if home is None else home),
             Workspace.above_table(s.table.top_z) if workspace is None else workspace,
-            behaviour.continuous_quaternion,
         ),
     )
     builder.Connect(
@@ -212,13 +188,7 @@ def add_tip_control(
     control = TipControl(target, ik, np.asarray(q0, float))
     control.ik_system = builder.AddNamedSystem(
         "tool_tip_ik",
-        ToolTipIKSystem(
-            ik,
-            q0,
-            s.control.control_period,
-            behaviour.max_joint_speed,
-            behaviour.target_from_observed_state,
-        ),
+        ToolTipIKSystem(ik, q0, s.control.control_period, V_MAX, solve_before_plant_step=True),
     )
     builder.Connect(
         target.GetOutputPort("tip_pose_desired"), control.ik_system.GetInputPort("tip_pose_desired")
@@ -228,7 +198,7 @@ def add_tip_control(
         world,
         control.ik_system.GetOutputPort("desired_state"),
         control,
-        updated_before_plant=behaviour.target_from_observed_state,
+        updated_before_plant=True,
     )
     return control
 

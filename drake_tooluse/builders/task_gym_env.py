@@ -77,9 +77,6 @@ class CountedClockGymEnv(DrakeGymEnv):
     action never acts (docs/CLOCK.md). An env made the Drake way (a reward port, a monitor,
     DrakeGymEnv's `step`) subclasses this in its place."""
 
-    # The -v0 envs' summed clock, kept only while policies trained on it are shipped.
-    DRIFTING_CLOCK = False
-
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         self._steps_done = 0
         return super().reset(seed=seed, options=options)
@@ -87,8 +84,6 @@ class CountedClockGymEnv(DrakeGymEnv):
     def _next_step_time(self) -> float:
         """The time the next step ends at (the step is counted)."""
         self._steps_done += 1
-        if self.DRIFTING_CLOCK:
-            return self.simulator.get_context().get_time() + self.time_step
         return self._steps_done * self.time_step
 
     def step(self, action):

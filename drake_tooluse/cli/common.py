@@ -184,6 +184,17 @@ def choice_arg(value, allowed, option: str, what: str):
     return value
 
 
+def env_arg(value, option: str) -> str:
+    """An env id option: a registered id (an earlier version of one is refused naming the git
+    tag that runs it)."""
+    from drake_tooluse.tasks.contract import check_env_id
+
+    try:
+        return check_env_id(value)
+    except ValueError as e:
+        raise UsageError(f"{option}: {e}") from None
+
+
 def policy_dir_arg(path, option: str = "--policy") -> Path:
     """A policy directory option: a directory holding policy.json (either format has it; the
     library checks the rest when it loads it), checked before torch is imported."""

@@ -15,6 +15,7 @@ from drake_tooluse.cli.common import (
     add_trust_pickle_arg,
     choice_arg,
     count_arg,
+    env_arg,
     open_meshcat,
     output_dir_arg,
     parse_json_arg,
@@ -60,7 +61,7 @@ def cmd_train(args) -> dict:
     if args.algo is not None:
         choice_arg(args.algo, ALGOS, "--algo", "algorithm")
     if args.env is not None:
-        choice_arg(args.env, task_env_ids(), "--env", "env")
+        env_arg(args.env, "--env")
     saved = saved_timesteps(out_dir) if args.resume is not None else None
     timesteps = args.timesteps if args.timesteps is not None else saved or DEFAULT_TIMESTEPS
     count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
@@ -237,7 +238,7 @@ def format_train(out: dict) -> str:
 def cmd_evaluate(args) -> dict:
     policy_dir_arg(args.policy, "--policy")
     if args.env is not None:
-        choice_arg(args.env, task_env_ids(), "--env", "env")
+        env_arg(args.env, "--env")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
@@ -444,7 +445,7 @@ def cmd_sweep(args) -> dict:
     for algo in args.algos or []:
         choice_arg(algo, ALGOS, "--algos", "algorithm")
     for env in args.envs or []:
-        choice_arg(env, task_env_ids(), "--envs", "env")
+        env_arg(env, "--envs")
     seeds = [0] if args.seeds is None else args.seeds
     for seed in seeds:
         seed_arg(seed, "--seeds")
@@ -555,9 +556,9 @@ def add_parsers(sub) -> None:
     p.add_argument(
         "--to-time-limit",
         action="store_true",
-        help="run each episode to its 100-step limit and judge it where it ends, also in an "
-        "env made with end_at_success (default: as the env runs; the push envs run to the "
-        "limit unless end_at_success)",
+        help="run each episode on past a termination to its step limit and judge it where it "
+        "ends, for an env that terminates (the project's envs never do: their episodes run to "
+        "the limit either way)",
     )
     p.add_argument(
         "--no-progress",

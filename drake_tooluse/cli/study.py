@@ -55,7 +55,6 @@ def cmd_study(args) -> dict:
         raise UsageError(f"--archive-every {args.archive_every}: seconds in (0, 604800]")
     from drake_tooluse.experiments.paper_study_cells import (
         check_cell_names,
-        check_protocols,
         unreported,
     )
 
@@ -65,7 +64,6 @@ def cmd_study(args) -> dict:
     why_no_report = None if args.no_report else unreported(cells)
     if why_no_report and args.update_docs:  # the docs' page is the paper's
         raise UsageError(f"--update-docs: {why_no_report}")
-    check_protocols(cells)
     from drake_tooluse.experiments.paper_study import (
         ARCHIVE_EVERY,
         Study,

@@ -16,14 +16,14 @@ holds the initial one). The expert's action is then
 
 q_0 the episode's initial tip quaternion, q(s) the tip's, of the robot model at the observed
 joint angles, in q_0's hemisphere: the change that turns the tip back to its initial
-orientation in one step, as far as one step's change reaches. That needs the env's
-`continuous_quaternion` (with Drake's sign, which jumps at the home orientation, the same
-change turns the tip either way), which the student's env kwargs set, and
-`target_from_observed_state` (set unless the env kwargs say otherwise): without it the target
-moves from the orientation one plant step after the observed one, and the change back turns
-the tip on by what it turned in that step (the expert then reaches the goal of the paper's task
-in 69 % of 100 episodes, where the teacher with the position action reaches about 90 %;
-benchmarks/distill_gap.py shows an expert beside its student).
+orientation in one step, as far as one step's change reaches. That holds because the env keeps
+the quaternion in q_0's hemisphere (with Drake's sign, which jumps at the home orientation, the
+same change would turn the tip either way) and moves the target from the observed state
+(`builders.control.add_tip_control`): from the state one plant step later, the change back
+would turn the tip on by what it turned in that step (at git tag figures-v0, whose envs did so,
+the expert reached the goal of the paper's task in 69 % of 100 episodes, where the teacher with
+the position action reached about 90 %; benchmarks/distill_gap.py shows an expert beside its
+student).
 
 Round 0 runs the expert (every other episode with Gaussian noise on its actions, so the data
 hold recoveries), each later round the student; after each round the student's actor (its
@@ -50,7 +50,6 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 from drake_tooluse.files import read_json, to_json
 from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
-from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
 STUDENT_MODES = ("position", "position_quaternion")
@@ -105,22 +104,11 @@ def _observes_paper(policy) -> bool:
     return policy.meta.env_kwargs.get("observation_mode", "gripper_joints") == "gripper_joints"
 
 
-def _takes_legacy_options(env_id: str) -> bool:
-    """Whether `env_id`'s env takes the -v0 ids' options (`tasks.push.legacy`)."""
-    config = getattr(env_class(env_id), "CONFIG", None)
-    return config is not None and "continuous_quaternion" in {f.name for f in dc.fields(config)}
-
-
 def student_of(teacher, config: DistillConfig, command: str):
     """The student's model and meta: the teacher's network (action head widened, the new
     outputs zero) where it observes the paper's values, else a fresh one of its kwargs."""
     env_kwargs = {**teacher.meta.env_kwargs, **config.env_kwargs}
     env_kwargs.update(action_mode=config.action_mode, observation_mode="gripper_joints")
-    if config.action_mode == "position_quaternion" and _takes_legacy_options(teacher.meta.env_id):
-        # A -v0 env (the -v1 envs always do both): the quaternion in one hemisphere, and the
-        # label's change is from the observed orientation, so the target must move from it.
-        env_kwargs["continuous_quaternion"] = True
-        env_kwargs.setdefault("target_from_observed_state", True)
     meta = dc.replace(
         teacher.meta,
         env_kwargs=env_kwargs,
@@ -161,7 +149,7 @@ class Expert:
         move = action_mean(self._teacher, seen)
         if not self._turns:
             return move
-        target = env.target_system  # the env's continuous_quaternion signs q as q0
+        target = env.target_system  # it signs q in q0's hemisphere
         q0, q = target.initial_quaternion, target.quaternion_at(observation[JOINTS])
         return np.concatenate([move, np.clip((q0 - q) / MAX_QUATERNION_STEP, -1.0, 1.0)])
 

@@ -3,14 +3,14 @@
 
 Each run is a `drake-tooluse train` command (continued with `train --resume` when a run was
 stopped), its best policy evaluated with `drake-tooluse evaluate` over the study's seeded
-episodes (100, seeds 1000-1099) twice: in the cell's protocol, and run on to the 100-step limit
-(`--to-time-limit`: where the box ends, the paper's protocol). The runs are commands on this
+episodes (100, seeds 1000-1099), each run to its 100-step limit and judged where the box ends
+(the paper's protocol; stored twice, as `evaluate_best` and, with `--to-time-limit`,
+`evaluate_best_time_limit`, the key the report reads). The runs are commands on this
 machine, N at a time (`learning.jobs`).
 
 Re-running it picks up every run where it stopped: a finished run is not trained again, a
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
-goes on. A run whose settings are not its cell's (a cell redefined; env kwargs compared under
-today's mode names, `tasks.push.legacy.current_kwargs`) is refused, not reused. The results are
+goes on. A run whose settings are not its cell's (a cell redefined) is refused, not reused. The results are
 written atomically after every run. The run directories do not outlive the machine, so each
 run's small files are archived (`archive_run`: config, summary, best policy, progress.csv,
 evaluations; while it trains, every `archive_every` its latest checkpoint too, unless a replay
@@ -45,14 +45,13 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
-from drake_tooluse.experiments.paper_study_cells import EARLY_END, StudyFiles, check_cell_names
+from drake_tooluse.experiments.paper_study_cells import StudyFiles, check_cell_names
 from drake_tooluse.experiments.runs import stderr_log
 from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_lock
 from drake_tooluse.learning.figures import format_figures
 from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
 from drake_tooluse.learning.task_envs import episode_metrics
 from drake_tooluse.progress import progress_bar
-from drake_tooluse.tasks.push.legacy import current_kwargs
 from drake_tooluse.validation import check_int
 
 # What of a run directory is archived (TensorBoard's events and `final/` are not: the report
@@ -89,11 +88,6 @@ def run_dir(runs_dir: Path, cell: str, seed: int) -> Path:
     return Path(runs_dir) / cell / f"s{seed}"
 
 
-def protocol_env_kwargs(spec: dict) -> dict:
-    """The env kwargs of the cell's protocol (the early end, or none: the envs' default)."""
-    return {} if spec.get("protocol") == "to-limit" else EARLY_END
-
-
 def train_command(cells: dict, cell: str, seed: int, runs_dir: Path, resume: bool) -> list[str]:
     c = cells[cell]
     out = run_dir(runs_dir, cell, seed)
@@ -102,15 +96,13 @@ def train_command(cells: dict, cell: str, seed: int, runs_dir: Path, resume: boo
     cmd += ["--resume" if resume else "--out", str(out)]
     if "hyperparams" in c:
         cmd += ["--hyperparams", json.dumps(c["hyperparams"])]
-    if protocol_env_kwargs(c):
-        cmd += ["--env-kwargs", json.dumps(protocol_env_kwargs(c))]
     if "init_from" in c:
         cmd += ["--init-from", str(run_dir(runs_dir, c["init_from"], seed) / "best")]
     return cmd
 
 
-# Each run's best policy is evaluated twice: in its cell's protocol, and run on to the 100-step
-# limit, judged where the box ends (the paper's protocol; the same for a "to-limit" cell).
+# Each run's best policy is evaluated twice, both to the 100-step limit (the -v1 envs end no
+# episode early): the results of the -v0 study, whose cells could end early, had both keys.
 # result key -> (key of its command, extra arguments)
 EVALUATIONS = {
     "evaluate_best": ("evaluate_command", []),
@@ -308,9 +300,7 @@ def train_and_archive(
 
 def settings_differ(cells: dict, out: Path, cell: str, seed: int) -> str | None:
     """How the run in `out` (its config.json) was trained other than the cell asks, or None:
-    a cell redefined must not reuse (or resume) runs of its old definition. Env kwargs are
-    compared under today's mode names (a run trained before a mode was renamed stored its old
-    name)."""
+    a cell redefined must not reuse (or resume) runs of its old definition."""
     path = out / "config.json"
     if not path.is_file():
         return None
@@ -322,16 +312,8 @@ def settings_differ(cells: dict, out: Path, cell: str, seed: int) -> str | None:
     ]
     for key, want in c.get("hyperparams", {}).items():
         have = saved.get("hyperparams", {}).get(key)
-        if key == "env_kwargs" and isinstance(have, dict) and isinstance(want, dict):
-            try:
-                have, want = current_kwargs(have), current_kwargs(want)
-            except ValueError as e:  # a retired setting: that run cannot be this cell's
-                differences.append(f"{key}: {e}")
-                continue
         if have != want:
-            differences.append(
-                f"{key} {saved.get('hyperparams', {}).get(key)!r} (the cell: {want!r})"
-            )
+            differences.append(f"{key} {have!r} (the cell: {want!r})")
     source = saved.get("init_from")
     if "init_from" in c and (
         source is None or Path(source).parts[-3:-1] != (c["init_from"], f"s{seed}")
@@ -381,10 +363,7 @@ def run_one(study: Study, cell: str, seed: int, results: dict) -> dict:
         if entry.get("train") == summary and "per_episode" in entry.get(key, {}):
             result[command_key], result[key] = entry.get(command_key), entry[key]  # done
             continue
-        protocol = protocol_env_kwargs(c) if not extra else {}
         cmd = evaluate_command(out / "best", c["env"], study.episodes, study.evaluation_seed, extra)
-        if protocol:
-            cmd += ["--env-kwargs", json.dumps(protocol)]
         finished = study.commands.run(cmd)
         if finished.returncode != 0:
             error = last_line(finished)

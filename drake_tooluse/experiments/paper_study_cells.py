@@ -12,15 +12,15 @@ from pathlib import Path
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
-from drake_tooluse.learning.task_envs import check_env_kwargs
 from drake_tooluse.paths import PAPER_STUDY_CELLS
 from drake_tooluse.tasks.contract import check_serves, declaration
 from drake_tooluse.validation import check_int, check_mapping, check_one_of, check_seed, shown
 
 RESULTS_NAME = "paper_study.json"
 ARCHIVE_NAME = "paper_study"  # each run's small files: CELL/sSEED/
-PROTOCOLS = ("to-limit", "early-end")
-EARLY_END = {"end_at_success": True}  # the env kwargs of the "early-end" protocol
+# Every episode runs to its step limit (the -v1 envs' only protocol). The -v0 envs' "early-end"
+# protocol stays at tag figures-v0.
+PROTOCOLS = ("to-limit",)
 CELL_KEYS = ("env", "algo", "timesteps", "seeds", "hyperparams", "protocol", "init_from")
 DEFAULT_OUT = Path("runs") / "study"
 MAX_SEEDS = 1000
@@ -116,27 +116,16 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
         if len(set(c["seeds"])) != len(c["seeds"]):
             raise ValueError(f"{at}: seeds={c['seeds']} repeats a seed")
         check_mapping(c.get("hyperparams"), f"{at}: hyperparams")
-        check_one_of(c.get("protocol", "early-end"), PROTOCOLS, f"{at}: protocol")
+        if c.get("protocol") == "early-end":
+            raise ValueError(
+                f"{at}: protocol early-end was the -v0 envs' (tag figures-v0); every episode of "
+                "the -v1 envs runs to its step limit: give protocol: to-limit, or none"
+            )
+        check_one_of(c.get("protocol", "to-limit"), PROTOCOLS, f"{at}: protocol")
         source = c.get("init_from")
         if source is not None and (source not in cells or source == name):
             raise ValueError(f"{at}: init_from={shown(source)} must name another cell")
     return cells, episodes, seed
-
-
-def check_protocols(cells: dict) -> None:
-    """Each "early-end" cell's env ends an episode at its first success when asked
-    (EARLY_END); else an error naming the cell. It imports the envs' modules (Drake): the
-    command line checks its arguments first."""
-    for name, c in cells.items():
-        if c.get("protocol", "early-end") != "early-end":
-            continue
-        try:
-            check_env_kwargs(c["env"], EARLY_END)
-        except ValueError:
-            raise ValueError(
-                f"cell {name!r}: protocol early-end (the default): {c['env']} ends no episode "
-                "at its first success; give the cell protocol: to-limit"
-            ) from None
 
 
 def check_cell_names(cells: dict, names) -> None:

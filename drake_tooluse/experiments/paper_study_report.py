@@ -132,9 +132,8 @@ def label(spec: dict) -> str:
 
 
 def paper_figure(spec: dict) -> float | None:
-    """The paper's figure (cm) that the cell stands beside: its algorithm's, in the paper's
-    protocol only (a cell trained with the early end was taught to stop at the success)."""
-    return PAPER_CM.get(spec["algo"]) if spec.get("protocol") == "to-limit" else None
+    """The paper's figure (cm) that the cell stands beside: its algorithm's."""
+    return PAPER_CM.get(spec["algo"])
 
 
 def against_paper(stats: dict, paper: float) -> str:
@@ -432,19 +431,13 @@ machine (2 cores, shared with other work: a run's wall time moves with what runs
 {costs}"""
 
 
-def _protocol(cells: dict) -> str:
-    """The page's protocol bullet: the paper's, and the cells trained otherwise."""
-    early = [cell for cell, c in cells.items() if c.get("protocol") != "to-limit"]
+def _protocol() -> str:
+    """The page's protocol bullet: the paper's, the -v1 envs' only one."""
     text = (
-        f"- **Protocol:** the paper's. Every episode runs to its {MAX_EPISODE_STEPS}-step limit and is judged "
-        "where the box ends, in training and in every figure here: a policy must push the box "
-        "to the goal and hold it there."
+        f"- **Protocol:** the paper's. Every episode runs to its {MAX_EPISODE_STEPS}-step limit "
+        "and is judged where the box ends, in training and in every figure here: a policy must "
+        "push the box to the goal and hold it there."
     )
-    if early:
-        text += (
-            f" Trained with an early end at the first success (judged as the rest): "
-            f"{', '.join(f'`{c}`' for c in early)}; no paper figure stands beside them."
-        )
     return textwrap.fill(text, 100, subsequent_indent="  ")
 
 
@@ -496,7 +489,7 @@ def training_page(results: dict, cells: dict, files: StudyFiles) -> str:
     return HEADER.format(
         earlier=EARLIER,
         envs=", ".join(f"`{e}`" for e in dict.fromkeys(c["env"] for c in cells.values())),
-        protocol=_protocol(cells),
+        protocol=_protocol(),
         commit=_commit(results, cells),
         reps=f"{BOOTSTRAP_REPS:,}",
         table=study_table(results, cells),

@@ -154,7 +154,7 @@ class LearnedPolicy:
 
 class ScriptedPolicy:
     """A task's scripted reference (`tasks.contract.scripted_reference`), on the control of
-    `env_id` (a -v1 id of the task)."""
+    `env_id` (one of the task's ids)."""
 
     def __init__(self, env_id: str):
         scripted_reference(env_id, 0.0)  # a task that declares none fails here

@@ -36,7 +36,7 @@ def record_video(
     progress: bool = False,
 ) -> dict:
     """Runs one deterministic episode of the policy in `policy_dir` from `reset(seed=seed)`
-    (to the step limit, or to its success for a policy trained to end there, as `evaluate`)
+    (to its step limit, as `evaluate`)
     and writes it to `out` (.gif). `env_kwargs` go over the policy's own (e.g. `render_size`,
     `render_camera_position`, `render_camera_target`); `render_mode` is "rgb_array". Returns
     the file, its frames and size, and the episode's figures (the task's metrics).
@@ -48,7 +48,6 @@ def record_video(
     kwargs = {**(env_kwargs or {}), "render_mode": "rgb_array"}
     policy, env = make_policy_env(policy_dir, env_kwargs=kwargs, trust_pickle=trust_pickle)
     task_env = type(env.unwrapped)
-    to_time_limit = not task_env.ends_at_success(env.spec.kwargs if env.spec else {})
     frames = []
     limit = env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else None
     bar = progress_bar(limit, "steps", "step", enabled=progress)  # (a terminal's stderr only)
@@ -60,7 +59,7 @@ def record_video(
 
     try:
         with bar:
-            info, steps = run_episode(env, policy, seed, on_step=keep, to_time_limit=to_time_limit)
+            info, steps = run_episode(env, policy, seed, on_step=keep)
         if steps % every:  # the last state always shown
             frames.append(env.render())
         fps = env.unwrapped.metadata.get("render_fps", 25) / every

@@ -27,8 +27,8 @@ class EvalResult:
     sim_errors: int = 0
     # Per flag of the task's `PHYSICAL_LIMITS`: the episodes in which any step was past it.
     flagged_episodes: dict = field(default_factory=dict)
-    # Each episode ran to its step limit and was judged where it ended: the env runs to its
-    # limit, or `to_time_limit` ran it on past an early end at success (see `run_episode`).
+    # Each episode ran to its step limit (or its simulation failure) and was judged where it
+    # ended: no episode terminated, or `to_time_limit` ran each on past it (`run_episode`).
     to_time_limit: bool = False
     per_episode: list = field(default_factory=list)
 
@@ -84,10 +84,10 @@ def make_policy_env(
 
 def run_episode(env, policy, seed: int, on_step=None, to_time_limit: bool = False):
     """One deterministic episode of `policy` from `env.reset(seed=seed)` until it terminates
-    (the box at the goal) or is truncated — with `to_time_limit`, on past the success until it
-    is truncated (the step limit, or a simulation failure), as a protocol without an early end
-    measures where the box ends. `on_step(step, info)` is called after the reset (step 0) and
-    after each step. Returns the last info and the number of steps."""
+    or is truncated (the step limit, or a simulation failure) — with `to_time_limit`, on past a
+    termination until it is truncated, for an env that terminates (the project's envs do not:
+    their episodes run to the step limit). `on_step(step, info)` is called after the reset
+    (step 0) and after each step. Returns the last info and the number of steps."""
     obs, info = env.reset(seed=seed)
     if on_step is not None:
         on_step(0, info)
@@ -116,7 +116,7 @@ def evaluate(
 ) -> EvalResult:
     """Runs the policy deterministically for `episodes` episodes, seeds seed, seed+1, …; an
     episode the simulation failed in counts as a failure and in `sim_errors`. With
-    `to_time_limit` each episode runs on past its success to the step limit and is judged
+    `to_time_limit` each episode runs on past a termination to the step limit and is judged
     where it ends (`run_episode`). With `progress`, a bar of the episodes (and the success so
     far) on stderr, when stderr is a terminal."""
     check_int(episodes, 1, 1_000_000, "episodes")
@@ -125,8 +125,7 @@ def evaluate(
     task_env = type(env.unwrapped)
     task_metrics = task_env.EPISODE_METRICS
     limits = task_env.PHYSICAL_LIMITS
-    kwargs = env.spec.kwargs if env.spec is not None else {}
-    to_time_limit = to_time_limit or not task_env.ends_at_success(kwargs)
+    limit = env.spec.max_episode_steps if env.spec is not None else None
     rows = []
     bar = progress_bar(episodes, "episodes", "ep", progress)
     try:
@@ -161,6 +160,6 @@ def evaluate(
         metrics=metrics,
         sim_errors=sum(r["sim_error"] for r in rows),
         flagged_episodes={lim.flag: sum(r[lim.flag] for r in rows) for lim in limits},
-        to_time_limit=bool(to_time_limit),
+        to_time_limit=to_time_limit or all(r["length"] == limit or r["sim_error"] for r in rows),
         per_episode=rows,
     )

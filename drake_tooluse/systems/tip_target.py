@@ -14,10 +14,9 @@ The target position is kept inside a workspace box above the table (clipped, see
 `position_quaternion` adds its change to the quaternion of the tip's current orientation. q and
 -q are the same orientation, and Drake's `RotationMatrix.ToQuaternion` picks the sign by the
 largest component: for this scene's home tip orientation, w ≈ 0 = (0, ±0.707, ±0.707, 0), the
-sign jumps from one step to the next, and the same action turns the tip one way or the other.
-`continuous_quaternion` takes the quaternion in the hemisphere of the initial target's instead
-(as a mocap body's stored quaternion, which the paper's Fetch env moved, is continuous); off,
-the sign is Drake's (the earlier study and policies).
+sign jumps from one step to the next, and the same action would turn the tip one way or the
+other. The quaternion is therefore taken in the hemisphere of the initial target's (as a mocap
+body's stored quaternion, which the paper's Fetch env moved, is continuous).
 """
 
 from __future__ import annotations
@@ -141,8 +140,8 @@ class TipTargetSystem(LeafSystem):
             `robot.kinematics`).
     Output ports:
         tip_pose_desired: [p_WT (3, m), quaternion wxyz (4)] — the current tip pose moved by
-            the action (`position` mode holds the initial orientation instead).
-    `continuous_quaternion`: see the module docstring.
+            the action (`position` mode holds the initial orientation instead); its
+            quaternion is in the initial target's hemisphere (the module docstring).
     """
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS
@@ -153,11 +152,9 @@ class TipTargetSystem(LeafSystem):
         chain: ArmChain,
         initial_target: np.ndarray,
         workspace: Workspace,
-        continuous_quaternion: bool = False,
     ):
         super().__init__()
         self._mode = mode
-        self._continuous_quaternion = continuous_quaternion
         self._workspace = workspace
         self._chain = chain
         # The forward kinematics' outputs (R_WT, p_WT, J), reused: `ArmChain.pose` would
@@ -212,9 +209,8 @@ class TipTargetSystem(LeafSystem):
         return self._signed(RotationMatrix.MakeUnchecked(R_WT).ToQuaternion().wxyz())
 
     def _signed(self, quat: np.ndarray) -> np.ndarray:
-        """`quat` (Drake's sign), or with `continuous_quaternion` the same orientation in the
-        initial target's hemisphere."""
-        if self._continuous_quaternion and quat.dot(self._held_quaternion) < 0.0:
+        """`quat` (Drake's sign) as the same orientation in the initial target's hemisphere."""
+        if quat.dot(self._held_quaternion) < 0.0:
             return -quat
         return quat
 

@@ -51,9 +51,9 @@ class ToolTipIKSystem(LeafSystem):
     the plant's own step (a MultibodyPlant with sampled output ports steps in an unrestricted
     update, and Drake applies those before the discrete updates due at the same time), so what
     it reads of the plant, through `tip_pose_desired`, is the state at the start of the step,
-    the one a policy observed at the end of the last control period. Default False (a discrete
-    update, as the earlier policies were trained): it reads the plant's state one plant step
-    later.
+    the one a policy observed at the end of the last control period (tool-tip control). Default
+    False: a discrete update, which would read the plant's state one plant step later
+    (trajectory control, whose targets read no state).
     """
 
     DoGetWitnessFunctions = NO_WITNESS_FUNCTIONS

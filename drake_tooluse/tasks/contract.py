@@ -34,10 +34,14 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
-from gymnasium.envs.registration import load_env_creator
+from gymnasium.envs.registration import load_env_creator, parse_env_id
 
 # Every env id of the project lives in this Gymnasium namespace.
 ENV_NAMESPACE = "drake_tooluse"
+# The env versions no longer registered, each with the git tag whose code runs it and
+# reproduces the figures made with it (an env's behaviour changes with its version, never by an
+# option: the old figures stay at their tag).
+RETIRED_VERSIONS = {0: "figures-v0"}
 
 
 # What each command needs of a task beyond the contract (an env class following `TaskEnv`:
@@ -155,9 +159,32 @@ def task_env_ids() -> list[str]:
 
 
 def check_env_id(env_id) -> str:
-    if not isinstance(env_id, str) or env_id not in task_env_ids():
-        raise ValueError(f"unknown env {env_id!r}; choose one of {task_env_ids()}")
-    return env_id
+    """`env_id`, registered; else a ValueError naming it and the registered ids or, for an
+    earlier version of a registered id, the git tag that runs it."""
+    ids = task_env_ids()
+    if isinstance(env_id, str) and env_id in ids:
+        return env_id
+    retired = retired_version(env_id) if isinstance(env_id, str) else None
+    if retired is not None:
+        tag, current = retired
+        raise ValueError(
+            f"{env_id!r} is an earlier version of {current!r}, no longer registered: it and its "
+            f"figures are reproducible at git tag {tag} (git checkout {tag})"
+        )
+    raise ValueError(f"unknown env {env_id!r}; choose one of {ids}")
+
+
+def retired_version(env_id: str) -> tuple[str, str] | None:
+    """(the git tag that runs it, the registered id of its env) where `env_id` is an earlier
+    version of a registered id (`RETIRED_VERSIONS`), else None."""
+    try:
+        namespace, name, version = parse_env_id(env_id)
+    except gym.error.Error:
+        return None
+    if namespace != ENV_NAMESPACE or version not in RETIRED_VERSIONS:
+        return None
+    current = [i for i in task_env_ids() if parse_env_id(i)[:2] == (namespace, name)]
+    return (RETIRED_VERSIONS[version], current[-1]) if current else None
 
 
 def env_class(env_id: str) -> type[TaskEnv]:
@@ -290,12 +317,6 @@ class TaskEnv:
         """The env's keyword arguments, checked (names and values) without building it: an
         unknown name or a bad value is a ValueError naming it. Returns them as a dict."""
         raise NotImplementedError
-
-    @classmethod
-    def ends_at_success(cls, kwargs) -> bool:
-        """Whether an episode of the env these keyword arguments make terminates at its
-        first success (else it runs to its step limit and is judged where it ends)."""
-        return False
 
     @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:

@@ -42,9 +42,6 @@ class PolicyDiagram:
     task: object  # the task's parts (`tasks.contract.GoalTaskParts`)
     policy_system: PolicySystem
     visualizer: object = None
-    # The policy's env ends its episodes at success (the -v0 ids' `end_at_success`): its runs
-    # end there too; else they run to their step limit.
-    end_at_success: bool = False
 
     @property
     def world(self):
@@ -101,15 +98,12 @@ def build_policy_diagram(
     visualizer = _add_views(builder, task, scenario, meshcat, scene_camera)
     diagram = builder.Build()
     diagram.set_name("policy_control")
-    return PolicyDiagram(
-        diagram, task, policy_system, visualizer, end_at_success=env.ends_at_success(kwargs)
-    )
+    return PolicyDiagram(diagram, task, policy_system, visualizer)
 
 
 def _run(built: PolicyDiagram, max_steps: int, record: bool, on_step, act=None) -> Rollout:
     """The one rollout of a deployed diagram (`act` fed each step, or its policy inside), to
-    its step limit or, for a policy trained with the early end, its first success; recorded
-    where `record` and it has a visualizer."""
+    its step limit; recorded where `record` and it has a visualizer."""
     task = built.task
     run = roll_out(
         built.diagram,
@@ -118,7 +112,6 @@ def _run(built: PolicyDiagram, max_steps: int, record: bool, on_step, act=None) 
         task.outcome.reader,
         max_steps,
         act=act,
-        stop_at_success=built.end_at_success,
         visualizer=built.visualizer if record else None,
         on_step=on_step,
     )
@@ -131,8 +124,7 @@ def run_policy(
     built: PolicyDiagram, max_steps: int = MAX_STEPS, record: bool = False, on_step=None
 ) -> Rollout:
     """Runs the policy diagram from its default state for `max_steps`, judged where the object
-    ends (the envs' protocol), or until its first success for a policy trained with the early
-    end; recorded if `record` and the diagram has a visualizer. `on_step(step)` is called
+    ends (the envs' protocol); recorded if `record` and the diagram has a visualizer. `on_step(step)` is called
     after each control step (progress displays)."""
     return _run(built, max_steps, record, on_step)
 

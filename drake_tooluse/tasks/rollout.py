@@ -95,12 +95,11 @@ def roll_out(
     reader,
     max_steps: int,
     act=None,
-    stop_at_success: bool = False,
     visualizer=None,
     on_step=None,
 ) -> Rollout:
     """Simulates `diagram` (holding `world` and its `control`) from its default state for
-    `max_steps` control periods, or until the task first succeeds if `stop_at_success`. With
+    `max_steps` control periods (the envs' protocol: judged where the object ends). With
     `act` (observation → action), each step's action is `act` of the diagram's `observation`
     output, fixed on its `action` input; without, the diagram holds its policy. `reader` reads
     the task's metrics (`read(plant_context, goal, start)`) against the world scenario's goal
@@ -160,8 +159,6 @@ def roll_out(
             on_step(step)
         if metrics.is_success and run.first_success_step is None:
             run.first_success_step = step
-            if stop_at_success:
-                break
     run.tool_path, run.object_path = np.array(tools), np.array(objects)
     if diagram.HasOutputPort("color_image") and run.error is None:
         run.final_image = diagram.GetOutputPort("color_image").Eval(root).data.copy()

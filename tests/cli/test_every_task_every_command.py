@@ -216,10 +216,10 @@ def test_every_tasks_figures_print_in_words_with_units():
     )
 
 
-def test_an_early_end_cell_of_an_env_that_never_ends_early_is_refused(tmp_path, capsys):
+def test_an_early_end_cell_is_refused_as_the_v0_envs_protocol(tmp_path, capsys):
     cells = tmp_path / "cells.yaml"
-    cells.write_text(PULL_CELLS.replace("    protocol: to-limit\n", ""))
+    cells.write_text(PULL_CELLS.replace("protocol: to-limit", "protocol: early-end"))
     code = main(["study", "--cells", str(cells), "--out", str(tmp_path / "study")])
     err = capsys.readouterr().err
-    assert code == 2 and "cell 'pull': protocol early-end (the default)" in err
+    assert code == 2 and "protocol early-end was the -v0 envs' (tag figures-v0)" in err
     assert not (tmp_path / "study").exists()

@@ -38,7 +38,7 @@ def test_the_widened_student_acts_as_its_teacher_and_turns_nothing(teacher):
     model, meta = student_of(teacher, DistillConfig(), "test")
     assert meta.action_shape == [7]
     assert meta.env_kwargs["action_mode"] == "position_quaternion"
-    assert "continuous_quaternion" not in meta.env_kwargs  # the -v1 envs' one behaviour
+    assert "continuous_quaternion" not in meta.env_kwargs  # no option: the one behaviour
     observations = np.random.default_rng(0).normal(size=(5, 30)).astype(np.float32)
     for observation in observations:
         ours = action_mean(LoadedPolicy(model, meta, teacher.obs_rms), observation)

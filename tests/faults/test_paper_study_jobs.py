@@ -29,10 +29,10 @@ from drake_tooluse.learning import jobs
 ROOT = Path(__file__).resolve().parents[2]
 
 CELLS = dict(
-    source=dict(env="drake_tooluse/ToolPush-v0", algo="ppo", timesteps=100, seeds=[0, 1]),
-    other=dict(env="drake_tooluse/ToolPush-v0", algo="ppo", timesteps=100, seeds=[0]),
+    source=dict(env="drake_tooluse/ToolPush-v1", algo="ppo", timesteps=100, seeds=[0, 1]),
+    other=dict(env="drake_tooluse/ToolPush-v1", algo="ppo", timesteps=100, seeds=[0]),
     finetune=dict(
-        env="drake_tooluse/ToolPushFar-v0",
+        env="drake_tooluse/ToolPushFar-v1",
         algo="ppo",
         timesteps=50,
         seeds=[0, 1],
@@ -143,35 +143,20 @@ def test_a_stray_folder_in_the_archive_is_not_a_run(study):
 PAPER_ACTION = {"action_mode": "position_quaternion", "randomize": True}
 
 
-def test_a_run_trained_under_a_modes_old_name_is_its_cells(study):
-    """Runs trained before the action mode "paper" was renamed "position_quaternion" (and
-    while `ik_mode: full` was a keyword) stored the old names: they are the cell's runs."""
+def test_a_run_trained_with_other_env_kwargs_is_refused_not_reused(study):
     study.cells["other"]["hyperparams"] = {"env_kwargs": PAPER_ACTION}
     runs = study.files.runs
-    old = {"env_kwargs": {"action_mode": "paper", "ik_mode": "full", "randomize": True}}
-    _trained_run(study, runs, "other", 0, hyperparams=old)
+    _trained_run(study, runs, "other", 0, hyperparams={"env_kwargs": PAPER_ACTION})
     out = run_dir(runs, "other", 0)
     assert paper_study.settings_differ(study.cells, out, "other", 0) is None
-    # Another mode, or a retired setting, is a run trained otherwise: refused, not reused.
-    for env_kwargs, says in (
-        ({"action_mode": "position", "randomize": True}, "'position'"),
-        ({**PAPER_ACTION, "ik_mode": "first_order"}, "ik_mode='first_order' is retired"),
-    ):
-        (out / "config.json").write_text(
-            json.dumps(
-                {
-                    **json.loads((out / "config.json").read_text()),
-                    "hyperparams": {"env_kwargs": env_kwargs},
-                }
-            )
-        )
-        differ = paper_study.settings_differ(study.cells, out, "other", 0)
-        assert differ is not None and says in differ
-        entry = paper_study.run_one(study, "other", 0, {})
-        assert entry == {
-            "error": f"{out} holds a run trained otherwise: {differ}; move it away to rerun "
-            "the cell"
-        }
+    position = {"env_kwargs": {"action_mode": "position", "randomize": True}}
+    config = json.loads((out / "config.json").read_text())
+    (out / "config.json").write_text(json.dumps({**config, "hyperparams": position}))
+    differ = paper_study.settings_differ(study.cells, out, "other", 0)
+    assert differ is not None and "'position'" in differ
+    assert paper_study.run_one(study, "other", 0, {}) == {
+        "error": f"{out} holds a run trained otherwise: {differ}; move it away to rerun the cell"
+    }
 
 
 def test_status_tells_a_trained_run_waiting_for_its_evaluation(study):
@@ -281,7 +266,7 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
 
 def test_a_run_that_cannot_be_archived_mid_way_goes_first(study):
     study.cells["replay"] = dict(
-        env="drake_tooluse/ToolPush-v0", algo="ddpg", timesteps=9, seeds=[0]
+        env="drake_tooluse/ToolPush-v1", algo="ddpg", timesteps=9, seeds=[0]
     )
     queue = paper_study.queue_of(study)
     assert paper_study.order(study.cells, queue, study.files.runs, {})[:2] == [
@@ -301,7 +286,7 @@ def test_a_trained_finetuning_does_not_wait_for_its_source(study, tmp_path):
 
 def test_the_archive_tells_a_replay_buffer_run_starts_over(study):
     study.cells["replay"] = dict(
-        env="drake_tooluse/ToolPush-v0", algo="ddpg", timesteps=9, seeds=[0]
+        env="drake_tooluse/ToolPush-v1", algo="ddpg", timesteps=9, seeds=[0]
     )
     for cell in ("replay", "other"):
         out = run_dir(study.files.archive, cell, 0)
@@ -320,7 +305,7 @@ def test_the_archive_tells_a_replay_buffer_run_starts_over(study):
 
 def test_the_study_file_is_checked(tmp_path):
     path = tmp_path / "cells.yaml"
-    good = {"env": "drake_tooluse/ToolPush-v0", "algo": "ppo", "timesteps": 10, "seeds": [0]}
+    good = {"env": "drake_tooluse/ToolPush-v1", "algo": "ppo", "timesteps": 10, "seeds": [0]}
     for cells, says in (
         ({"a": {**good, "algo": "sac"}}, "algo='sac' is not allowed"),
         ({"a": {**good, "seeds": [0, 0]}}, "repeats a seed"),

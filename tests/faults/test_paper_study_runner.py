@@ -23,14 +23,14 @@ STUDY = {
     "cells": {
         # PPO refuses n_steps * n_envs = 1 when it is built: this cell fails, the next one runs.
         "ppo_fails": dict(
-            env="drake_tooluse/ToolPush-v0",
+            env="drake_tooluse/ToolPush-v1",
             algo="ppo",
             timesteps=512,
             seeds=[0],
             hyperparams={**TINY, "n_steps": 1},
         ),
         "a2c_tiny": dict(
-            env="drake_tooluse/ToolPush-v0",
+            env="drake_tooluse/ToolPush-v1",
             algo="a2c",
             timesteps=4000,
             seeds=[0],

@@ -1,7 +1,8 @@
 """Physical sanity as data: the push env reports, every step, how far the tool and the gripper
 are inside the table, the box's speed and the fastest arm joint's, and flags what is past the
-task's limits (`tasks.sanity`); evaluation counts the flagged episodes per flag; extreme
-actions that drive the tool into the table are what the -v1 envs' bounded joint speed stops."""
+task's limits (`tasks.sanity`); evaluation counts the flagged episodes per flag; the joint
+targets' bound at Baxter's rated speeds keeps extreme actions from driving the tool into the
+table."""
 
 import json
 from pathlib import Path
@@ -24,20 +25,19 @@ from drake_tooluse.tasks.contract import PhysicalLimit
 from drake_tooluse.tasks.push.env import ToolPushEnv
 
 ENV = "drake_tooluse/ToolPush-v1"  # joint targets bounded at Baxter's rated speeds
-UNBOUNDED_ENV = "drake_tooluse/ToolPush-v0"  # the earlier behaviour: unbounded
 FIGURES = [lim.info_key for lim in ToolPushEnv.PHYSICAL_LIMITS]
 FLAGS = [lim.flag for lim in ToolPushEnv.PHYSICAL_LIMITS]
-# Bang-bang actions (±1 in every component) from this generator seed drive the tool into the
-# table within 120 steps (at step 83 when measured).
+# Bang-bang actions (±1 in every component) from this generator seed drove an unbounded arm's
+# tool into the table within 120 steps (at step 83 when measured, at git tag figures-v0).
 EXTREME_SEED, EXTREME_STEPS = 3, 120
 
 
-def extreme_run(env_id: str) -> list[dict]:
+def extreme_run(env_id: str, steps: int = EXTREME_STEPS) -> list[dict]:
     env = gym.make(env_id)
     rng = np.random.default_rng(EXTREME_SEED)
     infos = [env.reset(seed=EXTREME_SEED)[1]]
     try:
-        for _ in range(EXTREME_STEPS):
+        for _ in range(steps):
             a = rng.choice([-1.0, 1.0], size=env.action_space.shape[0]).astype(np.float32)
             infos.append(env.step(a)[-1])
     finally:
@@ -46,8 +46,8 @@ def extreme_run(env_id: str) -> list[dict]:
 
 
 @pytest.fixture(scope="module")
-def unbounded():
-    return extreme_run(UNBOUNDED_ENV)
+def extreme():
+    return extreme_run(ENV)
 
 
 def test_every_limit_is_a_named_constant_with_a_reason():
@@ -61,27 +61,35 @@ def test_every_limit_is_a_named_constant_with_a_reason():
         assert isinstance(lim, PhysicalLimit) and lim.why and lim.limit > 0
 
 
-def test_every_step_reports_the_figures_and_their_flags(unbounded):
-    for info in unbounded:
+def test_every_step_reports_the_figures_and_their_flags(extreme):
+    for info in extreme:
         for key in FIGURES:
             assert np.isfinite(info[key]) and info[key] >= 0.0
         for lim in ToolPushEnv.PHYSICAL_LIMITS:
             assert info[lim.flag] is (info[lim.info_key] > lim.limit)
 
 
-def test_extreme_actions_drive_the_tool_into_the_table_and_the_step_says_so(unbounded):
-    flagged = [i for i in unbounded if i["tool_in_table"]]
-    assert flagged, "no step flagged"
-    assert max(i["tool_table_penetration"] for i in unbounded) > sanity.TABLE_PENETRATION_LIMIT
-    assert any(i["arm_too_fast"] for i in unbounded)
+def limit_at_zero(monkeypatch, flag: str) -> None:
+    """The task's limit of `flag` at 0: every step whose figure is above zero is past it."""
+    strict = tuple(
+        PhysicalLimit(lim.flag, lim.info_key, 0.0, lim.unit, lim.why) if lim.flag == flag else lim
+        for lim in sanity.PHYSICAL_LIMITS
+    )
+    monkeypatch.setattr(sanity, "PHYSICAL_LIMITS", strict)
 
 
-def test_on_the_same_extreme_actions_the_bounded_arm_stays_out_of_the_table(unbounded):
-    bounded = extreme_run(ENV)
-    deepest = max(i["tool_table_penetration"] for i in unbounded)
-    assert deepest > sanity.TABLE_PENETRATION_LIMIT  # where the unbounded arm went in
-    assert not any(i["tool_in_table"] or i["gripper_in_table"] for i in bounded)
-    assert max(i["arm_joint_speed"] for i in bounded) < max(i["arm_joint_speed"] for i in unbounded)
+def test_a_step_past_a_limit_says_so(monkeypatch):
+    limit_at_zero(monkeypatch, "arm_too_fast")  # flags every step in which the arm moves
+    infos = extreme_run(ENV, steps=3)
+    assert not infos[0]["arm_too_fast"]  # at rest after the reset
+    assert all(i["arm_too_fast"] and i["arm_joint_speed"] > 0.0 for i in infos[1:])
+
+
+def test_on_extreme_actions_the_bounded_arm_stays_out_of_the_table(extreme):
+    assert not any(i["tool_in_table"] or i["gripper_in_table"] for i in extreme)
+    assert max(i["tool_table_penetration"] for i in extreme) < sanity.TABLE_PENETRATION_LIMIT
+    # The arm follows its targets at the rated speeds, within the PD's overshoot.
+    assert max(i["arm_joint_speed"] for i in extreme) < 1.01 * max(V_MAX)
 
 
 def test_the_bound_moves_each_joint_target_at_most_its_rated_speed_per_solve(posed_env):
@@ -172,14 +180,7 @@ def test_the_speeds_are_the_plants():
 
 
 def test_evaluation_counts_the_flagged_episodes_per_flag(monkeypatch):
-    # A box speed limit of 0 m/s flags every episode in which the box moves.
-    strict = tuple(
-        PhysicalLimit(lim.flag, lim.info_key, 0.0, lim.unit, lim.why)
-        if lim.flag == "object_too_fast"
-        else lim
-        for lim in sanity.PHYSICAL_LIMITS
-    )
-    monkeypatch.setattr(sanity, "PHYSICAL_LIMITS", strict)
+    limit_at_zero(monkeypatch, "object_too_fast")  # flags every episode in which the box moves
     result = evaluate(SHIPPED_POLICY, episodes=2, seed=1000).as_dict()
     assert result["flagged_episodes"] == {
         "tool_in_table": 0,
@@ -202,6 +203,6 @@ def test_evaluate_json_shows_the_counts(capsys):
 
 def test_a_shipped_policys_episodes_stay_inside_the_limits():
     meta = json.loads((Path(SHIPPED_POLICY) / "policy.json").read_text())
-    assert meta["env_id"] in (ENV, UNBOUNDED_ENV)
+    assert meta["env_id"] == ENV
     result = evaluate(SHIPPED_POLICY, episodes=3, seed=0)
     assert result.flagged_episodes == dict.fromkeys(FLAGS, 0)

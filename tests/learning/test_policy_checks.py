@@ -2,6 +2,7 @@
 the same way in every command."""
 
 import json
+import re
 import shutil
 
 import numpy as np
@@ -47,6 +48,34 @@ def test_inconsistent_metadata_is_refused(policy, changes, message):
     _edit(policy, **changes)
     with pytest.raises(ValueError, match=message):
         load_policy(policy)
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        (
+            {"env_id": "drake_tooluse/ToolPush-v0"},
+            r"'drake_tooluse/ToolPush-v0' is an earlier version of 'drake_tooluse/ToolPush-v1'",
+        ),
+        (
+            {"env_kwargs": {"observation_mode": "paper", "action_mode": "position"}},
+            r"observation_mode='paper' is the earlier version's name of 'gripper_joints'",
+        ),
+        (
+            {"env_kwargs": {"ik_mode": "full", "action_mode": "position"}},
+            r"ik_mode='full' is not an option of the push envs",
+        ),
+    ],
+)
+def test_a_policy_of_the_earlier_version_is_refused_in_one_line_naming_its_tag(
+    policy, changes, message, capsys
+):
+    _edit(policy, **changes)
+    argv = ["evaluate", "--policy", str(policy), "--episodes", "1", "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err) and "git tag figures-v0" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
 
 
 def test_weights_of_other_spaces_are_refused(policy):
@@ -116,8 +145,6 @@ def test_an_observation_of_the_wrong_size_is_a_clear_error():
 )
 def test_evaluate_checks_the_env_it_is_given(argv, message, capsys):
     assert main(["evaluate", "--policy", str(TRANSFER_POLICY), "--episodes", "1", *argv]) == 2
-    import re
-
     assert re.search(message, capsys.readouterr().err)
 
 

@@ -24,10 +24,6 @@ class Env:
     PHYSICAL_LIMITS = ()
     spec = None
 
-    @staticmethod
-    def ends_at_success(kwargs):
-        return True
-
     @property
     def unwrapped(self):
         return self

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from drake_tooluse import compat
-from drake_tooluse.learning.evaluate import evaluate
+from drake_tooluse.learning.evaluate import evaluate, run_episode
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.learning.task_envs import episode_metrics
 
@@ -53,8 +53,6 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
     policy = load_policy(POLICIES / name)
     env_id, observations, actions = SHIPPED[name]
     assert policy.meta.env_id == env_id
-    # Files written when the exact IK was a mode (`ik_mode: full`) load as today's kwargs.
-    assert "ik_mode" not in policy.meta.env_kwargs
     assert policy.meta.observation_shape == [observations]
     assert policy.meta.action_shape == [actions]
     action = policy.act(np.zeros(observations, np.float32))
@@ -62,12 +60,6 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
     metrics = _metrics(name)
     assert metrics["episodes"] == 100
     assert metrics[_headline(name)[1]] <= 0.04 and metrics["success_rate"] >= 0.8
-
-
-def _protocol(metrics) -> dict:
-    """The env kwargs of the protocol a shipped evaluation used: the early end at success for
-    one that did not run each episode to its step limit."""
-    return {} if metrics.get("to_time_limit") else {"end_at_success": True}
 
 
 def _evaluated_with_drake(name) -> str:
@@ -111,9 +103,9 @@ def _exact(name) -> tuple[bool, str]:
 
 def _first_episodes(name):
     metrics = _metrics(name)
-    result = evaluate(
-        POLICIES / name, episodes=3, seed=metrics["seed"], env_kwargs=_protocol(metrics)
-    )
+    result = evaluate(POLICIES / name, episodes=3, seed=metrics["seed"])
+    # The envs never terminate: every episode ran to its step limit, here and when shipped.
+    assert result.to_time_limit and metrics["to_time_limit"]
     return result.per_episode, metrics["per_episode"][:3], _headline(name)[0]
 
 
@@ -147,7 +139,6 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
         POLICIES / name,
         episodes=metrics["episodes"],
         seed=metrics["seed"],
-        env_kwargs=_protocol(metrics),
     )
     if not _exact(name)[0]:
         assert result.metrics[mean_key] == pytest.approx(
@@ -163,19 +154,26 @@ def test_evaluate_reproduces_all_shipped_metrics(name):
     assert [e[key] for e in result.per_episode] == [e[key] for e in metrics["per_episode"]]
 
 
-def test_to_the_time_limit_each_episode_runs_on_past_its_success():
-    """On the -v0 ids' early end (`end_at_success`), which the -v1 envs no longer have."""
-    tip, v0 = POLICIES / "ppo_toolpush_tip", "drake_tooluse/ToolPush-v0"
-    early_end = {"end_at_success": True}
-    ended = evaluate(tip, v0, episodes=2, seed=1000, env_kwargs=early_end)
-    assert ended.success_rate == 1.0 and all(r["length"] < 100 for r in ended.per_episode)
-    assert not ended.to_time_limit
-    full = evaluate(tip, v0, episodes=2, seed=1000, env_kwargs=early_end, to_time_limit=True)
-    assert full.to_time_limit and [r["length"] for r in full.per_episode] == [100, 100]
-    # The env without the early end runs to its limit: the same episodes, judged the same way.
-    default = evaluate(tip, v0, episodes=2, seed=1000)
-    assert default.to_time_limit and default.per_episode == full.per_episode
-    # Judged where it ends: the box is wherever the policy left it at the limit.
-    assert [r["final_object_to_goal_m"] for r in full.per_episode] != [
-        r["final_object_to_goal_m"] for r in ended.per_episode
-    ]
+class TerminatingEnv:
+    """An env whose episodes terminate at step 3 of a 10-step limit (no project env does)."""
+
+    spec = type("Spec", (), {"max_episode_steps": 10})()
+
+    def reset(self, seed):
+        self.steps = 0
+        return 0, {}
+
+    def step(self, action):
+        self.steps += 1
+        return 0, 0.0, self.steps >= 3, self.steps == 10, {"step": self.steps}
+
+
+class Idle:
+    @staticmethod
+    def act(observation):
+        return 0
+
+
+def test_to_the_time_limit_each_episode_runs_on_past_a_termination():
+    assert run_episode(TerminatingEnv(), Idle(), 0) == ({"step": 3}, 3)
+    assert run_episode(TerminatingEnv(), Idle(), 0, to_time_limit=True) == ({"step": 10}, 10)

@@ -190,6 +190,11 @@ def test_corrupt_or_missing_policy_is_a_clear_error(tiny_policy, tmp_path):
             "unknown algorithm 'sac'; choose one of ['ppo', 'a2c', 'ddpg', 'trpo']",
         ),
         (["train", "--env", "Nope-v0", "--out", "x"], "unknown env 'Nope-v0'; choose one of"),
+        (
+            ["train", "--env", "drake_tooluse/ToolPull-v0", "--out", "x"],
+            "is an earlier version of 'drake_tooluse/ToolPull-v1', no longer registered: it and "
+            "its figures are reproducible at git tag figures-v0",
+        ),
         (["train", "--timesteps", "0", "--out", "x"], "--timesteps=0 is outside the allowed range"),
         (["train"], "give --out DIR for a new run"),
         (["evaluate", "--policy", "/nonexistent"], "is not a policy directory"),

@@ -17,8 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_tooluse.builders.control import (
-    BEHAVIOUR_V1,
-    ControlBehaviour,
     add_tip_control,
     add_world_at_home,
     nominal_belief,
@@ -76,15 +74,12 @@ def add_pull_task(
     builder,
     scenario: Scenario,
     belief: RobotBelief | None = None,
-    behaviour: ControlBehaviour = BEHAVIOUR_V1,
     robot_visuals: bool = True,
 ) -> PullTask:
     """The world holding the scenario's hook, at the home pose the robot computes for `belief`
     (default: `nominal_belief`, the scenario's hook), position control of the believed hook's
     inner corner, the task's observation and outcome (goal: the scenario's). The target's
-    `action` input is left unconnected. `behaviour`: how the action reaches the joints
-    (`ControlBehaviour`; default the `-v1` envs'). `robot_visuals`: as
-    `world.scene.add_world`'s."""
+    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s."""
     belief = nominal_belief(scenario) if belief is None else belief
     if not isinstance(belief.tool, HookTool):
         raise ValueError(
@@ -102,7 +97,6 @@ def add_pull_task(
         "position",
         home,
         corner_workspace(scenario, belief.tool),
-        behaviour,
     )
     goal = goal_position(scenario)
     return PullTask.wire(

@@ -16,7 +16,6 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.control import BEHAVIOUR_V0, BEHAVIOUR_V1, ControlBehaviour
 from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.paths import PULL_SCENARIO
 from drake_tooluse.robot.tool import HookTool
@@ -158,8 +157,10 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     - v1: every step advances to exactly the next multiple of the control period, counted in
       integers (docs/CLOCK.md); the joint targets move at most at Baxter's rated joint speeds;
       the action moves the target from the arm state the policy observed
-      (`builders.control.ControlBehaviour`).
-    - v0: the earlier behaviour (`ToolPullEnvV0`).
+      (`builders.control.add_tip_control`).
+    - v0: the earlier behaviour (a summed clock, unbounded joint targets, the target from the
+      next plant step's state), no longer registered: it and its figures are at git tag
+      figures-v0.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
@@ -177,23 +178,12 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         _config(kwargs)
         return [OBSERVATION_SIZE], [ACTION_SIZE]
 
-    # How an action reaches the joints (`ControlBehaviour`: the -v1 envs' one behaviour).
-    BEHAVIOUR = BEHAVIOUR_V1
-
-    @classmethod
-    def control_behaviour(cls, kwargs) -> ControlBehaviour:
-        """How an action of the env these keyword arguments make reaches the joints."""
-        _config(kwargs)
-        return cls.BEHAVIOUR
-
     @classmethod
     def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
         """The pull task wired into `builder` as the env these keyword arguments make wires
         it, in `scenario` holding its hook (the env's own hook and scenario options aside)."""
         _config(kwargs or {})
-        return add_pull_task(
-            builder, scenario, belief, behaviour=cls.BEHAVIOUR, robot_visuals=robot_visuals
-        )
+        return add_pull_task(builder, scenario, belief, robot_visuals=robot_visuals)
 
     def __init__(self, **kwargs):
         config = _config(kwargs)
@@ -303,12 +293,3 @@ def _finite(m) -> bool:
         and math.isfinite(m.object_travel)
         and math.isfinite(m.corner_to_behind)
     )
-
-
-class ToolPullEnvV0(ToolPullEnv):
-    """`drake_tooluse/ToolPull-v0`: the earlier behaviour (a summed clock, unbounded joint
-    targets, the target from the next plant step's state), kept only while the policy trained
-    on it is shipped."""
-
-    BEHAVIOUR = BEHAVIOUR_V0
-    DRIFTING_CLOCK = True

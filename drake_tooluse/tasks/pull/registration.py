@@ -34,14 +34,9 @@ TOOL_TASKS = (
         transfer_tools=("hook:0.25,0.05,75", "hook:0.25,0.05,90"),
     ),
 )
-# The earlier behaviour (`ToolPullEnvV0`), kept while the policy trained on it is shipped.
-LEGACY_ENV_IDS = {"drake_tooluse/ToolPull-v0": {}}
 
 
 def register_envs() -> None:
     """Registers the ids (idempotent); `gym.make` builds them lazily."""
     register_task_envs(ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnv", MAX_EPISODE_STEPS, TASK)
-    register_task_envs(
-        LEGACY_ENV_IDS, "drake_tooluse.tasks.pull.env:ToolPullEnvV0", MAX_EPISODE_STEPS, TASK
-    )
     register_tool_tasks(TOOL_TASKS)

@@ -46,7 +46,7 @@ class ScriptedPull:
         self.max_press = max_press
         self.steer = steer
         # The action per metre of the waypoint's error, in units of the largest step: the arm
-        # lags its target (on the -v1 envs it moves from the observed state), so a gain over
+        # lags its target (which moves from the observed state), so a gain over
         # 1 keeps the action saturated nearer the waypoint. Measured on ToolPull-v1 (40
         # episodes, seeds 100-139) and in the perturbed reality (30 instances of
         # benchmarks/pull_policy.py, seeds 1000-1029): gain 1: 16/20 in simulation, 10/30 in

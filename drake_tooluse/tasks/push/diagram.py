@@ -13,8 +13,6 @@ import math
 from dataclasses import dataclass
 
 from drake_tooluse.builders.control import (
-    BEHAVIOUR_V1,
-    ControlBehaviour,
     TipControl,
     add_tip_control,
     add_world_at_home,
@@ -49,25 +47,15 @@ def add_push_task(
     observation_mode: str,
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
-    behaviour: ControlBehaviour = BEHAVIOUR_V1,
     robot_visuals: bool = True,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
-    `action` input is left unconnected. `behaviour`: how the action reaches the joints
-    (`ControlBehaviour`; default the `-v1` envs'). `robot_visuals`: as
-    `world.scene.add_world`'s."""
+    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s."""
     belief = nominal_belief(scenario) if belief is None else belief
     world, ik, q0 = add_world_at_home(builder, scenario, belief, robot_visuals=robot_visuals)
-    control = add_tip_control(
-        builder,
-        world,
-        ik,
-        q0,
-        action_mode,
-        behaviour=behaviour,
-    )
+    control = add_tip_control(builder, world, ik, q0, action_mode)
     goal = goal_position(scenario)
     return PushTask.wire(
         builder,
@@ -86,14 +74,12 @@ def run_push(
     world: World,
     control: TipControl,
     max_steps: int,
-    stop_at_success: bool = True,
     visualizer=None,
     on_step=None,
 ) -> Rollout:
-    """Simulates a push diagram from its default state one control period at a time, for
-    `max_steps` or until the box reaches the goal (as the env terminates) if
-    `stop_at_success`: the task's one deployed rollout (`tasks.rollout.roll_out`), judged as
-    its env judges. With a `visualizer`, the run is recorded. `on_step(step)` is called after
+    """Simulates a push diagram from its default state one control period at a time for
+    `max_steps`: the task's one deployed rollout (`tasks.rollout.roll_out`), judged as its env
+    judges. With a `visualizer`, the run is recorded. `on_step(step)` is called after
     each control step (progress displays). A simulation failure (Drake raises, the state is no
     longer finite, or the box flies off) ends the run flagged `sim_error`, with the figures of
     the last sound state."""
@@ -103,7 +89,6 @@ def run_push(
         control,
         PushMetricsReader(world),
         max_steps,
-        stop_at_success=stop_at_success,
         visualizer=visualizer,
         on_step=on_step,
     )
@@ -121,7 +106,6 @@ def run_open_loop(scenario: Scenario, trajectory: TipTrajectory, belief: RobotBe
             built.world,
             built.control,
             math.ceil(duration / period),
-            stop_at_success=False,
         )
     finally:
         release_diagram(built.diagram)  # its Python systems would keep it alive

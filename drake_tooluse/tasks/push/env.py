@@ -19,11 +19,10 @@ import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_tooluse.builders.control import BEHAVIOUR_V1, ControlBehaviour
 from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.robot.tool import check_tool_length
 from drake_tooluse.systems.tip_target import ACTION_MODES
-from drake_tooluse.tasks.contract import TaskEnv, env_config
+from drake_tooluse.tasks.contract import RETIRED_VERSIONS, TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
 from drake_tooluse.tasks.push.metrics import (
     PUSH_EPISODE_METRICS,
@@ -73,34 +72,47 @@ class EnvConfig(ViewOptions):
     randomize: bool = False  # ranges: the scenario's `randomization`
 
 
-# Options of the -v0 ids that the -v1 envs no longer take: their corrected behaviour is the
-# one behaviour (`builders.control.ControlBehaviour`, the integer control clock, episodes to
-# the step limit). Each with what the -v1 envs do instead.
+# Keyword arguments of the earlier version that the push envs no longer take: each behaviour
+# they chose between is now the one behaviour (the integer control clock, episodes to the step
+# limit, `builders.control.add_tip_control`). Each with what the envs do instead.
 RETIRED_OPTIONS = {
     "end_at_success": "every episode runs to its step limit",
     "bound_joint_speed": "joint targets always move at most at Baxter's rated speeds",
     "continuous_quaternion": "the quaternion action is always kept in one hemisphere",
     "target_from_observed_state": "the target always moves from the observed arm state",
+    "ik_mode": "the exact tool-tip IK always runs",
+}
+# Mode names of the earlier version's policy files, with today's name of the same mode.
+RETIRED_VALUES = {
+    "action_mode": {"paper": "position_quaternion"},
+    "observation_mode": {"paper": "gripper_joints"},
 }
 
 
-def check_retired(kwargs: dict, env: str) -> None:
-    """A ValueError naming the first option of `RETIRED_OPTIONS` in `kwargs`, and why."""
+def check_retired(kwargs: dict) -> None:
+    """A ValueError naming the first option of `RETIRED_OPTIONS` or value of `RETIRED_VALUES`
+    in `kwargs`, and the git tag whose code takes it."""
+    tag = RETIRED_VERSIONS[0]  # the version that took them
     for name, instead in RETIRED_OPTIONS.items():
         if name in kwargs:
             raise ValueError(
-                f"{name}={kwargs[name]!r} is not an option of {env}: {instead} "
-                "(the -v0 ids kept the earlier behaviour)"
+                f"{name}={kwargs[name]!r} is not an option of the push envs ({instead}); the "
+                f"earlier version that took it, and its figures, are at git tag {tag}"
+            )
+    for name, renamed in RETIRED_VALUES.items():
+        value = kwargs.get(name)
+        if isinstance(value, str) and value in renamed:
+            raise ValueError(
+                f"{name}={value!r} is the earlier version's name of {renamed[value]!r}: what "
+                f"holds it was made on that version, which runs at git tag {tag}"
             )
 
 
-def _config(kwargs, name: str = "env kwargs", config_class=EnvConfig) -> EnvConfig:
-    """`kwargs` as a `config_class` (the -v1 ids' `EnvConfig`; the -v0 ids' adds their
-    options: `tasks.push.legacy`), names and values checked."""
+def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
+    """`kwargs` as an `EnvConfig`, names and values checked."""
     kwargs = dict(check_mapping(kwargs, name))
-    if config_class is EnvConfig:
-        check_retired(kwargs, "the push envs")
-    config = env_config(config_class, kwargs, name, "a drake_tooluse env")
+    check_retired(kwargs)
+    config = env_config(EnvConfig, kwargs, name, "a drake_tooluse env")
     check_one_of(config.reward_type, REWARD_TYPES, "reward_type")
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_views(config)
@@ -361,9 +373,10 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
       (shoulder, elbow 1.5 rad/s; wrist 4.0); the `position_quaternion` action is added in the
       initial quaternion's hemisphere (`systems.tip_target`); the action moves the target from
       the arm state the policy observed (`systems.tool_tip_ik`); episodes run to the step limit
-      (`builders.control.ControlBehaviour`).
+      (`builders.control.add_tip_control`).
     - v0: the earlier behaviour (a summed clock, unbounded joint targets, Drake's quaternion
-      sign, the target from the next plant step's state; options for each fix).
+      sign, the target from the next plant step's state; an option for each fix), no longer
+      registered: it and its figures are at git tag figures-v0.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 25}
@@ -378,17 +391,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             _delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
         return dict(kwargs or {})
 
-    # The dataclass of the env's keyword arguments (the -v0 ids' adds their options).
-    CONFIG = EnvConfig
-
     @classmethod
     def _config(cls, kwargs, name: str = "env kwargs") -> EnvConfig:
-        return _config(kwargs, name, cls.CONFIG)
-
-    @classmethod
-    def control_behaviour(cls, kwargs) -> ControlBehaviour:
-        """How an action of the env these keyword arguments make reaches the joints."""
-        return cls._behaviour_of(cls._config(kwargs))
+        return _config(kwargs, name)
 
     @classmethod
     def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
@@ -406,13 +411,8 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.observation_mode,
             config.include_tool_length,
             config.reward_type,
-            behaviour=cls._behaviour_of(config),
             robot_visuals=robot_visuals,
         )
-
-    @classmethod
-    def _behaviour_of(cls, config) -> ControlBehaviour:
-        return BEHAVIOUR_V1
 
     @classmethod
     def spaces(cls, kwargs) -> tuple[list, list]:
@@ -423,7 +423,6 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     def __init__(self, **kwargs):
         config = self._config(kwargs)
         self.config = config
-        self._ends_at_success = getattr(config, "end_at_success", False)
         self.scenario = self._base_scenario = _scenario(config)
         self.diagram = None
         self._delays = None
@@ -491,9 +490,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         """DrakeGymEnv's step, but for three things it cannot do: it would evaluate the
         observation before advancing too (a second evaluation each step, for its failure
         path), it keeps no last finite state (NaN would reach the learner), and it checks no
-        action. Where the env's episodes end at success (the -v0 ids' `end_at_success`), that
-        is judged once per control step: a simulator monitor would run every plant step and
-        end an episode mid-period.
+        action. No episode terminates: each runs to its step limit.
 
         The plant's state is read once: its finiteness check and the observation (the
         `observation` port's, `ToolPushObservation` of the same state and goal) share it."""
@@ -510,13 +507,11 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             sim_error = not (finite and _finite(m))
         if sim_error:  # the last finite state stands: no NaN reaches the learner
             observation, m = self._last
-            terminated = False
         else:
             self._last = (observation, m)
             self._sanity = self._sanity_reader.read(self._plant_context, x)
             self._last_reward = reward(m, self.config.reward_type)
-            terminated = self._ends_at_success and m.is_success
-        return observation, self._last_reward, terminated, sim_error, self._info(m, sim_error)
+        return observation, self._last_reward, False, sim_error, self._info(m, sim_error)
 
     def _read_metrics(self):
         """The task's metrics of the current state, the episode's touches kept. They are the

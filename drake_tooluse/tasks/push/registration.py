@@ -47,14 +47,9 @@ TOOL_TASKS = (
         goal_extra=ENV_IDS["drake_tooluse/ToolPushFar-v1"]["goal_extra"],
     ),
 )
-# The earlier behaviour (`tasks.push.legacy`), kept while policies trained on it are shipped.
-LEGACY_ENV_IDS = {env_id.replace("-v1", "-v0"): kwargs for env_id, kwargs in ENV_IDS.items()}
 
 
 def register_envs() -> None:
     """Registers the ids (idempotent); `gym.make` builds them lazily."""
     register_task_envs(ENV_IDS, "drake_tooluse.tasks.push.env:ToolPushEnv", MAX_EPISODE_STEPS, TASK)
-    register_task_envs(
-        LEGACY_ENV_IDS, "drake_tooluse.tasks.push.legacy:ToolPushEnvV0", MAX_EPISODE_STEPS, TASK
-    )
     register_tool_tasks(TOOL_TASKS)

@@ -44,24 +44,17 @@ def test_policy_system_acts_as_the_policy(policy_dir):
     np.testing.assert_allclose(system.get_output_port().Eval(context), policy.act(obs))
 
 
-@pytest.mark.parametrize(
-    "env_id, kwargs",
-    [("drake_tooluse/ToolPush-v1", {}), ("drake_tooluse/ToolPush-v0", {})],
-)
-def test_policy_diagram_matches_the_env_rollout(policy_dir, env_id, kwargs):
-    """The diagram controls the arm as the policy's env did: -v1's speed bound, -v0's none."""
+def test_policy_diagram_matches_the_env_rollout(policy_dir):
+    """The diagram controls the arm as the policy's env did (its joint speed bound too)."""
+    env_id, kwargs = "drake_tooluse/ToolPush-v1", {"action_mode": "position"}
     policy = load_policy(policy_dir)
-    kwargs = {"action_mode": "position", **kwargs}
     env_kwargs = {**policy.meta.env_kwargs, **kwargs}
     policy.meta = dc.replace(policy.meta, env_id=env_id, env_kwargs=env_kwargs)
     built = build_policy_diagram(Scenario(), policy)
     run = run_policy(built, max_steps=20)
     env = gym.make(env_id, **kwargs)
     ours, envs = built.control.ik_system.max_joint_speed, env.unwrapped.ik_system.max_joint_speed
-    if env_id.endswith("-v1"):
-        np.testing.assert_allclose(ours, envs)
-    else:
-        assert ours is None and envs is None
+    np.testing.assert_allclose(ours, envs)
     obs, _ = env.reset(seed=0)
     tips = [obs[6:9]]
     for _ in range(run.steps):

@@ -72,26 +72,18 @@ def test_rewards_of_env1_env2_env3():
 
 
 def _scripted_episode(env):
-    """The scripted push from seed 0 until the episode ends: (terminated, truncated, info)."""
+    """The scripted push from seed 0 until its first success or the episode's end:
+    (terminated, truncated, info)."""
     policy = ScriptedPush(env.unwrapped.scenario.table.top_z)
     obs, _ = env.reset(seed=0)
     for _ in range(100):
         obs, reward, terminated, truncated, info = env.step(policy(obs))
-        if terminated or truncated:
+        if terminated or truncated or info["is_success"]:
             break
     return terminated, truncated, info
 
 
-def test_scripted_push_reaches_the_goal_and_terminates_in_the_early_end_protocol():
-    env = gym.make("drake_tooluse/ToolPush-v0", action_mode="position", end_at_success=True)
-    terminated, truncated, info = _scripted_episode(env)
-    assert terminated and not truncated and info["is_success"]
-    assert info["object_to_goal"] + info["tip_to_object"] <= 0.05
-    assert info["object_travel"] > 0.15
-    assert info["tool_touched_object_in_episode"] and not info["gripper_touched_object_in_episode"]
-
-
-def test_episodes_run_to_the_step_limit_by_default_reporting_success_every_step():
+def test_episodes_run_to_the_step_limit_reporting_success_every_step():
     """The paper's protocol: no early end; `is_success` says, each step, whether the box is
     at the goal now (the scripted push arrives, drifts off and comes back)."""
     env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position")
@@ -104,6 +96,9 @@ def test_episodes_run_to_the_step_limit_by_default_reporting_success_every_step(
     assert len(successes) == 100 and truncated and not terminated
     first = successes.index(True)
     assert not all(successes[first:]) and successes[-1]
+    assert info["object_to_goal"] + info["tip_to_object"] <= 0.05
+    assert info["object_travel"] > 0.15
+    assert info["tool_touched_object_in_episode"] and not info["gripper_touched_object_in_episode"]
     env.close()
 
 
@@ -112,12 +107,7 @@ def test_scripted_push_works_with_short_and_long_tools(tool_length):
     """Any tool the arm can hold down to the box: a long rod used to be pushed into the box
     and out through its top face by the contact query (one long thin collision cylinder),
     pinning the box to the table."""
-    env = gym.make(
-        "drake_tooluse/ToolPush-v0",
-        action_mode="position",
-        tool_length=tool_length,
-        end_at_success=True,
-    )
+    env = gym.make("drake_tooluse/ToolPush-v1", action_mode="position", tool_length=tool_length)
     _, _, info = _scripted_episode(env)
     assert info["is_success"] and info["object_travel"] > 0.15
 
@@ -149,28 +139,12 @@ def test_out_of_bounds_actions_are_clipped():
             {"action_mode": "joint"},
             r"action_mode='joint' is not allowed; choose one of \['position_quaternion', 'pose', 'position'\]",
         ),
-        ({"ik_mode": "full"}, r"unknown argument\(s\) \['ik_mode'\]"),
         ({"tool_length": 0.9}, r"tool_length=0.9 m is outside the allowed range \(0, 0.6\]"),
     ],
 )
 def test_bad_kwargs_list_what_is_allowed(kwargs, message):
     with pytest.raises((TypeError, ValueError), match=message):
         gym.make("drake_tooluse/ToolPush-v1", **kwargs)
-
-
-@pytest.mark.parametrize(
-    "kwargs, message",
-    [
-        (
-            {"ik_mode": "fast"},
-            r"ik_mode='fast' is retired: the env always runs the exact tool-tip IK",
-        ),
-        ({"ik_mode": "differential"}, r"ik_mode='differential' is retired"),
-    ],
-)
-def test_the_v0_ids_name_what_earlier_policy_files_held(kwargs, message):
-    with pytest.raises(ValueError, match=message):
-        gym.make("drake_tooluse/ToolPush-v0", **kwargs)
 
 
 def test_reset_options_are_refused():

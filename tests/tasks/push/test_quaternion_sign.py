@@ -1,14 +1,13 @@
-"""`continuous_quaternion`: the paper action's quaternion change is added to the tip quaternion
-in the initial one's hemisphere, so the same action turns the tip the same way at every step.
-Drake's sign jumps at this scene's home orientation (w ≈ 0): off, it does."""
+"""The paper action's quaternion change is added to the tip quaternion in the initial one's
+hemisphere, so the same action turns the tip the same way at every step. Drake's sign, by which
+the target would otherwise be taken, jumps at this scene's home orientation (w ≈ 0)."""
 
 import numpy as np
-import pytest
 from pydrake.math import RotationMatrix
 
 from drake_tooluse.robot.kinematics import fk_jacobian
 from drake_tooluse.systems.tip_target import MAX_QUATERNION_STEP
-from drake_tooluse.tasks.push.legacy import ToolPushEnvV0
+from drake_tooluse.tasks.push.env import ToolPushEnv
 
 STEPS = 25
 
@@ -22,18 +21,20 @@ def tip_quaternion(env, observation) -> np.ndarray:
     return RotationMatrix.MakeUnchecked(R).ToQuaternion().wxyz()
 
 
-def target_quaternions(continuous: bool, hold: bool) -> tuple[np.ndarray, list, list]:
-    """The initial target's quaternion, the targets' quaternions and the tip's orientation
-    error (rad) over STEPS steps of a push. The position moves towards the box; the quaternion
-    part is zero, or (`hold`) the change back to the initial orientation."""
-    env = ToolPushEnvV0(action_mode="position_quaternion", continuous_quaternion=continuous)
+def target_quaternions(hold: bool) -> tuple[np.ndarray, list, list, list]:
+    """The initial target's quaternion, the tip's quaternions with Drake's sign, the targets'
+    quaternions and the tip's orientation error (rad) over STEPS steps of a push. The position
+    moves towards the box; the quaternion part is zero, or (`hold`) the change back to the
+    initial orientation."""
+    env = ToolPushEnv(action_mode="position_quaternion")
     try:
         observation, _ = env.reset(seed=3)
         held = env.target_system.initial_quaternion
         context = env.target_system.GetMyContextFromRoot(env.simulator.get_context())
-        targets, errors = [], []
+        drakes, targets, errors = [], [], []
         for _ in range(STEPS):
             quaternion = tip_quaternion(env, observation)
+            drakes.append(quaternion)
             if hold:
                 signed = quaternion if quaternion.dot(held) >= 0 else -quaternion
                 change = np.clip((held - signed) / MAX_QUATERNION_STEP, -1, 1)
@@ -42,26 +43,18 @@ def target_quaternions(continuous: bool, hold: bool) -> tuple[np.ndarray, list, 
             observation, *_ = env.step(np.concatenate([[0.5, 0.3, -0.2], change]))
             targets.append(env.target_system.GetOutputPort("tip_pose_desired").Eval(context)[3:])
             errors.append(2 * np.arccos(min(1.0, abs(tip_quaternion(env, observation).dot(held)))))
-        return held, targets, errors
+        return held, drakes, targets, errors
     finally:
         env.close()
 
 
-def test_the_home_tip_orientation_is_where_drakes_sign_jumps():
-    held, targets, _ = target_quaternions(continuous=False, hold=False)
+def test_drakes_sign_jumps_where_the_targets_stay_in_the_initial_hemisphere():
+    held, drakes, targets, _ = target_quaternions(hold=False)
     assert abs(held[0]) < 1e-6  # w ≈ 0
-    assert min(t.dot(held) for t in targets) < -0.9  # the opposite sign at some step
-
-
-def test_continuous_targets_stay_in_the_initial_hemisphere():
-    held, targets, _ = target_quaternions(continuous=True, hold=False)
+    assert min(q.dot(held) for q in drakes) < -0.9  # Drake's opposite sign at some step
     assert min(t.dot(held) for t in targets) > 0.9
 
 
-@pytest.mark.parametrize("continuous", [True, False])
-def test_the_change_back_to_the_initial_orientation_holds_it_only_when_continuous(continuous):
-    _, _, errors = target_quaternions(continuous=continuous, hold=True)
-    if continuous:
-        assert max(errors) < np.radians(2.0)
-    else:  # the same action turns the tip away when the sign jumps
-        assert max(errors) > np.radians(10.0)
+def test_the_change_back_to_the_initial_orientation_holds_it():
+    _, _, _, errors = target_quaternions(hold=True)
+    assert max(errors) < np.radians(2.0)
