@@ -51,8 +51,9 @@ EVALUATION = "evaluate_best_time_limit"  # the paper's protocol (`paper_study.EV
 BOOTSTRAP_REPS = 2000
 # Cell -> the commit its runs were trained at, for runs trained before `train` recorded its
 # commit (summary.json "code"): the -v1 study's first job ran from a clean checkout of it, made
-# a second before its first run and not moved since.
-TRAINED_AT = {"v1_ppo": "7de66a6"}
+# a second before its first run and not moved since (every cell it trained: its processes ran
+# with PYTHONPATH on that checkout).
+TRAINED_AT = dict.fromkeys(("v1_ppo", "v1_ppo_paper_action", "v1_trpo", "v1_a2c"), "7de66a6")
 # Where the earlier study (the -v0 envs, both protocols, Env2, Env3) and its page stay.
 EARLIER = "tag `figures-v0` (commit ef1f4b4)"
 COLORS = ("tab:blue", "tab:purple", "tab:orange", "tab:green", "tab:red", "tab:brown")
