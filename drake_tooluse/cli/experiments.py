@@ -190,9 +190,9 @@ def cmd_transfer(args) -> dict:
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
     policy = serving_policy_arg(args.policy, "transfer")
-    if args.mode == "open-loop":  # it replays the policy's tool-tip trajectory
-        serves_arg(policy_env_id(policy), "trajectory", f"--mode open-loop --policy {policy}")
     env_id = policy_env_id(policy)
+    if args.mode == "open-loop":  # it replays the policy's tool-tip trajectory
+        serves_arg(env_id, "trajectory", f"--mode open-loop --policy {policy}")
     try:
         tools = [transfer_tool(t) for t in args.tools or task_tools(env_id)]
         check_tool_kinds(env_id, tools)

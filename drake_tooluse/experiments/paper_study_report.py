@@ -128,7 +128,7 @@ def _ci(d: dict, key: str, digits: int) -> str:
 def label(spec: dict) -> str:
     """The cell's algorithm and action, as the page names them."""
     mode = spec.get("hyperparams", {}).get("env_kwargs", {}).get("action_mode")
-    action = "the paper's 7-d action" if mode in ("paper", "position_quaternion") else "position"
+    action = "the paper's 7-d action" if mode == "position_quaternion" else "position"
     return f"{spec['algo'].upper()}, {action}"
 
 

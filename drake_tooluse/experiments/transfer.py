@@ -117,7 +117,7 @@ class TransferRun:
     error: str | None = None
     believed_box_xy: tuple | None = None  # where the replay took the box to start (box frame)
     box_xy_error: float | None = None  # m, from where it started
-    tool: str = ""  # the true tool, as `task_worlds.tool_label` writes it
+    tool: str = ""  # the true tool, as `robot.tool.tool_label` writes it
 
     @property
     def failed(self) -> bool:
