@@ -12,8 +12,8 @@ Re-running it picks up every run where it stopped: a finished run is not trained
 stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
 goes on. A run whose settings are not its cell's (a cell redefined) is refused, not reused.
 The results are written atomically after every run. The run directories do not outlive the
-machine, so each run's small files are archived (`archive_run`: config, summary, best policy, progress.csv,
-evaluations; while it trains, every `archive_every` its latest checkpoint too, unless a replay
+machine, so each run's small files are archived (`archive_run`: config, summary, best policy,
+progress.csv, evaluations; while it trains, every `archive_every` its latest checkpoint too, unless a replay
 buffer makes it over ARCHIVE_MAX_CHECKPOINT: DDPG's starts over on a new machine); a new
 machine restores them into the run directories before anything runs. A run evaluated in the
 results whose files are in neither place (trained before the archive existed) is trained again
