@@ -8,21 +8,20 @@ episodes (100, seeds 1000-1099), each run to its 100-step limit and judged where
 `evaluate_best_time_limit`, the key the report reads). The runs are commands on this
 machine, N at a time (`learning.jobs`).
 
-Re-running it picks up every run where it stopped: a finished run is not trained again, a
-stopped one resumes from its last checkpoint, a failed one is recorded (its error) and the job
-goes on. A run whose settings are not its cell's (a cell redefined) is refused, not reused.
-The results are written atomically after every run. The run directories do not outlive the
-machine, so each run's small files are archived (`archive_run`: config, summary, best policy,
-progress.csv, evaluations; while it trains, every `archive_every` its latest checkpoint too, unless a replay
-buffer makes it over ARCHIVE_MAX_CHECKPOINT: DDPG's starts over on a new machine); a new
-machine restores them into the run directories before anything runs. A run evaluated in the
-results whose files are in neither place (trained before the archive existed) is trained again
-after every run still missing (but right before a missing fine-tuning that starts from it), so
-that its curve and policy exist for the figures and the runs that start from it; if that
-retraining fails, its evaluation stays (with the error) and the next job tries again. After
-each run that finished in this job the report is made again (`drake-tooluse study-report`, a
-subprocess: one that fails is logged and the job goes on). No git command runs: committing the
-files is the user's.
+Re-running it picks up every run where it stopped: a finished run is not trained again, a stopped
+one resumes from its last checkpoint, a failed one is recorded (its error) and the job goes on. A
+run whose settings are not its cell's (a cell redefined) is refused, not reused. The results are
+written atomically after every run. The run directories do not outlive the machine, so each run's
+small files are archived (`archive_run`: config, summary, best policy, progress.csv, evaluations;
+while it trains, every `archive_every` its latest checkpoint too, unless a replay buffer makes it
+over ARCHIVE_MAX_CHECKPOINT: DDPG's starts over on a new machine); a new machine restores them into
+the run directories before anything runs. A run evaluated in the results whose files are in neither
+place (trained before the archive existed) is trained again after every run still missing (but right
+before a missing fine-tuning that starts from it), so that its curve and policy exist for the
+figures and the runs that start from it; if that retraining fails, its evaluation stays (with the
+error) and the next job tries again. After each run that finished in this job the report is made
+again (`drake-tooluse study-report`, a subprocess: one that fails is logged and the job goes on). No
+git command runs: committing the files is the user's.
 
 Where the files go (`StudyFiles`): by default all under one directory (`runs/study`); with
 `--update-docs`, a checkout's docs: docs/results/paper_study.json, the archive

@@ -1,11 +1,11 @@
 """The tasks that use tools of a kind, their worlds and their tools, as the task packages
 declare them (`tasks.contract.ToolTask`): what `choose-tool` and `transfer` share.
 
-A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg)
-(`robot.tool.parse_tool`, `robot.tool.tool_label`). A task's worlds (`task_scenarios`): its
-nominal world with its goal, and reality as it declares it: `diagrams/reality.yaml` with the task's goal, or the task's world
-with what reality changes (actuation delay, conservative joint limits, camera noise:
-`pull_reality`). The head camera measures a tool by its kind (`measure`).
+A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg) (`robot.tool.parse_tool`,
+`robot.tool.tool_label`). A task's worlds (`task_scenarios`): its nominal world with its goal, and
+reality as it declares it: `diagrams/reality.yaml` with the task's goal, or the task's world with
+what reality changes (actuation delay, conservative joint limits, camera noise: `pull_reality`). The
+head camera measures a tool by its kind (`measure`).
 """
 
 from __future__ import annotations
