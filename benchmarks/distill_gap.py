@@ -25,6 +25,7 @@ import numpy as np
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.distill import Expert, check_teacher
 from drake_tooluse.learning.policy_dir import load_policy
+from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.scenario import MAX_ACTUATION_DELAY
 
@@ -92,7 +93,7 @@ def cm(metres: float) -> str:
 
 
 def check_args(args) -> None:
-    check_int(args.episodes, 1, 100_000, "--episodes")
+    check_int(args.episodes, 1, MAX_EPISODES, "--episodes")
     check_seed(args.seed, "--seed", args.episodes)
     for delay in args.delays:
         if not 0 <= delay <= MAX_ACTUATION_DELAY:

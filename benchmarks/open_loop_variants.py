@@ -58,7 +58,7 @@ import numpy as np
 from drake_tooluse.builders.box_measurement import measure_box_start
 from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.cli.common import run_script
-from drake_tooluse.experiments.choices import CALIBRATION_DRAWS, MAX_CALIBRATION_DRAWS
+from drake_tooluse.experiments.choices import CALIBRATION_DRAWS
 from drake_tooluse.experiments.line_contact import (
     TILTS_DEG,
     centred,
@@ -77,6 +77,7 @@ from drake_tooluse.experiments.trajectory_extraction import (
 from drake_tooluse.experiments.transfer import run_worlds
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.limits import MAX_CALIBRATION_DRAWS, MAX_EPISODES, MAX_RUNS
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import check_tool_length
@@ -200,8 +201,8 @@ def main() -> None:
     args = ap.parse_args()
     args.out = OUTPUT.path(args)
     try:  # bad input: one line naming the value, not a traceback
-        check_int(args.episodes, 1, 10_000, "--episodes")
-        check_int(args.runs, 1, 10_000, "--runs")
+        check_int(args.episodes, 1, MAX_EPISODES, "--episodes")
+        check_int(args.runs, 1, MAX_RUNS, "--runs")
         check_int(args.calibration_draws, 0, MAX_CALIBRATION_DRAWS, "--calibration-draws")
         check_seed(args.seed, "--seed", args.runs)
         for tool in args.tools:

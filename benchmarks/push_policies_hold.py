@@ -29,6 +29,7 @@ from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.transfer import check_transfer_args, run_transfer
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
 from drake_tooluse.validation import check_int, check_seed
@@ -56,7 +57,7 @@ def quiet(_line: str) -> None:
 def check_args(args) -> None:
     """Every argument checked before the first policy runs: a ValueError (or
     FileNotFoundError, for a policy directory) naming the bad one."""
-    check_int(args.episodes, 1, 1_000_000, "--episodes")
+    check_int(args.episodes, 1, MAX_EPISODES, "--episodes")
     check_seed(args.seed, "--seed", args.episodes)
     check_transfer_args(args.tools, args.runs, "closed-loop", args.reality_seed)
     for path in args.policies:

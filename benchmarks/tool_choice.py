@@ -23,13 +23,13 @@ from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     DELAY_MARGIN,
     MAX_DELAY_MARGIN,
-    MAX_ROLLOUTS,
     TASKS,
     Policies,
     TaskInstance,
     check_rack,
     choose_tool,
 )
+from drake_tooluse.limits import MAX_ROLLOUTS
 from drake_tooluse.validation import check_in_range
 
 RATIO_GOAL, END_TO_END_GOAL = 0.90, 0.75

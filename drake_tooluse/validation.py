@@ -8,14 +8,13 @@ import reprlib
 
 import numpy as np
 
+from drake_tooluse.limits import SEED_MAX
+
 
 class EnvironmentProblem(RuntimeError):
     """What this machine lacks or holds busy — a program, an optional package, the installed
     data, a run directory another process uses — named in the message with what to do; the
     command line reports it as a usage error (exit 2), where another RuntimeError is a bug."""
-
-
-SEED_MAX = 2**32 - 1  # Drake's RandomGenerator and numpy's legacy seeding take 32 bits
 
 
 def _as_float(value, name: str, allowed: str = "") -> float:

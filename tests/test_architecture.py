@@ -10,7 +10,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "drake_tooluse"
 # In data-flow order; a module may import from its own layer and the layers before it.
 LAYERS = [
-    {"paths", "validation", "files", "compat", "progress", "provenance"},
+    {"paths", "limits", "validation", "files", "compat", "progress", "provenance"},
     {"perception"},
     {"robot"},
     {"world"},

@@ -28,18 +28,24 @@ from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
     EXTRACTIONS,
-    MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
     check_tool_kinds,
     task_tools,
     transfer_tool,
 )
+from drake_tooluse.limits import (
+    MAX_CALIBRATION_DRAWS,
+    MAX_COLORS,
+    MAX_EPISODES,
+    MAX_FRAME_STEP,
+    MAX_ROLLOUTS,
+    MAX_RUNS,
+    MAX_SMOOTHING_WINDOW,
+)
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.tasks.contract import tool_tasks
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
-
-MAX_EPISODES = 100_000
 
 
 def cmd_trajectory(args) -> dict:
@@ -50,7 +56,7 @@ def cmd_trajectory(args) -> dict:
         choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     seed_arg(args.seed, "--seed", episodes)
-    count_arg(args.window, "--window", 1, 999)
+    count_arg(args.window, "--window", 1, MAX_SMOOTHING_WINDOW)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
     serving_policy_arg(args.policy, "trajectory")
@@ -185,7 +191,7 @@ def cmd_transfer(args) -> dict:
         choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
-    runs = count_arg(args.runs, "--runs", 1, 10_000)
+    runs = count_arg(args.runs, "--runs", 1, MAX_RUNS)
     seed_arg(args.seed, "--seed", runs)
     count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
     count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
@@ -271,7 +277,7 @@ def format_demo(out: dict) -> str:
 
 
 def cmd_choose_tool(args) -> dict:
-    rollouts = count_arg(args.rollouts, "--rollouts", 1, 20)
+    rollouts = count_arg(args.rollouts, "--rollouts", 1, MAX_ROLLOUTS)
     seed_arg(args.seed)
     from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
 
@@ -316,8 +322,8 @@ def add_tip_poses_arg(p, when: str = "") -> None:
 def cmd_record_video(args) -> dict:
     output_file_arg(args.out, "--out", ".gif")
     seed_arg(args.seed)
-    count_arg(args.every, "--every", 1, 100)
-    count_arg(args.colors, "--colors", 2, 256)
+    count_arg(args.every, "--every", 1, MAX_FRAME_STEP)
+    count_arg(args.colors, "--colors", 2, MAX_COLORS)
     serving_policy_arg(args.policy, "record-video")
     env_kwargs = {  # checked by the env, by these names (`render_size=...`)
         name: value

@@ -29,11 +29,17 @@ from drake_tooluse.cli.common import (
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.figures import format_figures
 from drake_tooluse.learning.task_envs import task_env_ids
+from drake_tooluse.limits import (
+    MAX_CPUS,
+    MAX_EPISODES,
+    MAX_EPOCHS,
+    MAX_FAILURES,
+    MAX_N_ENVS,
+    MAX_ROUNDS,
+    MAX_TIMESTEPS,
+)
 from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.validation import check_in_range
-
-MAX_TIMESTEPS = 10**10
-MAX_EPISODES = 100_000
 
 
 def in_cli_words(error: FileExistsError, out, what: str) -> FileExistsError:
@@ -68,7 +74,7 @@ def cmd_train(args) -> dict:
     if args.seed is not None:
         seed_arg(args.seed)
     if args.n_envs is not None:
-        count_arg(args.n_envs, "--n-envs", 1, 64)
+        count_arg(args.n_envs, "--n-envs", 1, MAX_N_ENVS)
     if args.init_from is not None:
         policy_dir_arg(args.init_from, "--init-from")
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
@@ -349,9 +355,9 @@ def _distill_config(args):
     )
     serving_policy_arg(args.teacher, "distill", "--teacher")
     output_dir_arg(args.out, "--out")
-    count_arg(config.rounds, "--rounds", 1, 1000)
+    count_arg(config.rounds, "--rounds", 1, MAX_ROUNDS)
     count_arg(config.episodes, "--episodes", 1, MAX_EPISODES)
-    count_arg(config.epochs, "--epochs", 0, 10_000)
+    count_arg(config.epochs, "--epochs", 0, MAX_EPOCHS)
     seed_arg(config.seed, count=config.rounds * config.episodes)
     check_in_range(config.learning_rate, 1e-7, 1.0, "--learning-rate")
     choice_arg(config.action_mode, STUDENT_MODES, "--action-mode", "student action mode")
@@ -412,9 +418,9 @@ def format_evaluate(out: dict) -> str:
 
 
 def cmd_sweep(args) -> dict:
-    count_arg(args.max_failures, "--max-failures", 0, 100)
+    count_arg(args.max_failures, "--max-failures", 0, MAX_FAILURES)
     if args.num_cpus is not None:
-        count_arg(args.num_cpus, "--num-cpus", 1, 4096)
+        count_arg(args.num_cpus, "--num-cpus", 1, MAX_CPUS)
     if args.resume is not None:
         given = [
             f

@@ -31,7 +31,6 @@ EXTRACTION_RECORDS = {"line-contact": "commanded", "mean-achieved": "achieved"}
 # Randomization draws of the nominal simulation over which a line-contact trajectory is moved
 # across the push to where it pushes best (`experiments.line_contact.calibrated`); 0: not.
 CALIBRATION_DRAWS = 16
-MAX_CALIBRATION_DRAWS = 1000  # the most any command takes
 
 
 # -- the transfer's tools -------------------------------------------------------------------

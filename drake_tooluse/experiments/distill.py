@@ -49,6 +49,7 @@ from stable_baselines3.common.running_mean_std import RunningMeanStd
 
 from drake_tooluse.files import read_json, to_json
 from drake_tooluse.learning.policy_dir import LoadedPolicy, build_model, load_policy, save_policy
+from drake_tooluse.limits import MAX_BATCH_SIZE, MAX_EPISODES, MAX_EPOCHS, MAX_ROUNDS, SEED_MAX
 from drake_tooluse.systems.tip_target import ACTION_MODES, MAX_QUATERNION_STEP
 from drake_tooluse.tasks.push.observation import OBSERVATION_SIZES
 
@@ -214,12 +215,12 @@ def resume_distill(out, log=print) -> dict:
 
 # The distillation state's numbers: (field, type, lowest, highest); None: unbounded.
 CONFIG_RANGES = (
-    ("rounds", int, 1, 1000),
-    ("episodes", int, 1, 100_000),
-    ("seed", int, 0, 2**32 - 1),
-    ("epochs", int, 0, 10_000),
+    ("rounds", int, 1, MAX_ROUNDS),
+    ("episodes", int, 1, MAX_EPISODES),
+    ("seed", int, 0, SEED_MAX),
+    ("epochs", int, 0, MAX_EPOCHS),
     ("learning_rate", float, 1e-7, 1.0),
-    ("batch_size", int, 1, 1_000_000),
+    ("batch_size", int, 1, MAX_BATCH_SIZE),
     ("noise", float, 0.0, 10.0),
 )
 

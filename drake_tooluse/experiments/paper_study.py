@@ -50,6 +50,7 @@ from drake_tooluse.files import atomic_dir, atomic_write_json, lock_holder, run_
 from drake_tooluse.learning.figures import format_figures
 from drake_tooluse.learning.jobs import Commands, last_line, run_queue, this_interpreter
 from drake_tooluse.learning.task_envs import episode_metrics
+from drake_tooluse.limits import MAX_PARALLEL
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.validation import check_int
 
@@ -533,7 +534,7 @@ def run_study(study: Study, only=None, seeds=None, parallel: int = 1) -> list[di
     """Runs what is missing of the study (of the cells `only`, the seeds `seeds`), `parallel`
     runs at a time, resuming stopped runs; the state of each run after the job. One job at a
     time holds the run directories."""
-    check_int(parallel, 1, 64, "parallel")
+    check_int(parallel, 1, MAX_PARALLEL, "parallel")
     queue = queue_of(study, only, seeds)
     files = study.files
     results = read_results(files.results)

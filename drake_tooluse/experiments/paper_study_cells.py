@@ -12,6 +12,7 @@ from pathlib import Path
 
 from drake_tooluse.files import read_yaml
 from drake_tooluse.learning.algorithms import ALGOS
+from drake_tooluse.limits import MAX_EPISODES, MAX_SEEDS, MAX_TIMESTEPS
 from drake_tooluse.paths import PAPER_STUDY_CELLS
 from drake_tooluse.tasks.contract import check_serves, declaration
 from drake_tooluse.validation import check_int, check_mapping, check_one_of, check_seed, shown
@@ -23,8 +24,6 @@ ARCHIVE_NAME = "paper_study"  # each run's small files: CELL/sSEED/
 PROTOCOLS = ("to-limit",)
 CELL_KEYS = ("env", "algo", "timesteps", "seeds", "hyperparams", "protocol", "init_from")
 DEFAULT_OUT = Path("runs") / "study"
-MAX_SEEDS = 1000
-MAX_TIMESTEPS = 10**10
 
 
 @dc.dataclass(frozen=True)
@@ -82,7 +81,7 @@ def load_cells(path=PAPER_STUDY_CELLS) -> tuple[dict, int, int]:
         raise ValueError(
             f"{where}: unknown key(s) {unknown}; allowed: cells, episodes, evaluation_seed"
         )
-    episodes = check_int(data.get("episodes", 100), 1, 100_000, f"{where}: episodes")
+    episodes = check_int(data.get("episodes", 100), 1, MAX_EPISODES, f"{where}: episodes")
     seed = check_seed(data.get("evaluation_seed", 1000), f"{where}: evaluation_seed", episodes)
     cells = data["cells"]
     for name, c in cells.items():

@@ -62,9 +62,15 @@ def holding(scenario: Scenario, tool, grasp_along: float | None = None) -> Scena
     return s
 
 
-def measure(reality: Scenario, tool, seed: int, save_images_dir=None):
+def measure(
+    reality: Scenario, tool, seed: int, save_images_dir=None, use_grasp_estimate: bool = True
+):
     """(what the robot believes of `tool`, held in `reality`, after the head camera measures
     it; the measurement): the straight tool's or the hook's measurement, by the tool's kind.
-    With `save_images_dir`, the annotated views are written there."""
+    With `use_grasp_estimate` the robot holds the tool where the camera saw the grasp along
+    it; without, at the nominal grasp (the paper's measurement: the tool's size only). With
+    `save_images_dir`, the annotated views are written there."""
     measure_kind = measure_hook_belief if isinstance(tool, HookTool) else measure_belief
-    return measure_kind(reality, save_images_dir=save_images_dir, seed=seed)
+    return measure_kind(
+        reality, save_images_dir=save_images_dir, seed=seed, use_grasp_estimate=use_grasp_estimate
+    )

@@ -53,6 +53,7 @@ from drake_tooluse.experiments.task_worlds import (
 )
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.limits import MAX_ROLLOUTS
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
@@ -64,7 +65,6 @@ from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, validate_scenario
 
 MIN_TOOLS, MAX_TOOLS = 1, 5
-MAX_ROLLOUTS = 20
 DEFAULT_ROLLOUTS = 3
 # Which tool succeeds depends on the task and the instance: a very short straight tool
 # (misses some pushes), a long one, an L-hook, and a long J-hook the scripted pull succeeds

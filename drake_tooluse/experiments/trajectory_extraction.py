@@ -21,6 +21,7 @@ from pydrake.math import RigidTransform
 from drake_tooluse.experiments.choices import ALIGNMENTS, RECORDS
 from drake_tooluse.files import atomic_dir, atomic_write_figure
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.ik import ToolTipIK, joint_limit_kwargs
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
@@ -194,7 +195,7 @@ def record_episodes(
     episode is moved across the table by where its box started from the scenario's nominal
     box start (the paper's average mixes pushes of boxes up to ±2 cm apart): the average is of
     pushes of the nominal box, and a replay moves it to its own box (`shifted`)."""
-    check_int(episodes, 1, 100_000, "episodes")
+    check_int(episodes, 1, MAX_EPISODES, "episodes")
     check_seed(seed, "seed", episodes)
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(record, RECORDS, "record")
@@ -243,7 +244,8 @@ def extract(
     filtered to the poses reachable under the conservative real-robot limits with
     `tool_length`. The trajectory's time step is the
     control period of the env the policy acts in (its scenario's `control.control_period`);
-    `env_kwargs` override the policy's own; `box_frame`: see `record_episodes`."""
+    `env_kwargs` override the policy's own; `box_frame`: see `record_episodes`. `policy_dir`:
+    a policy directory, or a policy loaded from one."""
     tips, quats, grippers, successes, period = record_episodes(
         policy_dir, episodes, seed, env_kwargs, align, trust_pickle, record, box_frame
     )

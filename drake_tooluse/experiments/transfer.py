@@ -54,13 +54,11 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from drake_tooluse.builders.box_measurement import measure_box_start
-from drake_tooluse.builders.measurement import measure_belief
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
     EXTRACTION_RECORDS,
     EXTRACTIONS,
-    MAX_CALIBRATION_DRAWS,
     MODES,
     RECORDS,
     check_tool_kinds,
@@ -85,6 +83,7 @@ from drake_tooluse.files import (
     check_output_dir,
 )
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.limits import MAX_CALIBRATION_DRAWS, MAX_RUNS
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
@@ -237,7 +236,7 @@ def check_same_task(nominal: Scenario, reality: Scenario) -> None:
 def check_transfer_args(tools, runs: int, mode: str, seed: int = 0) -> list:
     """The experiment's arguments, checked; its tools as `transfer_tool` gives them."""
     check_one_of(mode, MODES, "mode")
-    check_int(runs, 1, 10_000, "runs")
+    check_int(runs, 1, MAX_RUNS, "runs")
     check_seed(seed, "seed", runs)
     tools = [transfer_tool(t) for t in tools]
     if not tools:
@@ -293,9 +292,28 @@ def run_transfer(
     tools' lengths (m) or hooks (`transfer_tool`), of the kind the policy uses; default its
     task's (`task_tools`). The worlds default to the policy's task's (`task_worlds`)."""
     policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    env_id, tools = _checked_policy_and_tools(policy, tools, runs, mode, seed)
+    return _run_transfer(
+        policy, policy_dir, env_id, tools, runs, mode, seed, nominal_scenario,
+        reality_scenario, trajectory, log, use_grasp_estimate, box_frame,
+    )  # fmt: skip
+
+
+def _checked_policy_and_tools(policy, tools, runs: int, mode: str, seed: int):
+    """(the policy's env id, its tools) after every check of a transfer's policy and
+    arguments (`check_policy_env`, `check_transfer_args`, `check_tool_kinds`)."""
     env_id, _ = check_policy_env(policy)  # as every command checks a policy and its env
     tools = check_transfer_args(task_tools(env_id) if tools is None else tools, runs, mode, seed)
     check_tool_kinds(env_id, tools)
+    return env_id, tools
+
+
+def _run_transfer(
+    policy, policy_dir, env_id: str, tools: list, runs: int, mode: str, seed: int,
+    nominal_scenario, reality_scenario, trajectory, log, use_grasp_estimate: bool,
+    box_frame: bool,
+) -> dict:  # fmt: skip
+    """`run_transfer` of a loaded `policy` (of `policy_dir`) whose arguments are checked."""
     if mode == "open-loop" and trajectory is None:
         raise ValueError(
             "open-loop transfer needs a trajectory (experiments.trajectory_extraction.extract "
@@ -323,19 +341,14 @@ def run_transfer(
             run_seed = seed + i
             nominal, reality, draw = run_worlds(nominal_scenario, reality_scenario, tool, run_seed)
             t0 = time.perf_counter()
-            if isinstance(tool, HookTool):  # the hook's measurement, by its marker bands
-                measurement, measure_error = attempt(measure, reality, tool, run_seed)
-            else:
-                measurement, measure_error = attempt(
-                    measure_belief, reality, seed=run_seed, use_grasp_estimate=use_grasp_estimate
-                )
+            measurement, measure_error = attempt(
+                measure, reality, tool, run_seed, use_grasp_estimate=use_grasp_estimate
+            )
             believed = None
             if measurement is not None:
                 believed, measurement = measurement
                 measured.append(measurement.measured_dimensions())
-                if not isinstance(tool, HookTool):  # (the hook's grasp is not estimated)
-                    error = believed.grasp_offset[1] - reality.tool.grasp_offset_along
-                    grasp_errors.append(error)
+                grasp_errors.append(believed.grasp_offset[1] - reality.tool.grasp_offset_along)
             # The nominal world's robot knows its true tool, grasp included, and its box.
             knows = RobotBelief(tool, (0.0, nominal.tool.grasp_offset_along))
             box_xy = {"nominal": initial_box_pose(nominal).translation()[:2]}
@@ -570,9 +583,8 @@ def transfer_experiment(
     directory that becomes `out` only when complete. Every path in the result is absolute (as
     the demo's metrics.json). `tools` and the worlds (`nominal_path`, `reality_path`) default
     to the policy's task's (`task_tools`, `task_worlds`). Returns the result."""
-    env_id, _ = check_policy_env(load_policy(policy_dir, trust_pickle=trust_pickle))
-    tools = check_transfer_args(task_tools(env_id) if tools is None else tools, runs, mode, seed)
-    check_tool_kinds(env_id, tools)
+    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    env_id, tools = _checked_policy_and_tools(policy, tools, runs, mode, seed)
     check_int(calibration_draws, 0, MAX_CALIBRATION_DRAWS, "calibration_draws")
     check_one_of(align, ALIGNMENTS, "align")
     check_one_of(extraction, EXTRACTIONS, "extraction")
@@ -607,7 +619,7 @@ def transfer_experiment(
         elif mode == "open-loop":
             log(f"extracting the {extraction} trajectory from {episodes} episodes …")
             ex = extract(
-                policy_dir,
+                policy,
                 episodes=episodes,
                 seed=seed,
                 tool_length=tools[0],
@@ -639,20 +651,10 @@ def transfer_experiment(
                 made["reachable_by_tool"] = {f"{t:g}": n for t, n in reachable.items()}
                 made["kept"] = len(trajectory)
                 made["file"] = str(out.absolute() / "trajectory.npz")
-        result = run_transfer(
-            policy_dir,
-            tools,
-            runs,
-            mode,
-            seed,
-            nominal,
-            reality,
-            trajectory,
-            log=log,
-            use_grasp_estimate=use_grasp_estimate,
-            trust_pickle=trust_pickle,
-            box_frame=box_frame,
-        )
+        result = _run_transfer(
+            policy, policy_dir, env_id, tools, runs, mode, seed, nominal, reality, trajectory,
+            log, use_grasp_estimate, box_frame,
+        )  # fmt: skip
         result["nominal_scenario"] = str(Path(nominal_file).absolute())
         result["reality_scenario"] = str(Path(reality_file).absolute())
         if reality_note:

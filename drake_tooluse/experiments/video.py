@@ -18,11 +18,11 @@ from PIL import Image
 
 from drake_tooluse.files import atomic_write_bytes, check_output_file
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.limits import MAX_COLORS, MAX_FRAME_STEP
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.validation import check_int, check_seed
 
 HOLD_LAST_S = 1.5  # s the last frame stays before the GIF loops: the push's end, readable
-MAX_COLORS = 256  # a GIF's palette holds at most this many
 
 
 def record_video(
@@ -43,7 +43,7 @@ def record_video(
     `progress`: a bar of the episode's steps where stderr is a terminal."""
     out = check_output_file(out, "out", ".gif")
     check_seed(seed, "seed")
-    check_int(every, 1, 100, "every")
+    check_int(every, 1, MAX_FRAME_STEP, "every")
     check_int(colors, 2, MAX_COLORS, "colors")
     kwargs = {**(env_kwargs or {}), "render_mode": "rgb_array"}
     policy, env = make_policy_env(policy_dir, env_kwargs=kwargs, trust_pickle=trust_pickle)

@@ -25,6 +25,7 @@ from drake_tooluse.learning.scenario_files import (
     scenario_identity,
 )
 from drake_tooluse.learning.task_envs import check_env_id, check_env_kwargs
+from drake_tooluse.limits import MAX_N_ENVS, MAX_TIMESTEPS
 from drake_tooluse.paths import HYPERPARAMS_DIR
 from drake_tooluse.validation import (
     check_bool,
@@ -63,7 +64,6 @@ _NOT_HYPERPARAMETERS = {
     "rollout_buffer_class",
     "replay_buffer_class",
 }
-MAX_TIMESTEPS = 10**10
 # A network's layers: at most this many, each at most this wide (4096 x 4096: 17M parameters).
 MAX_LAYERS, MAX_WIDTH = 16, 4096
 # The policy_kwargs whose values are checked here; SB3 checks the others when it builds.
@@ -141,7 +141,7 @@ def check_hyperparams(algo: str, env_id: str, hp, name: str = "hyperparameters")
         if key in hp:
             check_int(hp[key], 1, MAX_TIMESTEPS, f"{name}: {key}")
     if "n_envs" in hp:
-        check_int(hp["n_envs"], 1, 64, f"{name}: n_envs")
+        check_int(hp["n_envs"], 1, MAX_N_ENVS, f"{name}: n_envs")
     if "normalize" in hp:
         check_bool(hp["normalize"], f"{name}: normalize")
     if "policy" in hp and hp["policy"] not in POLICIES:
@@ -281,6 +281,6 @@ def resolve_config(
     if env_kwargs:
         merged = {**hp.get("env_kwargs", {}), **check_mapping(env_kwargs, "env kwargs")}
         hp["env_kwargs"] = check_env_kwargs(env_id, merged, "env kwargs")
-    n = check_int(n_envs if n_envs is not None else hp.get("n_envs", 1), 1, 64, "n_envs")
+    n = check_int(n_envs if n_envs is not None else hp.get("n_envs", 1), 1, MAX_N_ENVS, "n_envs")
     hp["n_envs"] = n
     return TrainConfig(env_id, algo, int(timesteps), n, int(seed), hp, init_from)

@@ -7,7 +7,13 @@ from dataclasses import dataclass, field
 import gymnasium as gym
 import numpy as np
 
-from drake_tooluse.learning.policy_dir import check_policy_env, check_policy_matches, load_policy
+from drake_tooluse.learning.policy_dir import (
+    LoadedPolicy,
+    check_policy_env,
+    check_policy_matches,
+    load_policy,
+)
+from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.validation import check_int, check_seed
 
@@ -72,10 +78,14 @@ def make_policy_env(
     env_kwargs: dict | None = None,
     trust_pickle: bool = False,
 ):
-    """Loads a policy directory and makes the env it acts in: its own env id and kwargs
-    unless `env_id` / `env_kwargs` override them (`check_policy_env`: the id registered, the
-    kwargs valid, the spaces the policy's). Returns (policy, env)."""
-    policy = load_policy(policy_dir, trust_pickle=trust_pickle)
+    """Loads a policy directory (or takes a policy already loaded from one) and makes the env
+    it acts in: its own env id and kwargs unless `env_id` / `env_kwargs` override them
+    (`check_policy_env`: the id registered, the kwargs valid, the spaces the policy's).
+    Returns (policy, env)."""
+    if isinstance(policy_dir, LoadedPolicy):
+        policy = policy_dir
+    else:
+        policy = load_policy(policy_dir, trust_pickle=trust_pickle)
     env_id, kwargs = check_policy_env(policy, env_id, env_kwargs)
     env = gym.make(env_id, **kwargs)
     check_policy_matches(policy, env)
@@ -119,7 +129,7 @@ def evaluate(
     `to_time_limit` each episode runs on past a termination to the step limit and is judged
     where it ends (`run_episode`). With `progress`, a bar of the episodes (and the success so
     far) on stderr, when stderr is a terminal."""
-    check_int(episodes, 1, 1_000_000, "episodes")
+    check_int(episodes, 1, MAX_EPISODES, "episodes")
     check_seed(seed, "seed", episodes)
     policy, env = make_policy_env(policy_dir, env_id, env_kwargs, trust_pickle)
     task_env = type(env.unwrapped)

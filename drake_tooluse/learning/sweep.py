@@ -79,6 +79,7 @@ from drake_tooluse.learning.config import (
 from drake_tooluse.learning.evaluate import evaluate
 from drake_tooluse.learning.task_envs import check_env_id
 from drake_tooluse.learning.train import train
+from drake_tooluse.limits import MAX_CELLS, MAX_CPUS, MAX_EPISODES, MAX_FAILURES, MAX_TIMESTEPS
 from drake_tooluse.validation import (
     EnvironmentProblem,
     check_int,
@@ -89,9 +90,6 @@ from drake_tooluse.validation import (
 )
 
 EVALUATION_SEED = 1000
-MAX_EPISODES = 100_000
-MAX_FAILURES = 100
-MAX_CELLS = 10_000  # runs in one grid: past this Tune's own bookkeeping takes minutes
 CONFIG_FILE = "sweep_config.json"
 CELL_FILE = "cell.json"  # in a cell's run directory once it has finished
 REFUSED = "refused"  # the metric a refused cell reports to Tune instead of its evaluation
@@ -514,7 +512,7 @@ def check_sweep(
     algos = [check_algo(a) for a in _list(algos, "algos")]
     envs = [check_env_id(e) for e in _list(envs, "envs")]
     seeds = [check_seed(s, "seed") for s in _list(seeds, "seeds")]
-    check_int(timesteps, 1, 10**10, "timesteps")
+    check_int(timesteps, 1, MAX_TIMESTEPS, "timesteps")
     check_int(episodes, 1, MAX_EPISODES, "episodes")
     check_mapping(overrides, "hyperparameter overrides")
     out = check_output_dir(out, "out", must_be_new=False)
@@ -557,7 +555,7 @@ def check_sweep(
         )
     if address is None:  # the CPUs this process may use (taskset, a container's cpuset)
         local = num_cpus if num_cpus is not None else len(os.sched_getaffinity(0))
-        check_int(local, 1, 4096, "num_cpus")
+        check_int(local, 1, MAX_CPUS, "num_cpus")
         _check_cpus(
             cpus,
             local,

@@ -98,6 +98,7 @@ from drake_tooluse.learning.sb3_state import (
     set_call_count,
 )
 from drake_tooluse.learning.task_envs import env_spaces, episode_metrics
+from drake_tooluse.limits import MAX_N_ENVS, MAX_TIMESTEPS
 from drake_tooluse.provenance import code_version
 from drake_tooluse.validation import check_int, check_seed
 
@@ -288,8 +289,8 @@ def _npz(**arrays) -> bytes:
 
 def check_train_config(config: TrainConfig) -> None:
     """Every setting of a run, checked before anything is written or started."""
-    check_int(config.timesteps, 1, 10**10, "timesteps")
-    check_int(config.n_envs, 1, 64, "n_envs")
+    check_int(config.timesteps, 1, MAX_TIMESTEPS, "timesteps")
+    check_int(config.n_envs, 1, MAX_N_ENVS, "n_envs")
     check_seed(config.seed, "seed")
     check_hyperparams(config.algo, config.env_id, config.hyperparams)
 

@@ -31,6 +31,7 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from drake_tooluse.limits import MAX_NOISE_SIGMA
 from drake_tooluse.validation import check_in_range
 
 METHODS = ("depth", "pixel")
@@ -52,7 +53,6 @@ MARKER_DEPTH_TOLERANCE = 0.03
 GRIP_TOLERANCE = 0.04
 # The renderer lightings the pipeline is tested under (see systems.camera.lighting_params).
 LIGHTINGS = ("default", "dim_side")
-MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
 
 
 class CameraIntrinsics(Protocol):

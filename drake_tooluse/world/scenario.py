@@ -23,6 +23,7 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.files import read_yaml
+from drake_tooluse.limits import MAX_NOISE_SIGMA
 from drake_tooluse.paths import BAXTER_URL
 from drake_tooluse.robot.baxter_model import LEFT_ARM_TUCKED, Q_LOWER, Q_UPPER
 from drake_tooluse.robot.tool import (
@@ -46,7 +47,6 @@ from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS  # noqa: F401  (part of
 
 TOOL_RADIUS_RANGE = (0.002, 0.0125)  # the closed fingers leave 12.5 mm either side (m)
 CONTACT_MODELS = ("point", "hydroelastic_with_fallback")
-MAX_NOISE_SIGMA = 50.0  # grey levels: past this the markers drown in the noise
 # Every position in W (the box, the goal, the table's centre, the home tip) lies within this
 # of the robot's base per coordinate (m): Baxter reaches about 1.3 m with its tool.
 WORKSPACE = 2.0

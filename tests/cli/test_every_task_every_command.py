@@ -100,6 +100,7 @@ def test_the_pull_policy_transfers_to_a_hook_closed_loop(tmp_path, capsys):
     (tool,) = json.loads(captured.out)["tools"]
     assert tool["tool"] == "hook:0.25,0.05,90" and tool["tool_length_m"] is None
     assert abs(tool["measured_mean"]["angle_deg"] - 90) < 3
+    assert tool["grasp_along_error_max_m"] < 0.001  # the camera's grasp along the handle
     assert tool["reality"]["runs"] == 1 and tool["reality"]["failed_runs"] == 0
     assert "cube travel nominal" in captured.err
 

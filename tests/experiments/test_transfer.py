@@ -395,3 +395,21 @@ def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_too
     assert not paper["box_frame"] and paper["trajectory"]["record"] == "achieved"
     assert "box_xy_error_m" not in paper["tools"][0]["reality"]["per_run"][0]
     assert (tmp_path / "p" / "trajectory.npz").is_file()
+
+
+@pytest.mark.slow  # ~8 s: a hook measured twice by the head camera; .ci/run runs it
+def test_length_only_holds_a_hook_at_the_nominal_grasp_too():
+    """`--length-only` (the paper's measurement: the tool's size only) for either kind of tool:
+    the hook's measured grasp along its handle is not used either."""
+    from drake_tooluse.experiments.task_worlds import measure, task_scenarios
+    from drake_tooluse.robot.tool import parse_tool
+
+    nominal, reality = task_scenarios("pull")
+    hook = parse_tool("hook:0.25,0.05,90")
+    _, held, _ = run_worlds(nominal, reality, hook, seed=3)
+    assert abs(held.tool.grasp_offset_along) > 0.001  # the draw moved the grasp
+    estimated, measurement = measure(held, hook, 3)
+    assert estimated.grasp_offset[1] == measurement.grasp_along
+    assert abs(measurement.grasp_along - held.tool.grasp_offset_along) < 0.001
+    length_only, _ = measure(held, hook, 3, use_grasp_estimate=False)
+    assert length_only.grasp_offset == (0.0, 0.0)
