@@ -25,7 +25,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 import drake_tooluse  # noqa: F401  (registers the envs)
-from drake_tooluse.cli.common import count_arg, run_script
+from drake_tooluse.cli.common import run_script
+from drake_tooluse.validation import check_int
 
 PERIOD, PLANT_STEP = 0.04, 0.02  # the envs' control period and plant step (s)
 ENV_IDS = ("drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1")  # one per task
@@ -107,7 +108,7 @@ def main(argv=None) -> int:
     parser.add_argument("--steps", type=int, default=300, help="control steps (default 300)")
     args = parser.parse_args(argv)
     try:
-        steps = count_arg(args.steps, "--steps", 10, 100_000)
+        steps = check_int(args.steps, 10, 100_000, "--steps")
     except ValueError as e:
         parser.error(str(e))
     print(f"minimal diagram, {steps} steps of {PERIOD} s (plant {PLANT_STEP} s):")

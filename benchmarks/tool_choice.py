@@ -29,8 +29,7 @@ from drake_tooluse.experiments.tool_choice import (
     check_rack,
     choose_tool,
 )
-from drake_tooluse.limits import MAX_ROLLOUTS
-from drake_tooluse.validation import check_in_range
+from drake_tooluse.validation import check_in_range, check_int
 
 RATIO_GOAL, END_TO_END_GOAL = 0.90, 0.75
 
@@ -61,9 +60,9 @@ def main() -> None:
         if task not in TASKS:
             ap.error(f"--tasks: unknown task {task!r}; choose from {list(TASKS)}")
     try:  # the checks `drake-tooluse choose-tool` makes, before any work
-        count_arg(args.instances, "--instances", 1, 10_000)
+        check_int(args.instances, 1, 10_000, "--instances")
         seed_arg(args.seed, "--seed", args.instances)
-        count_arg(args.rollouts, "--rollouts", 1, MAX_ROLLOUTS)
+        count_arg(args.rollouts, "--rollouts")
         check_in_range(args.delay_margin, 0.0, MAX_DELAY_MARGIN, "--delay-margin", unit="s")
         rack = check_rack(args.tools or DEFAULT_RACK)
     except ValueError as e:

@@ -25,3 +25,26 @@ MAX_CELLS = 10_000  # runs in one sweep grid: past this Tune's own bookkeeping t
 MAX_CPUS = 4096  # CPUs a sweep asks Ray for
 MAX_SMOOTHING_WINDOW = 999  # steps of the trajectory extraction's moving average
 MAX_NOISE_SIGMA = 50.0  # camera noise, grey levels: past this the markers drown in the noise
+
+# The command line's count options, each with its range (lowest, highest): `cli.common.count_arg`
+# checks an option through it, and the help of every option named here shows it.
+OPTION_RANGES = {
+    "--episodes": (1, MAX_EPISODES),
+    "--n-eval-episodes": (1, MAX_EPISODES),
+    "--timesteps": (1, MAX_TIMESTEPS),
+    "--eval-freq": (1, MAX_TIMESTEPS),
+    "--save-freq": (1, MAX_TIMESTEPS),
+    "--n-envs": (1, MAX_N_ENVS),
+    "--runs": (1, MAX_RUNS),
+    "--parallel": (1, MAX_PARALLEL),
+    "--trajectories": (1, MAX_TRAJECTORIES),
+    "--calibration-draws": (0, MAX_CALIBRATION_DRAWS),
+    "--rollouts": (1, MAX_ROLLOUTS),
+    "--rounds": (1, MAX_ROUNDS),
+    "--epochs": (0, MAX_EPOCHS),
+    "--every": (1, MAX_FRAME_STEP),
+    "--colors": (2, MAX_COLORS),
+    "--max-failures": (0, MAX_FAILURES),
+    "--num-cpus": (1, MAX_CPUS),
+    "--window": (1, MAX_SMOOTHING_WINDOW),
+}

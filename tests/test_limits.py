@@ -1,6 +1,7 @@
 """Each range declared once (`drake_tooluse.limits`): no module declares a limit of its own under
 a name that module holds, and no literal bound of a count check appears in two modules."""
 
+import argparse
 import ast
 from collections import defaultdict
 from pathlib import Path
@@ -66,3 +67,44 @@ def test_the_checks_see_planted_duplicates():
     planted = ast.parse("MAX_EPISODES = 5\ncount_arg(x, '--runs', 1, 10_000)\n")
     assert _redeclared(planted) == ["MAX_EPISODES"]
     assert _literal_bounds(planted) == {10_000}
+
+
+def _count_arg_options() -> set:
+    """The option names the command line's `count_arg` calls check (a literal second argument)."""
+    options = set()
+    for path in SOURCES:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "count_arg":
+                option = node.args[1]
+                if isinstance(option, ast.Constant):
+                    options.add(option.value)
+    return options
+
+
+def test_every_count_option_checked_has_its_range_in_the_table():
+    assert _count_arg_options() <= set(limits.OPTION_RANGES)
+
+
+def test_every_count_option_s_help_shows_the_range_it_is_checked_against():
+    """Each option of the table exists in some command, and its help states its range."""
+    from drake_tooluse.cli import commands, make_parser
+
+    parser = make_parser()
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    shown = {}
+    for command in commands(sub):
+        help_text = " ".join(command.format_help().split())
+        for action in command._actions:
+            option = action.option_strings[0] if action.option_strings else None
+            if option in limits.OPTION_RANGES:
+                lo, hi = limits.OPTION_RANGES[option]
+                shown[option] = f"[{lo:,} to {hi:,}]" in help_text
+    assert shown == dict.fromkeys(limits.OPTION_RANGES, True)
+
+
+def test_a_count_option_out_of_its_range_is_refused_naming_the_option_and_range(capsys):
+    from drake_tooluse.cli import main
+
+    code = main(["transfer", "--runs", str(limits.MAX_RUNS + 1)])
+    err = capsys.readouterr().err
+    assert code == 2 and "--runs" in err and f"{limits.MAX_RUNS}" in err.replace(",", "")

@@ -53,6 +53,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
     EXIT_USAGE,
     path_arg,
 )
+from drake_tooluse.limits import OPTION_RANGES
 from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
 GROUPS = (robot, learning, experiments, study, measure, maintenance)
@@ -76,9 +77,12 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         text = action.help or ""
         default = action.default  # (`is`: 0 is a default to show, False is a flag's)
         says_nothing = default is None or default is False or default == []
-        if "%(default)" in text or "default" in text or says_nothing:
-            return text
-        return super()._get_help_string(action)
+        if not ("%(default)" in text or "default" in text or says_nothing):
+            text = super()._get_help_string(action)
+        bounds = OPTION_RANGES.get(action.option_strings[0] if action.option_strings else "")
+        if bounds and text:  # a count option's range, as `common.count_arg` checks it
+            text = f"{text} [{bounds[0]:,} to {bounds[1]:,}]"
+        return text
 
 
 MAX_MESSAGE = 1000  # characters of an error's one line

@@ -8,6 +8,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from drake_tooluse.limits import OPTION_RANGES
 from drake_tooluse.paths import DEFAULT_SCENARIO
 
 # The exit codes (their table is in `drake_tooluse.cli`'s docstring and every --help).
@@ -169,11 +170,13 @@ def seed_arg(value, option: str = "--seed", count: int = 1) -> int:
     return check_seed(value, option, count)
 
 
-def count_arg(value, option: str, lo: int = 1, hi: int = 1_000_000) -> int:
-    """A count option (episodes, runs, steps): an integer in [lo, hi]."""
+def count_arg(value, option: str, what: str | None = None) -> int:
+    """A count option (episodes, runs, steps): an integer in its range (`limits.OPTION_RANGES`,
+    which the option's help shows too). The message names `what` (default: the option)."""
     from drake_tooluse.validation import check_int
 
-    return check_int(value, lo, hi, option)
+    lo, hi = OPTION_RANGES[option]
+    return check_int(value, lo, hi, what or option)
 
 
 def choice_arg(value, allowed, option: str, what: str):

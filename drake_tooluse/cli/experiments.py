@@ -34,15 +34,6 @@ from drake_tooluse.experiments.choices import (
     task_tools,
     transfer_tool,
 )
-from drake_tooluse.limits import (
-    MAX_CALIBRATION_DRAWS,
-    MAX_COLORS,
-    MAX_EPISODES,
-    MAX_FRAME_STEP,
-    MAX_ROLLOUTS,
-    MAX_RUNS,
-    MAX_SMOOTHING_WINDOW,
-)
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.tasks.contract import tool_tasks
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
@@ -54,10 +45,10 @@ def cmd_trajectory(args) -> dict:
     choice_arg(args.align, ALIGNMENTS, "--align", "alignment")
     if args.tip_poses is not None:
         choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
-    episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    episodes = count_arg(args.episodes, "--episodes")
     seed_arg(args.seed, "--seed", episodes)
-    count_arg(args.window, "--window", 1, MAX_SMOOTHING_WINDOW)
-    count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
+    count_arg(args.window, "--window")
+    count_arg(args.calibration_draws, "--calibration-draws")
     output_dir_arg(args.out, "--out")  # a new directory, as every command's result directory
     serving_policy_arg(args.policy, "trajectory")
     from drake_tooluse.experiments.choices import EXTRACTION_RECORDS
@@ -191,10 +182,10 @@ def cmd_transfer(args) -> dict:
         choice_arg(args.tip_poses, RECORDS, "--tip-poses", "kind of tip poses")
     choice_arg(args.extraction, EXTRACTIONS, "--extraction", "extraction")
     out = output_dir_arg(args.out or new_run_dir(f"transfer-{args.mode}"), "--out")
-    runs = count_arg(args.runs, "--runs", 1, MAX_RUNS)
+    runs = count_arg(args.runs, "--runs")
     seed_arg(args.seed, "--seed", runs)
-    count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
-    count_arg(args.calibration_draws, "--calibration-draws", 0, MAX_CALIBRATION_DRAWS)
+    count_arg(args.episodes, "--episodes")
+    count_arg(args.calibration_draws, "--calibration-draws")
     policy = serving_policy_arg(args.policy, "transfer")
     env_id = policy_env_id(policy)
     if args.mode == "open-loop":  # it replays the policy's tool-tip trajectory
@@ -277,7 +268,7 @@ def format_demo(out: dict) -> str:
 
 
 def cmd_choose_tool(args) -> dict:
-    rollouts = count_arg(args.rollouts, "--rollouts", 1, MAX_ROLLOUTS)
+    rollouts = count_arg(args.rollouts, "--rollouts")
     seed_arg(args.seed)
     from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
 
@@ -322,8 +313,8 @@ def add_tip_poses_arg(p, when: str = "") -> None:
 def cmd_record_video(args) -> dict:
     output_file_arg(args.out, "--out", ".gif")
     seed_arg(args.seed)
-    count_arg(args.every, "--every", 1, MAX_FRAME_STEP)
-    count_arg(args.colors, "--colors", 2, MAX_COLORS)
+    count_arg(args.every, "--every")
+    count_arg(args.colors, "--colors")
     serving_policy_arg(args.policy, "record-video")
     env_kwargs = {  # checked by the env, by these names (`render_size=...`)
         name: value

@@ -29,15 +29,6 @@ from drake_tooluse.cli.common import (
 from drake_tooluse.learning.algorithms import ALGOS
 from drake_tooluse.learning.figures import format_figures
 from drake_tooluse.learning.task_envs import task_env_ids
-from drake_tooluse.limits import (
-    MAX_CPUS,
-    MAX_EPISODES,
-    MAX_EPOCHS,
-    MAX_FAILURES,
-    MAX_N_ENVS,
-    MAX_ROUNDS,
-    MAX_TIMESTEPS,
-)
 from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.validation import check_in_range
 
@@ -70,11 +61,11 @@ def cmd_train(args) -> dict:
         env_arg(args.env, "--env")
     saved = saved_timesteps(out_dir) if args.resume is not None else None
     timesteps = args.timesteps if args.timesteps is not None else saved or DEFAULT_TIMESTEPS
-    count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
+    count_arg(timesteps, "--timesteps")
     if args.seed is not None:
         seed_arg(args.seed)
     if args.n_envs is not None:
-        count_arg(args.n_envs, "--n-envs", 1, MAX_N_ENVS)
+        count_arg(args.n_envs, "--n-envs")
     if args.init_from is not None:
         policy_dir_arg(args.init_from, "--init-from")
     overrides = parse_json_arg(args.hyperparams, "--hyperparams")
@@ -172,7 +163,7 @@ def _with_run_flags(args, overrides: dict | None) -> dict | None:
     overrides = dict(overrides or {})
     for flag, value in given.items():
         option = "--" + flag.replace("_", "-")
-        count_arg(value, option, 1, MAX_TIMESTEPS)
+        count_arg(value, option)
         key = RUN_FLAGS[flag]
         if key in overrides:
             raise UsageError(f"give {option} or {key} in --hyperparams, not both")
@@ -193,7 +184,7 @@ def saved_timesteps(out_dir) -> int | None:
     if not path.is_file():
         return None
     timesteps = (read_json(path, "run configuration") or {}).get("timesteps")
-    return count_arg(timesteps, f"{str(path)!r}: timesteps", 1, MAX_TIMESTEPS)
+    return count_arg(timesteps, "--timesteps", f"{str(path)!r}: timesteps")
 
 
 def _remove_if_only_lock(out_dir: Path) -> None:
@@ -245,7 +236,7 @@ def cmd_evaluate(args) -> dict:
     policy_dir_arg(args.policy, "--policy")
     if args.env is not None:
         env_arg(args.env, "--env")
-    episodes = count_arg(args.episodes, "--episodes", 1, MAX_EPISODES)
+    episodes = count_arg(args.episodes, "--episodes")
     seed = seed_arg(args.seed, "--seed", episodes)
     env_kwargs = parse_json_arg(args.env_kwargs, "--env-kwargs")
     if args.meshcat and args.env is None:
@@ -355,9 +346,9 @@ def _distill_config(args):
     )
     serving_policy_arg(args.teacher, "distill", "--teacher")
     output_dir_arg(args.out, "--out")
-    count_arg(config.rounds, "--rounds", 1, MAX_ROUNDS)
-    count_arg(config.episodes, "--episodes", 1, MAX_EPISODES)
-    count_arg(config.epochs, "--epochs", 0, MAX_EPOCHS)
+    count_arg(config.rounds, "--rounds")
+    count_arg(config.episodes, "--episodes")
+    count_arg(config.epochs, "--epochs")
     seed_arg(config.seed, count=config.rounds * config.episodes)
     check_in_range(config.learning_rate, 1e-7, 1.0, "--learning-rate")
     choice_arg(config.action_mode, STUDENT_MODES, "--action-mode", "student action mode")
@@ -418,9 +409,9 @@ def format_evaluate(out: dict) -> str:
 
 
 def cmd_sweep(args) -> dict:
-    count_arg(args.max_failures, "--max-failures", 0, MAX_FAILURES)
+    count_arg(args.max_failures, "--max-failures")
     if args.num_cpus is not None:
-        count_arg(args.num_cpus, "--num-cpus", 1, MAX_CPUS)
+        count_arg(args.num_cpus, "--num-cpus")
     if args.resume is not None:
         given = [
             f
@@ -446,8 +437,8 @@ def cmd_sweep(args) -> dict:
         raise UsageError("give --out (a new directory) or --resume OUT")
     timesteps = 300_000 if args.timesteps is None else args.timesteps
     episodes = 20 if args.episodes is None else args.episodes
-    count_arg(timesteps, "--timesteps", 1, MAX_TIMESTEPS)
-    count_arg(episodes, "--episodes", 1, MAX_EPISODES)
+    count_arg(timesteps, "--timesteps")
+    count_arg(episodes, "--episodes")
     for algo in args.algos or []:
         choice_arg(algo, ALGOS, "--algos", "algorithm")
     for env in args.envs or []:

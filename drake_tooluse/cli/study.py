@@ -14,7 +14,6 @@ from drake_tooluse.cli.common import (
     seed_arg,
     this_command,
 )
-from drake_tooluse.limits import MAX_PARALLEL, MAX_TRAJECTORIES
 
 
 def _files(args):
@@ -49,7 +48,7 @@ def _cells(args):
 
 
 def cmd_study(args) -> dict:
-    count_arg(args.parallel, "--parallel", 1, MAX_PARALLEL)
+    count_arg(args.parallel, "--parallel")
     for seed in args.seeds or []:
         seed_arg(seed, "--seeds")
     if args.archive_every is not None and not 0 < args.archive_every <= 7 * 24 * 3600:
@@ -102,7 +101,7 @@ def format_study(out: dict) -> str:
 
 
 def cmd_study_report(args) -> dict:
-    count_arg(args.trajectories, "--trajectories", 1, MAX_TRAJECTORIES)
+    count_arg(args.trajectories, "--trajectories")
     cells, _, _ = _cells(args)
     from drake_tooluse.experiments.paper_study_cells import unreported
 

@@ -22,7 +22,7 @@ def _script():
             ["--policies", str(ROOT / "models" / "policies" / "ppo_toolpull")],
             "is a policy for drake_tooluse/ToolPull-v",
         ),
-        (["--episodes", "0"], "--episodes=0 is outside the allowed range [1, 1000000]"),
+        (["--episodes", "0"], "--episodes=0 is outside the allowed range [1, 100000]"),
         (["--tools", "0.9"], "tool length=0.9 m is outside the allowed range (0, 0.6] m"),
     ],
 )

@@ -106,7 +106,7 @@ def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatc
                 monkeypatch.setattr(Simulator, "AdvanceTo", ADVANCE)
         return run_closed_loop(scenario, policy, belief)
 
-    measure = transfer.measure_belief
+    measure = transfer.measure
     measured = {"n": 0}
 
     def flaky_measure(*args, **kwargs):  # the camera finds nothing in the second run
@@ -116,7 +116,7 @@ def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatc
         return measure(*args, **kwargs)
 
     monkeypatch.setattr(transfer, "run_closed_loop", flaky)
-    monkeypatch.setattr(transfer, "measure_belief", flaky_measure)
+    monkeypatch.setattr(transfer, "measure", flaky_measure)
     result = transfer.transfer_experiment(
         tmp_path / "t", TRANSFER_POLICY, tools=[0.15], runs=3, log=lambda text: None
     )
