@@ -44,7 +44,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from drake_tooluse.cli import experiments, learning, maintenance, measure, robot, study
+from drake_tooluse.cli import experiments, learning, maintenance, measure, robot, study, tools
 from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition, exported here)
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -56,7 +56,7 @@ from drake_tooluse.cli.common import (  # noqa: F401 (the codes' one definition,
 from drake_tooluse.limits import OPTION_RANGES
 from drake_tooluse.validation import EnvironmentProblem, clipped, drake_failure
 
-GROUPS = (robot, learning, experiments, study, measure, maintenance)
+GROUPS = (robot, learning, experiments, study, measure, tools, maintenance)
 DESCRIPTION = (
     "A Baxter robot that uses tools in Drake (straight tools of any length, hooks): tool-tip "
     "IK, simulation, camera measurement, training, transfer, push and pull tasks, tool choice."

@@ -158,6 +158,7 @@ RULES = [
         needs=("pytracik",),
     ),
     Rule(r"drake-tooluse --version", "run", slow=False),
+    Rule(r"drake-tooluse tools (sample|gallery) .*", "run"),
     Rule(r"drake-tooluse record-video .*", "run", add=("--every", "10")),
     Rule(r"drake-tooluse study( --update-docs)? --status", "run"),
     Rule(

@@ -113,6 +113,8 @@ BASES = {
     "study-report": Base({"--out": ["{new}"]}, cheap=True),
     "measure": Base({}, cheap=True),
     "measure-box": Base({}, cheap=True),
+    "tools sample": Base({"--family": ["rake"], "--out": ["{new}"]}, cheap=True),
+    "tools gallery": Base({"--out": ["{new}.png"]}),
     "dev generate-models": Base({"--check": []}, cheap=True),
     "dev render-diagrams": Base({"--check": []}, cheap=True),
     "dev render-figures": Base({"--check": [], "--figures-dir": ["{figures}"]}),
@@ -319,7 +321,7 @@ class Overran(BaseException):
 @contextmanager
 def _work_refused(armed: bool):
     """While armed, the first step of any work raises WorkStarted: the simulator advancing or
-    initialized, a process started, Ray started."""
+    initialized, a process started, Ray started, the tool gallery drawn."""
     if not armed:
         yield
         return
@@ -327,7 +329,10 @@ def _work_refused(armed: bool):
 
     from pydrake.systems.analysis import Simulator
 
+    from drake_tooluse.experiments import tool_gallery
+
     targets = [
+        (tool_gallery, "gallery_figure", "the gallery drawn"),
         (Simulator, "AdvanceTo", "the simulator advanced"),
         (Simulator, "Initialize", "the simulator initialized"),
         (subprocess.Popen, "__init__", "a process started"),

@@ -1,0 +1,315 @@
+"""Tools the robot has never seen: a seeded generator of tool geometries by family.
+
+Each family draws its parameters from its ranges (`FAMILIES`: name -> `Family`) and builds a
+`robot.tool.CompositeTool` of cylinders (and boxes) in the handle frame H (the grasp point,
++z along the handle, as every tool here), with the working frames its tasks name:
+
+- `straight`: a rod; `tool_tip` at its end.
+- `hook`: today's L and J hooks (`robot.tool.HookTool`'s geometry): `hook_corner`, `tool_tip`.
+- `t_head`: a handle and a crossbar across its end along y, off centre by up to a quarter of
+  its width; `tool_tip` at the crossing, `head_left` / `head_right` at the bar's ends.
+- `rake`: a handle, a crossbar along y, and 2-4 tines along +x (the hook's side); `hook_corner`
+  at the crossing (where a pulled object rests), `tool_tip` at the middle of the tines' ends,
+  `tine_line_start` / `tine_line_end` at the outer tines' ends.
+- `two_bend`: a handle offset sideways (along x) by a slanted middle segment, a Z (90° bends)
+  to a gentle S (45°); `bend_1`, `bend_2`, `tool_tip`.
+- `arc`: a handle and a curved hook of short segments (at most 15° each) bending towards +x;
+  `hook_corner` where the curve starts, `tool_tip` at its end.
+
+Every tool keeps H's orientation in its frames (a tip target's orientation is the handle's). The
+fabrication bounds hold for every draw (`check_fabrication`): a rod's radius within what the
+closed gripper holds, the mass of solid PLA, every point within TOOL_LENGTH_RANGE's reach of the
+grasp, and the static moment about the grasp bounded. No Drake here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drake_tooluse.robot.tool import (
+    GRASP,
+    HOOK_ANGLE_RANGE,
+    HOOK_CORNER,
+    HOOK_HANDLE_RANGE,
+    HOOK_LENGTH_RANGE,
+    TOOL_HANDLE_DEPTH,
+    TOOL_LENGTH_RANGE,
+    TOOL_TIP,
+    CompositeTool,
+    CylinderShape,
+    HookTool,
+    Piece,
+    Pose,
+)
+from drake_tooluse.validation import check_one_of, check_seed
+
+# Fabrication bounds. A rod thinner than 4 mm bends under a push; the closed fingers leave
+# 12.5 mm either side (world.scenario.TOOL_RADIUS_RANGE), 10 mm keeps a margin.
+RADIUS_RANGE = (0.004, 0.010)  # m
+DENSITY = 1240.0  # kg/m³, solid PLA (a printed tool)
+MAX_MASS = 0.30  # kg
+# kg·m, the mass times its centre's distance from the grasp: 0.03 kg·m is 0.3 N·m against
+# gravity, a bound we set (what a parallel gripper's friction holds, with margin), not a
+# figure of Baxter's.
+MAX_STATIC_MOMENT = 0.03
+HANDLE_RANGE = HOOK_HANDLE_RANGE  # m, grasp to the working end, every family with a handle
+MAX_ARC_SEGMENT_DEG = 15.0
+
+
+@dataclass(frozen=True)
+class Family:
+    """A family of tools: its parameters' ranges ((low, high) floats; a tuple of choices for
+    a discrete one) and `build(params) -> CompositeTool`."""
+
+    name: str
+    ranges: dict
+    build: Callable[[dict], CompositeTool] = field(repr=False)
+
+    def sample(self, rng: np.random.Generator) -> dict:
+        """Parameters drawn uniformly in the ranges (a choice uniformly among the choices)."""
+        params = {}
+        for name, spec in self.ranges.items():
+            if isinstance(spec[0], str):  # choices
+                params[name] = spec[int(rng.integers(len(spec)))]
+            elif all(isinstance(v, int) for v in spec):  # an integer range, both ends included
+                params[name] = int(rng.integers(spec[0], spec[1] + 1))
+            else:
+                params[name] = float(rng.uniform(*spec))
+        return params
+
+
+@dataclass(frozen=True)
+class GeneratedTool:
+    """A drawn tool: its family, the seed that drew it, its parameters and the tool."""
+
+    family: str
+    seed: int
+    params: dict
+    tool: CompositeTool
+
+    def as_dict(self) -> dict:
+        return {"family": self.family, "seed": self.seed, "params": dict(self.params)}
+
+
+def _rotation_z_to(d) -> tuple:
+    """A rotation matrix (rows) taking +z onto the direction d: its columns an orthonormal
+    frame with z along d (x from y × d, or from x × d where d is nearly along y)."""
+    z = np.asarray(d, float) / np.linalg.norm(d)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(z[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    R = np.column_stack([x, np.cross(z, x), z])
+    return tuple(map(tuple, R))
+
+
+def segment(name: str, a, b, radius: float) -> Piece:
+    """A cylinder of `radius` from point a to point b (m, in H)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    d = b - a
+    return Piece(
+        name,
+        CylinderShape(radius, float(np.linalg.norm(d))),
+        Pose(tuple((a + b) / 2), _rotation_z_to(d)),
+    )
+
+
+def handle(length: float, radius: float) -> Piece:
+    """The handle: from TOOL_HANDLE_DEPTH behind the grasp point (inside the hand) to
+    `length` in front of it, along +z."""
+    return segment("tool_handle", (0, 0, -TOOL_HANDLE_DEPTH), (0, 0, length), radius)
+
+
+def _tool(frames: dict, pieces: list[Piece]) -> CompositeTool:
+    """The tool of `frames` and solid `pieces`, its mass that of solid PLA."""
+    volume = sum(p.shape.volume() for p in pieces)
+    return CompositeTool({GRASP: Pose(), **frames}, solids=tuple(pieces), mass=DENSITY * volume)
+
+
+def _straight(p: dict) -> CompositeTool:
+    L = p["length"]
+    return _tool({TOOL_TIP: Pose((0, 0, L))}, [handle(L, p["radius"])])
+
+
+def _hook(p: dict) -> CompositeTool:
+    h = HookTool(p["handle_length"], p["hook_length"], p["angle"], radius=p["radius"])
+    return _tool(h.frames(), [handle(h.handle_length, h.radius), h.pieces()[1]])
+
+
+def _t_head(p: dict) -> CompositeTool:
+    L, w, r = p["handle_length"], p["head_width"], p["radius"]
+    centre = p["head_offset"] * w  # along y, the bar's centre from the handle's axis
+    left, right = (0, centre + w / 2, L), (0, centre - w / 2, L)
+    return _tool(
+        {TOOL_TIP: Pose((0, 0, L)), "head_left": Pose(left), "head_right": Pose(right)},
+        [handle(L, r), segment("tool_head", right, left, r)],
+    )
+
+
+def _rake(p: dict) -> CompositeTool:
+    L, w, r, n, t = p["handle_length"], p["width"], p["radius"], p["tines"], p["tine_length"]
+    ys = np.linspace(-w / 2, w / 2, n)
+    pieces = [handle(L, r), segment("tool_bar", (0, -w / 2, L), (0, w / 2, L), r)]
+    pieces += [segment(f"tool_tine_{i}", (0, y, L), (t, y, L), r) for i, y in enumerate(ys)]
+    return _tool(
+        {
+            TOOL_TIP: Pose((t, 0, L)),
+            HOOK_CORNER: Pose((0, 0, L)),
+            "tine_line_start": Pose((t, ys[0], L)),
+            "tine_line_end": Pose((t, ys[-1], L)),
+        },
+        pieces,
+    )
+
+
+def _two_bend(p: dict) -> CompositeTool:
+    a, d, b, r = p["first_length"], p["offset"], p["second_length"], p["radius"]
+    slant = math.radians(p["bend_angle"])  # the middle segment's angle to the handle's axis
+    bend_1 = np.array([0.0, 0.0, a])
+    bend_2 = bend_1 + np.array([d, 0.0, d / math.tan(slant)])
+    tip = bend_2 + np.array([0.0, 0.0, b])
+    return _tool(
+        {TOOL_TIP: Pose(tuple(tip)), "bend_1": Pose(tuple(bend_1)), "bend_2": Pose(tuple(bend_2))},
+        [
+            handle(a, r),
+            segment("tool_middle", bend_1, bend_2, r),
+            segment("tool_end", bend_2, tip, r),
+        ],
+    )
+
+
+def arc_points(handle_length: float, arc_radius: float, sweep_deg: float) -> np.ndarray:
+    """The arc's polyline (n + 1, 3) in H: from the handle's end, tangent to it, bending towards
+    +x about a centre at [arc_radius, 0, handle_length], in steps of at most
+    MAX_ARC_SEGMENT_DEG."""
+    n = max(1, math.ceil(sweep_deg / MAX_ARC_SEGMENT_DEG))
+    phi = np.radians(np.linspace(0.0, sweep_deg, n + 1))
+    x = arc_radius * (1.0 - np.cos(phi))
+    z = handle_length + arc_radius * np.sin(phi)
+    return np.stack([x, np.zeros_like(x), z], axis=1)
+
+
+def _arc(p: dict) -> CompositeTool:
+    L, r = p["handle_length"], p["radius"]
+    points = arc_points(L, p["arc_radius"], p["sweep_deg"])
+    pieces = [handle(L, r)]
+    pieces += [
+        segment(f"tool_arc_{i}", a, b, r) for i, (a, b) in enumerate(zip(points, points[1:]))
+    ]
+    return _tool({TOOL_TIP: Pose(tuple(points[-1])), HOOK_CORNER: Pose((0, 0, L))}, pieces)
+
+
+FAMILIES = {
+    f.name: f
+    for f in (
+        Family("straight", {"length": (0.10, 0.45), "radius": RADIUS_RANGE}, _straight),
+        Family(
+            "hook",
+            {
+                "handle_length": HOOK_HANDLE_RANGE,
+                "hook_length": HOOK_LENGTH_RANGE,
+                "angle": HOOK_ANGLE_RANGE,
+                "radius": RADIUS_RANGE,
+            },
+            _hook,
+        ),
+        Family(
+            "t_head",
+            {
+                "handle_length": HANDLE_RANGE,
+                "head_width": (0.06, 0.16),
+                "head_offset": (-0.25, 0.25),
+                "radius": RADIUS_RANGE,
+            },
+            _t_head,
+        ),
+        Family(
+            "rake",
+            {
+                "handle_length": HANDLE_RANGE,
+                "width": (0.06, 0.16),
+                "tines": (2, 4),
+                "tine_length": (0.02, 0.05),
+                "radius": RADIUS_RANGE,
+            },
+            _rake,
+        ),
+        Family(
+            "two_bend",
+            {
+                "first_length": (0.06, 0.20),
+                "offset": (0.03, 0.10),
+                "bend_angle": (45.0, 90.0),
+                "second_length": (0.06, 0.20),
+                "radius": RADIUS_RANGE,
+            },
+            _two_bend,
+        ),
+        Family(
+            "arc",
+            {
+                "handle_length": HANDLE_RANGE,
+                "arc_radius": (0.02, 0.05),
+                "sweep_deg": (90.0, 200.0),
+                "radius": RADIUS_RANGE,
+            },
+            _arc,
+        ),
+    )
+}
+
+
+def _extent(piece: Piece) -> float:
+    """The farthest point of a cylinder piece from H's origin (m), bounded from its ends."""
+    R = np.array(piece.X_HP.rotation)
+    p = np.array(piece.X_HP.translation)
+    half = R[:, 2] * piece.shape.length / 2
+    return max(np.linalg.norm(p + half), np.linalg.norm(p - half)) + piece.shape.radius
+
+
+def check_fabrication(tool: CompositeTool) -> None:
+    """Raises ValueError, naming the bound, where `tool` breaks a fabrication bound: its mass
+    (MAX_MASS), its reach (every point within TOOL_LENGTH_RANGE's upper end of the grasp) or
+    its static moment about the grasp (MAX_STATIC_MOMENT)."""
+    if tool.mass > MAX_MASS:
+        raise ValueError(f"tool mass {tool.mass:.3f} kg exceeds {MAX_MASS} kg")
+    reach = max(_extent(p) for p in tool.pieces())
+    if reach > TOOL_LENGTH_RANGE[1]:
+        raise ValueError(
+            f"the tool reaches {reach:.3f} m from the grasp; at most {TOOL_LENGTH_RANGE[1]}"
+        )
+    centre = sum(
+        m * np.array(p.X_HP.translation) for p, m in zip(tool.pieces(), tool.piece_masses())
+    )
+    moment = float(np.linalg.norm(centre))
+    if moment > MAX_STATIC_MOMENT:
+        raise ValueError(
+            f"the tool's static moment about the grasp, {moment:.4f} kg·m, exceeds "
+            f"{MAX_STATIC_MOMENT} kg·m"
+        )
+
+
+MAX_DRAWS = 1000  # draws of one seed's generator before it gives up (none has needed 30)
+
+
+def generate_tool(family: str, seed: int) -> GeneratedTool:
+    """The tool of `family` (a name of FAMILIES) drawn with `seed` (0 … 2³²−1): the same
+    seed, the same tool. Parameters are drawn uniformly in the family's ranges and drawn
+    again until the tool keeps every fabrication bound (`check_fabrication`): the long, thick
+    and heavy corner of a family's ranges is rarer than uniform."""
+    f = FAMILIES[check_one_of(family, tuple(FAMILIES), "tool family")]
+    seed = check_seed(seed, "seed")
+    # The family's place in FAMILIES beside the seed: each family's draws its own stream.
+    rng = np.random.default_rng([seed, list(FAMILIES).index(family)])
+    for _ in range(MAX_DRAWS):
+        params = f.sample(rng)
+        tool = f.build(params)
+        try:
+            check_fabrication(tool)
+        except ValueError:
+            continue
+        return GeneratedTool(family, seed, params, tool)
+    raise RuntimeError(f"no {family} tool within the fabrication bounds in {MAX_DRAWS} draws")

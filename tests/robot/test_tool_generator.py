@@ -1,0 +1,152 @@
+"""The tool generator (`robot.tool_generator`), its files (`robot.tool_files`) and `drake-tooluse
+tools`: seeded draws in each family's ranges and fabrication bounds, an SDF that reads back as
+the same tool, a closed mesh, every working frame reached by the IK, and every family held in
+the push env through Gymnasium's checker."""
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from drake_tooluse.cli import main
+from drake_tooluse.experiments.tool_gallery import gallery_contents
+from drake_tooluse.paths import DEFAULT_SCENARIO
+from drake_tooluse.robot.ik import ToolTipIK
+from drake_tooluse.robot.model import load_tool_model, tool_spatial_inertia
+from drake_tooluse.robot.tool import GRASP, TOOL_LENGTH_RANGE
+from drake_tooluse.robot.tool_files import tool_mesh, write_tool_files
+from drake_tooluse.robot.tool_generator import (
+    FAMILIES,
+    MAX_MASS,
+    MAX_STATIC_MOMENT,
+    check_fabrication,
+    generate_tool,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_the_same_seed_draws_the_same_tool_and_another_seed_another():
+    for family in FAMILIES:
+        a, b = generate_tool(family, 5), generate_tool(family, 5)
+        assert a.params == b.params and a.tool.frames() == b.tool.frames()
+        assert generate_tool(family, 6).params != a.params
+    # Each family draws its own stream: seed 0 of two families share no parameter value.
+    hook, t_head = generate_tool("hook", 0).params, generate_tool("t_head", 0).params
+    assert hook["handle_length"] != t_head["handle_length"]
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_every_draw_is_in_its_ranges_and_keeps_the_fabrication_bounds(family):
+    ranges = FAMILIES[family].ranges
+    for seed in range(60):
+        generated = generate_tool(family, seed)
+        for name, value in generated.params.items():
+            lo, hi = ranges[name]
+            assert lo <= value <= hi, (seed, name, value)
+        tool = generated.tool
+        check_fabrication(tool)  # raises where a bound is broken
+        assert 0 < tool.mass <= MAX_MASS
+        assert 0 < tool.reach() <= TOOL_LENGTH_RANGE[1]
+
+
+def test_the_fabrication_check_names_the_bound_broken():
+    heavy = FAMILIES["straight"].build({"length": 0.45, "radius": 0.02})
+    with pytest.raises(ValueError, match="mass .* exceeds|static moment"):
+        check_fabrication(heavy)
+    assert MAX_STATIC_MOMENT > 0
+
+
+@pytest.mark.parametrize(
+    "family, seed, match",
+    [("spoon", 0, "tool family='spoon' is not allowed"), ("rake", -1, "seed=-1")],
+)
+def test_bad_family_or_seed_is_refused(family, seed, match):
+    with pytest.raises(ValueError, match=match):
+        generate_tool(family, seed)
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_the_sdf_reads_back_as_the_same_tool(family, tmp_path):
+    tool = generate_tool(family, 11).tool
+    files = write_tool_files(tool, tmp_path)
+    back = load_tool_model(files["sdf"])
+    assert set(back.frames()) == set(tool.frames())
+    for name, X in tool.frames().items():
+        np.testing.assert_allclose(back.frames()[name].translation, X.translation, atol=1e-12)
+    M, M_back = tool_spatial_inertia(tool), tool_spatial_inertia(back)
+    np.testing.assert_allclose(M_back.CopyToFullMatrix6(), M.CopyToFullMatrix6(), atol=1e-12)
+    assert [p.name for p in back.pieces()] == [p.name for p in tool.pieces()]
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_the_mesh_is_closed_and_outward_with_the_pieces_volume(family, tmp_path):
+    tool = generate_tool(family, 2).tool
+    vertices, faces = tool_mesh(tool)
+    edges = {}
+    for a, b, c in faces:
+        for e in ((a, b), (b, c), (c, a)):
+            edges[e] = edges.get(e, 0) + 1
+    # Closed and consistently oriented: each edge once each way.
+    assert all(edges.get((b, a)) == 1 for (a, b) in edges) and set(edges.values()) == {1}
+    p, q, r = (vertices[faces[:, i]] for i in range(3))
+    volume = np.einsum("ij,ij->i", p, np.cross(q, r)).sum() / 6  # positive: outward
+    pieces = sum(piece.shape.volume() for piece in tool.pieces())
+    assert 0.98 * pieces < volume <= pieces  # 32 facets: the polygon's area is 0.6 % short
+    files = write_tool_files(tool, tmp_path)
+    stl = Path(files["stl"]).read_bytes()
+    assert len(stl) == 84 + 50 * len(faces)
+    assert Path(files["obj"]).read_text().count("\nf ") == len(faces)
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_the_ik_reaches_every_working_frame(family):
+    tool = generate_tool(family, 0).tool
+    for name in tool.frames():
+        if name == GRASP:
+            continue
+        ik = ToolTipIK(tool, frame=name)
+        X_WF = ik.fk(ik.q_nominal + np.array([0.2, -0.1, 0.1, 0.3, -0.2, 0.2, 0.1]))
+        result = ik.solve(X_WF, q_seed=ik.q_nominal)
+        assert result.success and result.position_error < 1e-5, name
+        np.testing.assert_allclose(ik.fk(result.q).translation(), X_WF.translation(), atol=1e-5)
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_every_family_is_held_in_the_push_env_and_passes_the_checker(family, tmp_path):
+    files = write_tool_files(generate_tool(family, 0).tool, tmp_path)
+    scenario = tmp_path / "held.yaml"
+    scenario.write_text(f"base: {DEFAULT_SCENARIO}\ntool: {{model: {files['sdf']}}}\n")
+    env = gym.make("drake_tooluse/ToolPush-v1", scenario=str(scenario))
+    check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+def test_tools_sample_writes_the_tool_and_refuses_bad_input_before_work(tmp_path, capsys):
+    out = tmp_path / "rake"
+    assert main(["tools", "sample", "--family", "rake", "--seed", "3", "--out", str(out)]) == 0
+    assert "rake tool, seed 3" in capsys.readouterr().out
+    description = json.loads((out / "tool.json").read_text())
+    assert description["params"] == generate_tool("rake", 3).params
+    assert {p.name for p in out.iterdir()} == {"tool.sdf", "tool.obj", "tool.stl", "tool.json"}
+    assert load_tool_model(out / "tool.sdf").frame_names()[1] == "tool_tip"
+    for argv, match in [
+        (["--family", "spoon", "--out", str(tmp_path / "a")], "--family='spoon'"),
+        (["--family", "rake", "--seed", "-2", "--out", str(tmp_path / "b")], "--seed=-2"),
+        (["--family", "rake", "--out", str(out)], "exists and is not empty"),
+    ]:
+        assert main(["tools", "sample", *argv]) == 2
+        assert match in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rake"]
+
+
+def test_the_docs_gallery_is_of_the_generator_as_it_is():
+    """docs/figures/tool_gallery.png is made by `drake-tooluse tools gallery --out
+    docs/figures/tool_gallery.png`; its .json, what it shows, must be what the generator draws
+    now (else the command must run again)."""
+    shown = json.loads((ROOT / "docs/figures/tool_gallery.json").read_text())
+    assert shown["tools"] == gallery_contents(shown["seed"], shown["rows"])
+    assert len(shown["tools"]) == 24 and (ROOT / "docs/figures/tool_gallery.png").is_file()
