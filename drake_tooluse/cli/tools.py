@@ -5,14 +5,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drake_tooluse.cli.common import output_dir_arg, output_file_arg, seed_arg
+from drake_tooluse.cli.common import choice_arg, output_dir_arg, output_file_arg, seed_arg
 from drake_tooluse.robot.tool_generator import FAMILIES, generate_tool
 from drake_tooluse.validation import check_one_of
 
 
 def cmd_sample(args) -> dict:
-    """A tool of the family drawn with the seed, written as tool.sdf, tool.obj, tool.stl and
-    tool.json (its family, seed, parameters, frames and mass) into a new directory."""
+    """A tool of the family drawn with the seed, written as tool.sdf, tool.obj, tool.stl,
+    tool.json (its family, seed, parameters, frames and mass) and sidecar.yaml (its frames, as
+    `tools import` reads them beside the OBJ) into a new directory."""
     from drake_tooluse.cli.common import UsageError
 
     try:
@@ -21,7 +22,9 @@ def cmd_sample(args) -> dict:
         raise UsageError(str(e)) from None
     seed_arg(args.seed)
     out = output_dir_arg(args.out)
-    from drake_tooluse.files import atomic_dir, atomic_write_json
+    import yaml
+
+    from drake_tooluse.files import atomic_dir, atomic_write_json, atomic_write_text
     from drake_tooluse.robot.tool_files import write_tool_files
 
     generated = generate_tool(args.family, args.seed)
@@ -31,11 +34,18 @@ def cmd_sample(args) -> dict:
         "mass_kg": tool.mass,
         "frames": {name: list(X.translation) for name, X in tool.frames().items()},
     }
+    # The sidecar `tools import` reads with the OBJ: its frames, in the mesh's coordinates (H).
+    sidecar = {"frames": {k: v for k, v in description["frames"].items() if k != "grasp"}}
     with atomic_dir(out) as work:
         files = write_tool_files(tool, work)
         atomic_write_json(Path(work) / "tool.json", description)
+        atomic_write_text(Path(work) / "sidecar.yaml", yaml.safe_dump(sidecar))
     files = {kind: str(out.absolute() / Path(path).name) for kind, path in files.items()}
-    return {**description, "files": {**files, "json": str(out.absolute() / "tool.json")}}
+    files |= {
+        "json": str(out.absolute() / "tool.json"),
+        "sidecar": str(out.absolute() / "sidecar.yaml"),
+    }
+    return {**description, "files": files}
 
 
 def format_sample(out: dict) -> str:
@@ -57,6 +67,27 @@ def cmd_gallery(args) -> dict:
     return write_gallery(path, args.seed)
 
 
+def cmd_import(args) -> dict:
+    """A tool from a mesh and its sidecar, written as an SDF model into a new directory."""
+    from drake_tooluse.cli.common import UsageError
+    from drake_tooluse.robot.mesh_import import COLLISIONS, import_mesh_tool
+
+    choice_arg(args.collision, COLLISIONS, "--collision", "collision")
+    for option, path in (("--mesh", args.mesh), ("--sidecar", args.sidecar)):
+        if not path.is_file():
+            raise UsageError(f"{option}: {str(path)!r} is not a file")
+    out = output_dir_arg(args.out)
+    return import_mesh_tool(args.mesh, args.sidecar, out, args.collision)
+
+
+def format_import(out: dict) -> str:
+    return (
+        f"{out['sdf']}: {out['parts']} convex collision part(s) by {out['collision']} "
+        f"({out['decomposition_s']:.1f} s; {out['parts_volume_m3'] / out['volume_m3']:.2f}x the "
+        f"mesh's volume), {out['mass_kg'] * 1000:.0f} g, frames {', '.join(out['frames'])}"
+    )
+
+
 def add_parsers(top) -> None:
     group = top.add_parser(
         "tools", help="tools the robot has never seen: draw one by family, or a gallery"
@@ -73,6 +104,26 @@ def add_parsers(top) -> None:
     )
     p.add_argument("--out", type=Path, required=True, help="new directory for the tool's files")
     p.set_defaults(run=cmd_sample, show=format_sample, command="tools sample")
+
+    p = sub.add_parser(
+        "import",
+        help="a tool from a mesh (OBJ or STL) and a sidecar YAML of its frames: an SDF model "
+        "with the mesh as visual, convex parts as collision, and its inertia",
+    )
+    p.add_argument("--mesh", type=Path, required=True, help="the tool's closed mesh (OBJ or STL)")
+    p.add_argument(
+        "--sidecar",
+        type=Path,
+        required=True,
+        help="YAML: frames (tool_tip required), grasp, mass, scale (robot.mesh_import)",
+    )
+    p.add_argument(
+        "--collision",
+        default="coacd",
+        help="coacd (CoACD's convex decomposition) or hull (Drake's convex hull)",
+    )
+    p.add_argument("--out", type=Path, required=True, help="new directory for tool.sdf and meshes")
+    p.set_defaults(run=cmd_import, show=format_import, command="tools import")
 
     p = sub.add_parser(
         "gallery", help="a figure of 24 generated tools, 4 of each family (and a .json of them)"

@@ -24,7 +24,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 from pydrake.common.eigen_geometry import AngleAxis
-from pydrake.geometry import Box, Cylinder, SceneGraph
+from pydrake.geometry import Box, Convex, Cylinder, Mesh, SceneGraph
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
@@ -41,6 +41,7 @@ from drake_tooluse.robot.tool import (
     CompositeTool,
     CylinderShape,
     MassProperties,
+    MeshShape,
     Piece,
     Pose,
     StraightTool,
@@ -179,6 +180,8 @@ def drake_shape(shape):
         return Cylinder(shape.radius, shape.length)
     if isinstance(shape, BoxShape):
         return Box(*shape.size)
+    if isinstance(shape, MeshShape):
+        return Convex(shape.path) if shape.convex else Mesh(shape.path)
     raise ValueError(f"no Drake shape for {shape!r}")
 
 
@@ -338,10 +341,17 @@ def load_tool_model(filename=None, *, url: str | None = None) -> CompositeTool:
                 piece_shape = CylinderShape(shape.radius(), shape.length())
             elif isinstance(shape, Box):
                 piece_shape = BoxShape((shape.width(), shape.depth(), shape.height()))
+            elif isinstance(shape, (Mesh, Convex)) and shape.source().is_path():
+                if shape.scale() != 1.0 or shape.extension() != ".obj":
+                    raise ValueError(
+                        f"tool model {where!r}: mesh {name!r} must be an OBJ file in metres "
+                        "(scale 1)"
+                    )
+                piece_shape = MeshShape(str(shape.source().path()), isinstance(shape, Convex))
             else:
                 raise ValueError(
                     f"tool model {where!r}: geometry {name!r} is a {type(shape).__name__}; "
-                    "a tool's pieces are cylinders and boxes"
+                    "a tool's pieces are cylinders, boxes and OBJ meshes"
                 )
             X_HP = Pose.from_matrix((X_HB @ inspector.GetPoseInFrame(gid)).GetAsMatrix4())
             props = inspector.GetIllustrationProperties(gid)

@@ -140,22 +140,40 @@ class BoxShape:
 
 
 @dataclass(frozen=True)
+class MeshShape:
+    """A triangle mesh file (Wavefront OBJ, metres, in its piece's frame): visual geometry, or
+    with `convex` a convex collision piece (Drake's `Convex`: the hull of its vertices). A
+    mesh's volume is not computed here: a tool of meshes gives its inertia outright
+    (`MassProperties`, as `robot.mesh_import` does)."""
+
+    path: str
+    convex: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.path, str) or not self.path.lower().endswith(".obj"):
+            raise ValueError(f"mesh {self.path!r} must be the path of an OBJ file")
+
+    def volume(self) -> float:
+        raise ValueError(f"mesh {self.path!r}: a tool of meshes gives its mass properties outright")
+
+
+@dataclass(frozen=True)
 class Piece:
     """A primitive shape of a tool at X_HP in its handle frame H. `name` is its geometry's
     name; `rgba` its colour (None: the scene's tool colour)."""
 
     name: str
-    shape: CylinderShape | BoxShape
+    shape: CylinderShape | BoxShape | MeshShape
     X_HP: Pose = Pose()
     rgba: tuple[float, float, float, float] | None = None
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
             raise ValueError(f"a tool piece's name must be a non-empty string, not {self.name!r}")
-        if not isinstance(self.shape, (CylinderShape, BoxShape)):
+        if not isinstance(self.shape, (CylinderShape, BoxShape, MeshShape)):
             raise ValueError(
-                f"tool piece {self.name!r}: shape {self.shape!r} must be a CylinderShape or a "
-                "BoxShape"
+                f"tool piece {self.name!r}: shape {self.shape!r} must be a CylinderShape, a "
+                "BoxShape or a MeshShape"
             )
         if not isinstance(self.X_HP, Pose):
             raise ValueError(f"tool piece {self.name!r}: X_HP must be a Pose")

@@ -12,11 +12,12 @@ from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
+from pydrake.geometry import ReadObjToTriangleSurfaceMesh
 from pydrake.math import RollPitchYaw, RotationMatrix
 
 from drake_tooluse.files import atomic_write_bytes, atomic_write_text
 from drake_tooluse.robot.model import tool_spatial_inertia
-from drake_tooluse.robot.tool import GRASP, BoxShape, CylinderShape, Piece, Pose, Tool
+from drake_tooluse.robot.tool import GRASP, BoxShape, CylinderShape, MeshShape, Piece, Pose, Tool
 
 CYLINDER_SIDES = 32  # facets around a cylinder of the mesh
 TOOL_RGBA = (0.55, 0.55, 0.6, 1.0)  # a piece's colour where it gives none
@@ -28,8 +29,14 @@ def _pose_text(X: Pose) -> str:
     return " ".join(f"{v:.17g}" for v in (*X.translation, *rpy))
 
 
-def _geometry(piece: Piece) -> str:
+def _geometry(piece: Piece, base_dir: Path | None) -> str:
     shape = piece.shape
+    if isinstance(shape, MeshShape):  # its path relative to the SDF's folder where it can be
+        uri = Path(shape.path)
+        if base_dir is not None and uri.is_absolute() and uri.is_relative_to(base_dir):
+            uri = uri.relative_to(base_dir)
+        convex = "<drake:declare_convex/>" if shape.convex else ""
+        return f"<mesh><uri>{escape(str(uri))}</uri>{convex}</mesh>"
     if isinstance(shape, CylinderShape):
         return (
             f"<cylinder><radius>{shape.radius:.17g}</radius>"
@@ -38,10 +45,12 @@ def _geometry(piece: Piece) -> str:
     return "<box><size>{}</size></box>".format(" ".join(f"{v:.17g}" for v in shape.size))
 
 
-def tool_sdf(tool: Tool, name: str = "tool") -> str:
+def tool_sdf(tool: Tool, name: str = "tool", base_dir=None) -> str:
     """The SDFormat text of `tool`: one model `name` of one link `tool` (H, the grasp frame),
     its inertia about its centre of mass (`robot.model.tool_spatial_inertia`), a visual and a
-    collision geometry per piece, and a frame per named frame."""
+    collision geometry per piece, and a frame per named frame. A mesh piece's file is named
+    relative to `base_dir` (the SDF's folder) where it lies below it."""
+    base_dir = None if base_dir is None else Path(base_dir).absolute()
     M = tool_spatial_inertia(tool)
     p_com = M.get_com()
     I_Scm = M.Shift(p_com).CalcRotationalInertia()  # about the centre of mass, in H
@@ -53,7 +62,7 @@ def tool_sdf(tool: Tool, name: str = "tool") -> str:
     )
     lines = [
         '<?xml version="1.0"?>',
-        '<sdf version="1.9">',
+        '<sdf version="1.9" xmlns:drake="http://drake.mit.edu">',
         f"  <model name={quoteattr(name)}>",
         '    <link name="tool">',
         "      <inertial>",
@@ -67,7 +76,7 @@ def tool_sdf(tool: Tool, name: str = "tool") -> str:
         lines += [
             f"      <visual name={quoteattr(piece.name)}>",
             f"        <pose>{_pose_text(piece.X_HP)}</pose>",
-            f"        <geometry>{_geometry(piece)}</geometry>",
+            f"        <geometry>{_geometry(piece, base_dir)}</geometry>",
             f"        <material><diffuse>{rgba}</diffuse></material>",
             "      </visual>",
         ]
@@ -75,7 +84,7 @@ def tool_sdf(tool: Tool, name: str = "tool") -> str:
         lines += [
             f"      <collision name={quoteattr(piece.name)}>",
             f"        <pose>{_pose_text(piece.X_HP)}</pose>",
-            f"        <geometry>{_geometry(piece)}</geometry>",
+            f"        <geometry>{_geometry(piece, base_dir)}</geometry>",
             "      </collision>",
         ]
     lines.append("    </link>")
@@ -113,13 +122,19 @@ def _box_mesh(shape: BoxShape) -> tuple[np.ndarray, np.ndarray]:
     return corners, np.array(faces)
 
 
+def _file_mesh(shape: MeshShape) -> tuple[np.ndarray, np.ndarray]:
+    mesh = ReadObjToTriangleSurfaceMesh(shape.path)
+    faces = np.array([[t.vertex(i) for i in range(3)] for t in mesh.triangles()])
+    return np.array(mesh.vertices()), faces
+
+
 def tool_mesh(tool: Tool) -> tuple[np.ndarray, np.ndarray]:
     """(vertices (n, 3) in H, m; triangles (k, 3) of vertex indices, outward) of the tool's
     solid pieces, each closed on its own."""
     all_vertices, all_faces, offset = [], [], 0
     for piece in tool.pieces():
-        mesh = _cylinder_mesh if isinstance(piece.shape, CylinderShape) else _box_mesh
-        vertices, faces = mesh(piece.shape)
+        mesh = {CylinderShape: _cylinder_mesh, BoxShape: _box_mesh, MeshShape: _file_mesh}
+        vertices, faces = mesh[type(piece.shape)](piece.shape)
         R, p = np.array(piece.X_HP.rotation), np.array(piece.X_HP.translation)
         all_vertices.append(vertices @ R.T + p)
         all_faces.append(faces + offset)
@@ -155,7 +170,7 @@ def write_tool_files(tool: Tool, out_dir, name: str = "tool") -> dict:
         raise ValueError(f"a tool needs its {GRASP!r} frame")
     vertices, faces = tool_mesh(tool)
     paths = {kind: out_dir / f"{name}.{kind}" for kind in ("sdf", "obj", "stl")}
-    atomic_write_text(paths["sdf"], tool_sdf(tool, name))
+    atomic_write_text(paths["sdf"], tool_sdf(tool, name, out_dir))
     atomic_write_text(paths["obj"], obj_text(vertices, faces))
     atomic_write_bytes(paths["stl"], stl_bytes(vertices, faces))
     return {kind: str(path) for kind, path in paths.items()}

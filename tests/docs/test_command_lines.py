@@ -158,7 +158,8 @@ RULES = [
         needs=("pytracik",),
     ),
     Rule(r"drake-tooluse --version", "run", slow=False),
-    Rule(r"drake-tooluse tools (sample|gallery) .*", "run"),
+    Rule(r"drake-tooluse tools (sample|gallery|import) .*", "run"),
+    Rule(r"python benchmarks/mesh_collision\.py.*", "run", add=("--points", "2000")),
     Rule(r"drake-tooluse record-video .*", "run", add=("--every", "10")),
     Rule(r"drake-tooluse study( --update-docs)? --status", "run"),
     Rule(

@@ -115,6 +115,15 @@ BASES = {
     "measure-box": Base({}, cheap=True),
     "tools sample": Base({"--family": ["rake"], "--out": ["{new}"]}, cheap=True),
     "tools gallery": Base({"--out": ["{new}.png"]}),
+    "tools import": Base(
+        {
+            "--mesh": ["{mesh}"],
+            "--sidecar": ["{sidecar}"],
+            "--collision": ["hull"],
+            "--out": ["{new}"],
+        },
+        cheap=True,
+    ),
     "dev generate-models": Base({"--check": []}, cheap=True),
     "dev render-diagrams": Base({"--check": []}, cheap=True),
     "dev render-figures": Base({"--check": [], "--figures-dir": ["{figures}"]}),
@@ -396,7 +405,14 @@ def _fixtures(root: Path, trajectory: Path, files: dict) -> dict:
     os.mkfifo(fx / "fifo")
     for name, content in files.items():
         (fx / name).write_bytes(content)
+    # A closed mesh (a tetrahedron, faces outward) and its sidecar, for `tools import`.
+    (fx / "tool.obj").write_text(
+        "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    (fx / "sidecar.yaml").write_text("frames: {tool_tip: [0, 0, 0.1]}\n")
     return {
+        "mesh": str(fx / "tool.obj"),
+        "sidecar": str(fx / "sidecar.yaml"),
         "fx": str(fx),
         "new": str(root / "new"),
         "policy": str(TRANSFER_POLICY),

@@ -131,7 +131,8 @@ def test_tools_sample_writes_the_tool_and_refuses_bad_input_before_work(tmp_path
     assert "rake tool, seed 3" in capsys.readouterr().out
     description = json.loads((out / "tool.json").read_text())
     assert description["params"] == generate_tool("rake", 3).params
-    assert {p.name for p in out.iterdir()} == {"tool.sdf", "tool.obj", "tool.stl", "tool.json"}
+    names = {"tool.sdf", "tool.obj", "tool.stl", "tool.json", "sidecar.yaml"}
+    assert {p.name for p in out.iterdir()} == names
     assert load_tool_model(out / "tool.sdf").frame_names()[1] == "tool_tip"
     for argv, match in [
         (["--family", "spoon", "--out", str(tmp_path / "a")], "--family='spoon'"),
