@@ -12,6 +12,7 @@ runs/mesh_collision-<time>/mesh_collision.json).
 """
 
 import argparse
+import sys
 import tempfile
 from pathlib import Path
 
@@ -74,7 +75,7 @@ def measure(family: str, seed: int, points: int, work: Path) -> dict:
     }
 
 
-def main() -> None:
+def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=3, help="tools per family (seeds 0 …)")
     ap.add_argument("--points", type=int, default=20_000, help="samples in each hull's box")
@@ -105,7 +106,8 @@ def main() -> None:
         )
     atomic_write_json(out, {"rows": rows, "points": args.points})
     print(f"wrote {out}")
+    return 0
 
 
 if __name__ == "__main__":
-    run_script(main)
+    sys.exit(run_script(main))
