@@ -152,6 +152,7 @@ def test_measure_box_json(capsys):
     assert data["top_face_points"] > 100
 
 
+@pytest.mark.slow  # ~6 s: two extractions; .ci/run runs it
 def test_trajectory_line_contact_and_paper(capsys, tmp_path):
     """`trajectory` makes what `transfer --mode open-loop` replays: by default the line-contact
     trajectory for the nominal box start (the tool tilted: its axis leaves the vertical), or

@@ -345,6 +345,7 @@ def test_transfer_plot_draws_points_for_few_runs_and_tells_the_tools_apart(runs)
     assert ("1 run per tool" if runs == 1 else f"{runs} runs per tool") in ax.get_title()
 
 
+@pytest.mark.slow  # ~8 s: an extraction and a calibration; .ci/run runs it
 def test_open_loop_transfer_by_default_replays_a_line_contact_trajectory_per_tool(tmp_path):
     """The default open-loop transfer: the trajectory made of the episodes in their boxes'
     frame, one per tool (tilted as `experiments.line_contact` chose), each run's replay moved

@@ -48,6 +48,7 @@ def test_a_mesh_tool_reads_back_with_its_frames_inertia_and_hull(hook_files, tmp
     np.testing.assert_allclose(com, tool_spatial_inertia(tool).get_com(), atol=2e-3)
 
 
+@pytest.mark.slow  # ~2 s: an env built; .ci/run runs it
 def test_the_push_env_holds_a_mesh_tool(hook_files, tmp_path):
     _, obj, sidecar = hook_files
     out = import_mesh_tool(obj, sidecar, tmp_path / "t", collision="hull")

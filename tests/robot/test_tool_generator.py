@@ -115,6 +115,7 @@ def test_the_ik_reaches_every_working_frame(family):
         np.testing.assert_allclose(ik.fk(result.q).translation(), X_WF.translation(), atol=1e-5)
 
 
+@pytest.mark.slow  # ~3 s: six envs built; .ci/run runs it
 @pytest.mark.parametrize("family", list(FAMILIES))
 def test_every_family_is_held_in_the_push_env_and_passes_the_checker(family, tmp_path):
     files = write_tool_files(generate_tool(family, 0).tool, tmp_path)
