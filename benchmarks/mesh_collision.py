@@ -18,13 +18,11 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
-import yaml
 
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
 from drake_tooluse.robot.mesh_import import convex_parts, import_mesh_tool
-from drake_tooluse.robot.tool import GRASP
 from drake_tooluse.robot.tool_files import write_tool_files
 from drake_tooluse.robot.tool_generator import generate_tool
 from drake_tooluse.validation import check_int
@@ -48,10 +46,7 @@ def measure(family: str, seed: int, points: int, work: Path) -> dict:
     """One generated tool written as OBJ, imported with CoACD, and its concavity sampled."""
     tool = generate_tool(family, seed).tool
     files = write_tool_files(tool, work / "tool")
-    sidecar = work / "sidecar.yaml"
-    frames = {k: list(X.translation) for k, X in tool.frames().items() if k != GRASP}
-    sidecar.write_text(yaml.safe_dump({"frames": frames}))
-    imported = import_mesh_tool(files["obj"], sidecar, work / "imported", "coacd")
+    imported = import_mesh_tool(files["obj"], files["sidecar"], work / "imported", "coacd")
     mesh = trimesh.load(files["obj"], force="mesh", process=False)
     pieces = mesh.split(only_watertight=True)  # the closed pieces, which overlap
     hull = convex_parts(mesh, "hull")[0]

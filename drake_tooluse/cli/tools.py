@@ -22,9 +22,7 @@ def cmd_sample(args) -> dict:
         raise UsageError(str(e)) from None
     seed_arg(args.seed)
     out = output_dir_arg(args.out)
-    import yaml
-
-    from drake_tooluse.files import atomic_dir, atomic_write_json, atomic_write_text
+    from drake_tooluse.files import atomic_dir, atomic_write_json
     from drake_tooluse.robot.tool_files import write_tool_files
 
     generated = generate_tool(args.family, args.seed)
@@ -34,17 +32,11 @@ def cmd_sample(args) -> dict:
         "mass_kg": tool.mass,
         "frames": {name: list(X.translation) for name, X in tool.frames().items()},
     }
-    # The sidecar `tools import` reads with the OBJ: its frames, in the mesh's coordinates (H).
-    sidecar = {"frames": {k: v for k, v in description["frames"].items() if k != "grasp"}}
     with atomic_dir(out) as work:
         files = write_tool_files(tool, work)
         atomic_write_json(Path(work) / "tool.json", description)
-        atomic_write_text(Path(work) / "sidecar.yaml", yaml.safe_dump(sidecar))
     files = {kind: str(out.absolute() / Path(path).name) for kind, path in files.items()}
-    files |= {
-        "json": str(out.absolute() / "tool.json"),
-        "sidecar": str(out.absolute() / "sidecar.yaml"),
-    }
+    files["json"] = str(out.absolute() / "tool.json")
     return {**description, "files": files}
 
 
@@ -60,10 +52,10 @@ def format_sample(out: dict) -> str:
 
 
 def cmd_gallery(args) -> dict:
-    seed_arg(args.seed, "--seed", 4)
-    path = output_file_arg(args.out, "--out", ".png")
-    from drake_tooluse.experiments.tool_gallery import write_gallery
+    from drake_tooluse.experiments.tool_gallery import GALLERY_ROWS, write_gallery
 
+    seed_arg(args.seed, "--seed", GALLERY_ROWS)
+    path = output_file_arg(args.out, "--out", ".png")
     return write_gallery(path, args.seed)
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
+import yaml
 from pydrake.geometry import ReadObjToTriangleSurfaceMesh
 from pydrake.math import RollPitchYaw, RotationMatrix
 
@@ -90,7 +91,7 @@ def tool_sdf(tool: Tool, name: str = "tool", base_dir=None) -> str:
     lines.append("    </link>")
     for frame, X in tool.frames().items():
         lines += [
-            f'    <frame name={quoteattr(escape(frame))} attached_to="tool">',
+            f'    <frame name={quoteattr(frame)} attached_to="tool">',
             f"      <pose>{_pose_text(X)}</pose>",
             "    </frame>",
         ]
@@ -161,16 +162,23 @@ def stl_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
     return b"".join(out)
 
 
+def sidecar_text(tool: Tool) -> str:
+    """The sidecar `robot.mesh_import` reads beside the tool's OBJ: its frames but the grasp,
+    in the mesh's coordinates (H, where the grasp is the origin)."""
+    frames = {k: list(X.translation) for k, X in tool.frames().items() if k != GRASP}
+    return yaml.safe_dump({"frames": frames})
+
+
 def write_tool_files(tool: Tool, out_dir, name: str = "tool") -> dict:
-    """Writes `tool.sdf`, `tool.obj` and `tool.stl` into `out_dir` (made if missing), each
-    atomically. Returns their paths by kind."""
+    """Writes `tool.sdf`, `tool.obj`, `tool.stl` and `sidecar.yaml` (`sidecar_text`) into
+    `out_dir` (made if missing), each atomically. Returns their paths by kind."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    if GRASP not in tool.frames():
-        raise ValueError(f"a tool needs its {GRASP!r} frame")
     vertices, faces = tool_mesh(tool)
     paths = {kind: out_dir / f"{name}.{kind}" for kind in ("sdf", "obj", "stl")}
+    paths["sidecar"] = out_dir / "sidecar.yaml"
     atomic_write_text(paths["sdf"], tool_sdf(tool, name, out_dir))
     atomic_write_text(paths["obj"], obj_text(vertices, faces))
     atomic_write_bytes(paths["stl"], stl_bytes(vertices, faces))
+    atomic_write_text(paths["sidecar"], sidecar_text(tool))
     return {kind: str(path) for kind, path in paths.items()}

@@ -12,21 +12,18 @@ from drake_tooluse.cli import main
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.mesh_import import import_mesh_tool, read_sidecar
 from drake_tooluse.robot.model import load_tool_model, tool_spatial_inertia
-from drake_tooluse.robot.tool import GRASP, MeshShape
+from drake_tooluse.robot.tool import MeshShape
 from drake_tooluse.robot.tool_files import write_tool_files
 from drake_tooluse.robot.tool_generator import DENSITY, generate_tool
 
 
 @pytest.fixture(scope="module")
 def hook_files(tmp_path_factory):
-    """A generated hook written as OBJ, and a sidecar of its frames."""
+    """A generated hook written as OBJ, and the sidecar of its frames written beside it."""
     work = tmp_path_factory.mktemp("hook")
     tool = generate_tool("hook", 0).tool
     files = write_tool_files(tool, work / "tool")
-    frames = {k: list(X.translation) for k, X in tool.frames().items() if k != GRASP}
-    sidecar = work / "sidecar.yaml"
-    sidecar.write_text(yaml.safe_dump({"frames": frames}))
-    return tool, files["obj"], sidecar
+    return tool, files["obj"], files["sidecar"]
 
 
 def test_a_mesh_tool_reads_back_with_its_frames_inertia_and_hull(hook_files, tmp_path):
