@@ -84,15 +84,18 @@ class Family:
 
 @dataclass(frozen=True)
 class GeneratedTool:
-    """A drawn tool: its family, the seed that drew it, its parameters and the tool."""
+    """A drawn tool: its family, the seed that drew it, its parameters, the tool, and the
+    region of its family's parameters it was drawn in (`REGIONS`)."""
 
     family: str
     seed: int
     params: dict
     tool: CompositeTool
+    region: str = "any"
 
     def as_dict(self) -> dict:
-        return {"family": self.family, "seed": self.seed, "params": dict(self.params)}
+        out = {"family": self.family, "seed": self.seed, "params": dict(self.params)}
+        return out if self.region == "any" else {**out, "region": self.region}
 
 
 def _rotation_z_to(d) -> tuple:
@@ -294,22 +297,84 @@ def check_fabrication(tool: CompositeTool) -> None:
 
 MAX_DRAWS = 1000  # draws of one seed's generator before it gives up (none has needed 30)
 
+# What a policy trained over the generator never sees, so that its test is on tools unseen in
+# kind, not only in draw: one whole family (the rake: it can push with its tines and pull with
+# its bar, so it tests every task) and a corner of every other family's parameters, the upper
+# quarter of both of its two shape parameters at once (1/16 of the ranges' volume).
+HELD_OUT_FAMILY = "rake"
+CORNER_PARAMETERS = {
+    "straight": ("length", "radius"),
+    "hook": ("hook_length", "angle"),
+    "t_head": ("head_width", "head_offset"),
+    "rake": ("width", "tine_length"),
+    "two_bend": ("offset", "bend_angle"),
+    "arc": ("arc_radius", "sweep_deg"),
+}
+CORNER_FRACTION = 0.25
+TRAINING_FAMILIES = tuple(f for f in FAMILIES if f != HELD_OUT_FAMILY)
+# Where a draw's parameters may lie: anywhere, out of its family's corner (what training
+# draws), or in it (what the test draws of a family trained on).
+REGIONS = ("any", "training", "corner")
+SPLITS = ("training", "held_out")
 
-def generate_tool(family: str, seed: int) -> GeneratedTool:
+
+def in_corner(family: str, params: dict) -> bool:
+    """Whether `params` lie in `family`'s held-out corner: each of its CORNER_PARAMETERS in
+    the upper CORNER_FRACTION of its range."""
+    ranges = FAMILIES[family].ranges
+    return all(
+        params[name] >= ranges[name][1] - CORNER_FRACTION * (ranges[name][1] - ranges[name][0])
+        for name in CORNER_PARAMETERS[family]
+    )
+
+
+def _in_region(family: str, params: dict, region: str) -> bool:
+    return region == "any" or in_corner(family, params) == (region == "corner")
+
+
+def generate_tool(family: str, seed: int, region: str = "any") -> GeneratedTool:
     """The tool of `family` (a name of FAMILIES) drawn with `seed` (0 … 2³²−1): the same
     seed, the same tool. Parameters are drawn uniformly in the family's ranges and drawn
-    again until the tool keeps every fabrication bound (`check_fabrication`): the long, thick
-    and heavy corner of a family's ranges is rarer than uniform."""
+    again until the tool keeps every fabrication bound (`check_fabrication`) and lies in
+    `region` (REGIONS: "training" draws outside the family's corner, `in_corner`; "corner"
+    inside it): the long, thick and heavy corner of a family's ranges is rarer than
+    uniform."""
     f = FAMILIES[check_one_of(family, tuple(FAMILIES), "tool family")]
     seed = check_seed(seed, "seed")
+    check_one_of(region, REGIONS, "region")
     # The family's place in FAMILIES beside the seed: each family's draws its own stream.
     rng = np.random.default_rng([seed, list(FAMILIES).index(family)])
     for _ in range(MAX_DRAWS):
         params = f.sample(rng)
+        if not _in_region(family, params, region):
+            continue
         tool = f.build(params)
         try:
             check_fabrication(tool)
         except ValueError:
             continue
-        return GeneratedTool(family, seed, params, tool)
-    raise RuntimeError(f"no {family} tool within the fabrication bounds in {MAX_DRAWS} draws")
+        return GeneratedTool(family, seed, params, tool, region)
+    raise RuntimeError(
+        f"no {family} tool in region {region!r} within the fabrication bounds in {MAX_DRAWS} draws"
+    )
+
+
+def split_draw(split: str, rng: np.random.Generator) -> tuple[str, int, str]:
+    """(family, seed, region) of a tool drawn from `split` (SPLITS) with `rng`: "training",
+    a family of TRAINING_FAMILIES outside its corner; "held_out", any family uniformly, the
+    held-out family anywhere and another in its corner. `generate_tool(*split_draw(...))`
+    is the tool."""
+    check_one_of(split, SPLITS, "tool split")
+    families = TRAINING_FAMILIES if split == "training" else tuple(FAMILIES)
+    family = families[int(rng.integers(len(families)))]
+    seed = int(rng.integers(2**32))
+    if split == "training":
+        return family, seed, "training"
+    return family, seed, "any" if family == HELD_OUT_FAMILY else "corner"
+
+
+def held_out_tools(count: int, seed: int = 0) -> list[GeneratedTool]:
+    """`count` tools of the held-out split, drawn in turn from `seed`'s generator: the test
+    set of a policy trained on the "training" split."""
+    rng = np.random.default_rng(check_seed(seed, "seed"))
+    return [generate_tool(*split_draw("held_out", rng)) for _ in range(count)]

@@ -32,14 +32,17 @@ from drake_tooluse.robot.tool import (
     HOOK_LENGTH_RANGE,
     HookTool,
     StraightTool,
+    Tool,
     check_tool_length,
 )
+from drake_tooluse.robot.tool_generator import FAMILIES, REGIONS, GeneratedTool, generate_tool
 from drake_tooluse.validation import (
     check_bool,
     check_finite_vector,
     check_in_range,
     check_one_of,
     check_positive,
+    check_seed,
     refused_by_library,
     shown,
 )
@@ -70,6 +73,7 @@ PLANT_CHOICES = {
 }
 PLANT_FLAGS = ("use_sampled_output_ports", "adjacent_bodies_collision_filters")
 # The models this project ships: "package://drake_tooluse/".
+TOOL_KINDS = ("straight", "hook", "generated")
 PACKAGE_URL = BAXTER_URL[: BAXTER_URL.index("/", len("package://")) + 1]
 
 
@@ -97,15 +101,22 @@ class ToolConfig:
     # Length of each orange marker band, at the grip end and at the tip (m).
     marker_length: float = 0.012
     model: str = ""
-    # "straight" (a rod) or "hook" (`robot.tool.HookTool`: `length` is then its handle's, with
-    # a hook `hook_length` m long at `hook_angle` degrees to it).
+    # "straight" (a rod), "hook" (`robot.tool.HookTool`: `length` is then its handle's, with
+    # a hook `hook_length` m long at `hook_angle` degrees to it) or "generated" (the tool
+    # `robot.tool_generator.generate_tool(family, seed, region)` draws; `length`, `radius`
+    # and `mass` are then its own).
     kind: str = "straight"
     hook_length: float = 0.05
     hook_angle: float = 90.0
+    family: str = "straight"
+    seed: int = 0
+    region: str = "any"
 
-    def description(self) -> StraightTool | HookTool:
-        """The tool this describes, as geometry (`robot.tool`): the rod or the hook, its frames
-        and pieces (whether or not it is `attached`)."""
+    def description(self) -> Tool:
+        """The tool this describes, as geometry (`robot.tool`): the rod, the hook or the
+        generated tool, its frames and pieces (whether or not it is `attached`)."""
+        if self.kind == "generated":
+            return generate_tool(self.family, self.seed, self.region).tool
         if self.kind == "hook":
             return HookTool(
                 self.length,
@@ -244,7 +255,11 @@ def validate_scenario(s: Scenario) -> Scenario:
     check_in_range(s.tool.grasp_offset_along, -0.03, 0.03, "tool.grasp_offset_along", unit="m")
     check_in_range(s.tool.grasp_offset_across, -0.01, 0.01, "tool.grasp_offset_across", unit="m")
     check_in_range(s.tool.marker_length, 0.004, 0.03, "tool.marker_length", unit="m")
-    check_one_of(s.tool.kind, ("straight", "hook"), "tool.kind")
+    check_one_of(s.tool.kind, TOOL_KINDS, "tool.kind")
+    if s.tool.kind == "generated":
+        check_one_of(s.tool.family, tuple(FAMILIES), "tool.family")
+        check_seed(s.tool.seed, "tool.seed")
+        check_one_of(s.tool.region, REGIONS, "tool.region")
     if s.tool.kind == "hook":
         check_in_range(
             s.tool.length, *HOOK_HANDLE_RANGE, "tool.length (the hook's handle)", unit="m"
@@ -556,8 +571,13 @@ def with_actuation_delay(scenario: Scenario, delay: float) -> Scenario:
 
 
 def with_tool(scenario: Scenario, tool) -> Scenario:
-    """A copy of `scenario` holding `tool`: a StraightTool or a length (m), or a HookTool."""
-    if isinstance(tool, HookTool):
+    """A copy of `scenario` holding `tool`: a StraightTool or a length (m), a HookTool, or a
+    GeneratedTool (`robot.tool_generator`)."""
+    if isinstance(tool, GeneratedTool):
+        held = dc.replace(
+            scenario.tool, kind="generated", family=tool.family, seed=tool.seed, region=tool.region
+        )
+    elif isinstance(tool, HookTool):
         held = dc.replace(
             scenario.tool,
             kind="hook",

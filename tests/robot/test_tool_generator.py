@@ -19,11 +19,17 @@ from drake_tooluse.robot.model import load_tool_model, tool_spatial_inertia
 from drake_tooluse.robot.tool import GRASP, TOOL_LENGTH_RANGE
 from drake_tooluse.robot.tool_files import tool_mesh, write_tool_files
 from drake_tooluse.robot.tool_generator import (
+    CORNER_PARAMETERS,
     FAMILIES,
+    HELD_OUT_FAMILY,
     MAX_MASS,
     MAX_STATIC_MOMENT,
+    TRAINING_FAMILIES,
     check_fabrication,
     generate_tool,
+    held_out_tools,
+    in_corner,
+    split_draw,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -152,3 +158,59 @@ def test_the_docs_gallery_is_of_the_generator_as_it_is():
     shown = json.loads((ROOT / "docs/figures/tool_gallery.json").read_text())
     assert shown["tools"] == gallery_contents(shown["seed"], shown["rows"])
     assert len(shown["tools"]) == 24 and (ROOT / "docs/figures/tool_gallery.png").is_file()
+
+
+def test_the_training_split_never_draws_a_held_out_tool_and_the_held_out_split_only_those():
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        family, seed, region = split_draw("training", rng)
+        generated = generate_tool(family, seed, region)
+        assert family != HELD_OUT_FAMILY and family in TRAINING_FAMILIES
+        assert not in_corner(family, generated.params)
+    held_out = held_out_tools(120, seed=3)
+    assert {g.family for g in held_out} == set(FAMILIES)
+    for g in held_out:
+        assert g.family == HELD_OUT_FAMILY or in_corner(g.family, g.params), g.as_dict()
+    # The same seed, the same test set.
+    assert [g.as_dict() for g in held_out_tools(5, 3)] == [g.as_dict() for g in held_out[:5]]
+
+
+def test_the_corner_is_the_upper_quarter_of_both_shape_parameters():
+    for family, names in CORNER_PARAMETERS.items():
+        ranges = FAMILIES[family].ranges
+        top = {n: ranges[n][1] for n in ranges if not isinstance(ranges[n][0], str)}
+        assert in_corner(family, top)
+        for name in names:  # one of the two below its upper quarter: out of the corner
+            lo, hi = ranges[name]
+            assert not in_corner(family, {**top, name: hi - 0.3 * (hi - lo)})
+        g = generate_tool(family, 7, "corner")
+        assert in_corner(family, g.params) and g.region == "corner"
+        assert not in_corner(family, generate_tool(family, 7, "training").params)
+    # A region other than REGIONS is refused, naming it.
+    with pytest.raises(ValueError, match="region"):
+        generate_tool("hook", 0, "elsewhere")
+
+
+def test_a_generated_tool_is_held_in_the_push_env_drawn_per_episode_from_its_split():
+    env = gym.make(
+        "drake_tooluse/ToolPush-v1",
+        observation_mode="tip_geometry",
+        action_mode="position",
+        generated_tools="training",
+    )
+    try:
+        obs, _ = env.reset(seed=4)
+        assert obs.shape == (27,) and np.all(np.isfinite(obs))
+        first = env.unwrapped.scenario.tool
+        assert first.kind == "generated" and first.family in TRAINING_FAMILIES
+        families = {first.family}
+        for seed in range(5, 12):
+            env.reset(seed=seed)
+            families.add(env.unwrapped.scenario.tool.family)
+        assert len(families) > 1
+        env.reset(seed=4)  # the same seed, the same tool
+        assert env.unwrapped.scenario.tool == first
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="generated_tools"):
+        gym.make("drake_tooluse/ToolPush-v1", generated_tools="all")

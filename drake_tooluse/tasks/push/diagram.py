@@ -63,7 +63,13 @@ def add_push_task(
         ik,
         control,
         ToolPushObservation(
-            world, ik.plant, goal, include_tool_length, belief.tool_length, observation_mode
+            world,
+            ik.plant,
+            goal,
+            include_tool_length,
+            belief.tool_length,
+            observation_mode,
+            belief.tool,
         ),
         PushOutcome(world, goal, initial_box_pose(scenario).translation(), reward_type),
     )

@@ -21,6 +21,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.robot.tool import check_tool_length
+from drake_tooluse.robot.tool_generator import SPLITS, generate_tool, split_draw
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import RETIRED_VERSIONS, TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
@@ -46,6 +47,7 @@ from drake_tooluse.world.scenario import (
     Scenario,
     load_scenario,
     with_actuation_delay,
+    with_tool,
     with_tool_length,
 )
 
@@ -60,6 +62,9 @@ class EnvConfig(ViewOptions):
     # [lo, hi] m: each episode's tool length drawn uniformly from it (the world's true tool and
     # the robot's belief both; `include_tool_length` puts it in the observation). None: one tool.
     tool_length_range: list | None = None
+    # "training" or "held_out": each episode's tool drawn by the tool generator from that split
+    # (`robot.tool_generator.SPLITS`), the world's and the robot's belief alike. None: one tool.
+    generated_tools: str | None = None
     # [lo, hi] s: each episode's actuation delay (joint targets reaching the motors late)
     # drawn uniformly from the plant-step multiples in it, over the scenario's
     # `control.actuation_delay`: domain randomization for a robot whose delay is not known.
@@ -68,7 +73,7 @@ class EnvConfig(ViewOptions):
     goal_extra: float = 0.0  # m added to the goal distance along y
     action_mode: str = "position_quaternion"  # see systems.tip_target
     include_tool_length: bool = False
-    observation_mode: str = "gripper_joints"  # or "tip" (see tasks.push.observation)
+    observation_mode: str = "gripper_joints"  # "tip", "tip_geometry" (tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
 
 
@@ -124,6 +129,10 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
         check_tool_length(config.tool_length, "tool_length")
     if config.tool_length_range is not None:
         config.tool_length_range = _check_length_range(config)
+    if config.generated_tools is not None:
+        check_one_of(config.generated_tools, SPLITS, "generated_tools")
+        if config.tool_length is not None or config.tool_length_range is not None:
+            raise ValueError("give generated_tools or a tool length (range), not both")
     if config.actuation_delay_range is not None:
         config.actuation_delay_range = _check_delay_range(config.actuation_delay_range)
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
@@ -276,6 +285,21 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | 9:12 | tool-tip velocity, J(q) v (believed tool) | (-inf, inf) | m/s |
     | 12 | believed tool length (optional) | (0, 0.60] | m |
 
+    #### observation_mode = tip_geometry
+
+    `tip`, then the believed tool's shape (`robot.tool_geometry`): one observation for tools
+    of every family.
+
+    | index | meaning | range | unit |
+    | --- | --- | --- | --- |
+    | 0:12 | as observation_mode = tip | | |
+    | 12:15 | the tool's point farthest along W's +x, from the tip | (-inf, inf) | m |
+    | 15:18 | the tool's point farthest along W's −x, from the tip | (-inf, inf) | m |
+    | 18:21 | the tool's point farthest along W's +y, from the tip | (-inf, inf) | m |
+    | 21:24 | the tool's point farthest along W's −y, from the tip | (-inf, inf) | m |
+    | 24:27 | the tool's lowest point, from the tip | (-inf, inf) | m |
+    | 27 | believed tool length (optional) | (0, 0.60] | m |
+
     ### Rewards
 
     Dense, every step, from the truth:
@@ -303,6 +327,9 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     `tool_length_range=[lo, hi]`, each reset draws the tool's length uniformly from it (the
     world's and the robot's belief alike); with `actuation_delay_range=[lo, hi]`, then the
     actuation delay, uniformly among the plant-step multiples in it (the robot is not told).
+    With `generated_tools="training"` (or `"held_out"`), each reset draws a tool of the
+    generator's training (or held-out) split (`robot.tool_generator.split_draw`), which the
+    robot is told.
     Otherwise every reset starts the same.
 
     ### Episode End
@@ -330,12 +357,13 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | scenario | None | a Scenario, or a scenario YAML file; None: the default scenario (diagrams/push.yaml's values) |
     | tool_length | None | the tool's length (m, in (0, 0.60]), over the scenario's |
     | tool_length_range | None | [lo, hi] m: each episode's tool length drawn uniformly (not with tool_length) |
+    | generated_tools | None | "training" or "held_out": each episode's tool drawn by the tool generator from that split (not with a tool length) |
     | actuation_delay_range | None | [lo, hi] s, in [0, 0.2]: each episode's actuation delay drawn uniformly among the plant-step multiples in it |
     | reward_type | "tool_and_box" | "tool_and_box" (Env1, Env3) or "box" (Env2); set by the id |
     | goal_extra | 0.0 | m added to the goal's distance along y, in [-0.15, 0.25]; set by the id |
     | action_mode | "position_quaternion" | "position_quaternion", "pose" or "position" (Action Space) |
     | include_tool_length | False | the believed tool length as the observation's last value |
-    | observation_mode | "gripper_joints" | "gripper_joints" or "tip" (Observation Space) |
+    | observation_mode | "gripper_joints" | "gripper_joints", "tip" or "tip_geometry" (Observation Space) |
     | randomize | False | draw the starting state per reset (Starting State) |
 
     ### Info
@@ -430,7 +458,11 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             self._delays = _delay_choices(
                 config.actuation_delay_range, self.scenario.plant.time_step
             )
-        if config.tool_length_range is None and self._delays is None:
+        if (
+            config.tool_length_range is None
+            and config.generated_tools is None
+            and self._delays is None
+        ):
             self._build(config)
             simulator = self._simulator
         else:  # DrakeGymEnv makes each episode's simulator (`_next_world`) at its reset
@@ -464,14 +496,18 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self._simulator = Simulator(self.diagram)
 
     def _next_world(self, generator) -> Simulator:
-        """The next episode's world: a tool of a length drawn from `tool_length_range`, then
-        an actuation delay drawn from `actuation_delay_range`'s choices, each where given,
-        with the env's seeded generator (Drake's `generator` is not used: `np_random` is the
+        """The next episode's world: a tool of a length drawn from `tool_length_range`, or a
+        tool the generator draws from the `generated_tools` split, then an actuation delay
+        drawn from `actuation_delay_range`'s choices, each where given, with the env's seeded
+        generator (Drake's `generator` is not used: `np_random` is the
         one the env's `reset(seed=...)` seeds, before this is called)."""
         scenario = self._base_scenario
         if self.config.tool_length_range is not None:
             lo, hi = self.config.tool_length_range
             scenario = with_tool_length(scenario, float(self.np_random.uniform(lo, hi)))
+        if self.config.generated_tools is not None:
+            drawn = split_draw(self.config.generated_tools, self.np_random)
+            scenario = with_tool(scenario, generate_tool(*drawn))
         if self._delays is not None:
             delay = self._delays[int(self.np_random.integers(len(self._delays)))]
             scenario = with_actuation_delay(scenario, delay)

@@ -27,6 +27,16 @@ the same for any tool the IK tracks:
 | 9:12 | tool-tip velocity (robot model: J(q) v) | m/s, W |
 | 12 | believed tool length (optional) | m |
 
+`tip_geometry`: `tip`, then the believed tool's shape as its support points
+(`robot.tool_geometry`: for W's +x, −x, +y, −y and down, the point of the tool farthest that
+way, as its offset from the tip): one observation for tools of every family (27 values):
+
+| slice | what | units |
+| --- | --- | --- |
+| 0:12 | as `tip` | |
+| 12:27 | support points towards +x, −x, +y, −y, down, each x y z from the tip | m, W |
+| 27 | believed tool length (optional) | m |
+
 The metrics (reward, success, info) are computed from the world plant, i.e. the true tool
 (`tasks.push.metrics`).
 """
@@ -38,11 +48,12 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import LeafSystem
 
 from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
+from drake_tooluse.robot.tool_geometry import CODE_SIZE, GeometryCode
 from drake_tooluse.systems.goal_observation import GoalObservation
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scene import World
 
-OBSERVATION_SIZES = {"gripper_joints": 30, "tip": 12}
+OBSERVATION_SIZES = {"gripper_joints": 30, "tip": 12, "tip_geometry": 12 + CODE_SIZE}
 
 
 class ToolPushObservation(GoalObservation, LeafSystem):
@@ -59,8 +70,8 @@ class ToolPushObservation(GoalObservation, LeafSystem):
     Input ports:
         plant_state: the world plant's full state [q (14), v (13)].
     Output ports:
-        observation: by mode, 30 or 12 values (one more with the tool length); all NaN when
-            the state is not finite.
+        observation: by mode, 30, 12 or 27 values (one more with the tool length); all NaN
+            when the state is not finite.
     Parameters: the goal x* (3, m), set per episode (`set_goal`).
     """
 
@@ -72,6 +83,7 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         include_tool_length: bool,
         believed_tool_length: float | None,
         mode: str = "gripper_joints",
+        believed_tool=None,
     ):
         check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
         # The observation's tail: nothing, or the tool length (no empty piece to join: numpy
@@ -91,18 +103,25 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         self._model_context = robot_model.CreateDefaultContext()
         self._tip = robot_model.GetFrameByName(TIP_FRAME)
         self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
+        # The believed tool's shape (`tip_geometry`); None: no tool or another mode.
+        self._geometry = GeometryCode(believed_tool) if mode == "tip_geometry" else None
 
     def finite_observation(self, x, goal) -> np.ndarray:
         """`observation` of a plant state x known to be finite (not checked again)."""
         q = x[self._arm_q]
         self._model.SetPositions(self._model_context, q)
-        if self._mode == "tip":
+        if self._mode != "gripper_joints":
+            X_WT = self._tip.CalcPoseInWorld(self._model_context)
+            shape = (
+                () if self._geometry is None else (self._geometry.code(X_WT.rotation().matrix()),)
+            )
             return np.concatenate(
                 (
                     goal,
                     x[self._box_p],
-                    self._tip.CalcPoseInWorld(self._model_context).translation(),
+                    X_WT.translation(),
                     self._tip_jacobian() @ x[self._arm_v],
+                    *shape,
                     *self._tail,
                 )
             )
