@@ -1,0 +1,165 @@
+"""Tools the robot has never seen: push policies zero-shot on the generator's held-out tools.
+
+    python benchmarks/unseen_tools.py --policies DIR [DIR ...] [--tools 200] [--tool-seed 0]
+        [--seed 1000] [--out FILE]
+
+The held-out tools (`robot.tool_generator.held_out_tools`: the rake family, which training
+never draws, and the corner of every other family's two shape parameters) are drawn once
+from TOOL_SEED; tool i is run for one episode from env seed SEED + i by every policy, in
+simulation (the policy's own env and settings, the robot told the tool's geometry), run to
+the step limit and judged where the box ends. Each policy's success and mean final box–goal
+distance are printed over all tools and per family, side by side: a policy trained over the
+generator's training split (`generated_tools="training"`) and today's tip policy
+(`models/policies/ppo_toolpush_tip`, trained on straight rods), which acts on any tool through
+its tip frame. Goal for the policy trained over shapes: ≥ 85 % in simulation.
+
+Prints a Markdown table; with --out, writes it as JSON (atomically).
+"""
+
+import argparse
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from drake_tooluse.cli.common import run_script
+from drake_tooluse.files import atomic_write_json, check_output_file
+from drake_tooluse.learning.evaluate import make_policy_env, run_episode
+from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.limits import MAX_EPISODES
+from drake_tooluse.paths import POLICIES_DIR
+from drake_tooluse.robot.tool_generator import FAMILIES, HELD_OUT_FAMILY, held_out_tools
+from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
+from drake_tooluse.validation import check_int, check_seed
+from drake_tooluse.world.scenario import Scenario, with_tool
+
+SIM_SUCCESS_GOAL = 0.85
+DEFAULT_POLICIES = (POLICIES_DIR / "ppo_toolpush_tip",)
+# One tool per episode, given as the scenario's: the env draws none itself.
+ONE_TOOL = {"generated_tools": None, "tool_length_range": None, "tool_length": None}
+
+
+def check_args(args) -> list:
+    """Every argument checked before the first episode: a ValueError (or FileNotFoundError,
+    for a policy directory) naming the bad one. Returns the loaded policies."""
+    check_int(args.tools, 1, MAX_EPISODES, "--tools")
+    check_seed(args.tool_seed, "--tool-seed")
+    check_seed(args.seed, "--seed", args.tools)
+    if args.out is not None:
+        check_output_file(args.out, "--out", ".json")
+    policies = []
+    for path in args.policies:
+        policy = load_policy(path)
+        if policy.meta.env_id not in PUSH_ENV_IDS:
+            raise ValueError(
+                f"{path} is a policy for {policy.meta.env_id}; this benchmark runs push "
+                f"policies ({', '.join(PUSH_ENV_IDS)})"
+            )
+        check_policy_env(policy, env_kwargs=ONE_TOOL)
+        policies.append(policy)
+    return policies
+
+
+def run_policy(policy, tools, seed: int) -> list[dict]:
+    """One episode per tool (env seed seed + i), each row its tool, success and distance."""
+    rows = []
+    for i, generated in enumerate(tools):
+        scenario = with_tool(Scenario(), generated)
+        _, env = make_policy_env(policy, env_kwargs={**ONE_TOOL, "scenario": scenario})
+        try:
+            info, _ = run_episode(env, policy, seed + i)
+        finally:
+            env.close()
+        rows.append(
+            {
+                **generated.as_dict(),
+                "success": bool(info["is_success"]) and not info["sim_error"],
+                "object_to_goal_m": float(info["object_to_goal"]),
+                "sim_error": bool(info["sim_error"]),
+            }
+        )
+    return rows
+
+
+def summary(rows: list[dict]) -> dict:
+    """Success and mean final distance over `rows`, and per family."""
+    by_family = defaultdict(list)
+    for row in rows:
+        by_family[row["family"]].append(row)
+
+    def figures(rs):
+        return {
+            "tools": len(rs),
+            "success_rate": float(np.mean([r["success"] for r in rs])),
+            "object_to_goal_mean_m": float(np.mean([r["object_to_goal_m"] for r in rs])),
+        }
+
+    return {
+        **figures(rows),
+        "families": {f: figures(by_family[f]) for f in FAMILIES if f in by_family},
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument(
+        "--policies",
+        nargs="+",
+        type=Path,
+        default=list(DEFAULT_POLICIES),
+        help="push policy directories (default: the shipped tip policy)",
+    )
+    ap.add_argument("--tools", type=int, default=200, help="held-out tools (one episode each)")
+    ap.add_argument("--tool-seed", type=int, default=0, help="seed of the held-out tools' draw")
+    ap.add_argument("--seed", type=int, default=1000, help="env seed of the first episode")
+    ap.add_argument("--out", type=Path, help="write the figures as JSON here")
+    args = ap.parse_args()
+    try:
+        policies = check_args(args)
+    except (ValueError, FileNotFoundError) as e:
+        ap.error(str(e))
+    tools = held_out_tools(args.tools, args.tool_seed)
+    families = [f for f in FAMILIES if any(t.family == f for t in tools)]
+    heads = " | ".join(
+        f"{f}{' (held-out family)' if f == HELD_OUT_FAMILY else ' (corner)'}" for f in families
+    )
+    print(f"| policy | success | distance (cm) | {heads} | wall (s) |")
+    print("|---" * (4 + len(families)) + "|")
+    results = {}
+    for path, policy in zip(args.policies, policies):
+        start = time.perf_counter()
+        rows = run_policy(policy, tools, args.seed)
+        s = summary(rows)
+        results[str(path)] = {**s, "episodes": rows}
+        per_family = " | ".join(
+            f"{s['families'][f]['success_rate'] * 100:.0f} % of {s['families'][f]['tools']}"
+            for f in families
+        )
+        print(
+            f"| {path} | {s['success_rate'] * 100:.1f} % | {s['object_to_goal_mean_m'] * 100:.2f} "
+            f"| {per_family} | {time.perf_counter() - start:.0f} |",
+            flush=True,
+        )
+    print(
+        f"{args.tools} held-out tools drawn from tool seed {args.tool_seed}, one episode each "
+        f"from env seed {args.seed}, in simulation, to the step limit. Goal for a policy "
+        f"trained over the generator's training split: ≥ {SIM_SUCCESS_GOAL * 100:g} %."
+    )
+    if args.out is not None:
+        atomic_write_json(
+            args.out,
+            {
+                "tools": args.tools,
+                "tool_seed": args.tool_seed,
+                "seed": args.seed,
+                "sim_success_goal": SIM_SUCCESS_GOAL,
+                "policies": results,
+            },
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(run_script(main))

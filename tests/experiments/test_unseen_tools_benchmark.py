@@ -1,0 +1,50 @@
+"""benchmarks/unseen_tools.py: bad arguments are one-line errors before any episode, and a small
+run measures each policy on the held-out tools, one episode per tool, the JSON the table's."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from drake_tooluse.robot.tool_generator import HELD_OUT_FAMILY, in_corner
+from tests.benchmark_scripts import benchmark_script
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--policies", "no/such/policy"], "'no/such/policy' is not a policy directory"),
+        (
+            ["--policies", str(ROOT / "models" / "policies" / "ppo_toolpull")],
+            "is a policy for drake_tooluse/ToolPull-v",
+        ),
+        (["--tools", "0"], "--tools=0 is outside the allowed range [1, 100000]"),
+        (["--out", "x.txt"], "--out 'x.txt' must be a .json file"),
+    ],
+)
+def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
+    monkeypatch.setattr("sys.argv", ["unseen_tools.py", *argv])
+    with pytest.raises(SystemExit) as exit:
+        benchmark_script("unseen_tools").main()
+    out, err = capsys.readouterr()
+    assert exit.value.code == 2 and message in err and out == ""
+
+
+def test_a_small_run_measures_the_policy_on_held_out_tools(tmp_path, monkeypatch, capsys):
+    out_file = tmp_path / "unseen.json"
+    monkeypatch.setattr(
+        "sys.argv", ["unseen_tools.py", "--tools", "2", "--tool-seed", "5", "--out", str(out_file)]
+    )
+    assert benchmark_script("unseen_tools").main() == 0
+    table = capsys.readouterr().out
+    assert "ppo_toolpush_tip" in table and "2 held-out tools drawn from tool seed 5" in table
+    figures = json.loads(out_file.read_text())
+    (policy,) = figures["policies"].values()
+    episodes = policy["episodes"]
+    assert len(episodes) == 2 and policy["tools"] == 2
+    for row in episodes:
+        assert row["family"] == HELD_OUT_FAMILY or in_corner(row["family"], row["params"])
+        assert 0 <= row["object_to_goal_m"] < 1 and isinstance(row["success"], bool)
+    assert policy["success_rate"] == sum(r["success"] for r in episodes) / 2
