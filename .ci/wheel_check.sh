@@ -102,6 +102,9 @@ check drake-tooluse record-video --out episode.gif --render-size 160 120 --every
 # The pull with the shipped hook policy, and the choice (the far-push policy) with its recording.
 check drake-tooluse demo --task pull --out demo-pull --no-progress
 check drake-tooluse choose-tool --task push-far --seed 2 --rollouts 1 --record choice.html
+# A tool the robot has never seen (the held-out family), measured by its shape, and the push.
+check drake-tooluse demo --tool random --seed 0 --out demo-random --no-progress
+check drake-tooluse measure-shape --family two_bend --tool-seed 3 --json
 
 echo "== wheel check"
 printf '%s\n' "${SUMMARY[@]}"

@@ -71,9 +71,11 @@ from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import StraightTool, check_tool_length
 from drake_tooluse.systems.camera import (
     ColorImageNoise,
+    DepthImageNoise,
     ToolLengthEstimator,
     add_head_camera,
     camera_info,
+    check_depth_noise,
     head_camera_pose,
 )
 from drake_tooluse.systems.lifetime import release_diagram
@@ -312,6 +314,7 @@ def build_camera_measurement(
     estimator_name: str,
     views=MEASUREMENT_VIEWS,
     noise_sigma: float | None = None,
+    depth_noise_sigma: float = 0.0,
     lighting: str = "default",
     scene_objects=(),
     seed: int = 0,
@@ -331,13 +334,16 @@ def build_camera_measurement(
         plan: a plan from `plan_measurement` to reuse (it depends on the robot and the camera,
             not on the tool); None plans `views`.
         noise_sigma: Gaussian colour noise (grey levels); None takes scenario.camera.noise_sigma.
+        depth_noise_sigma: Gaussian depth noise (m) on what the estimator sees
+            (`DepthImageNoise`); 0, none.
         lighting: "default" or "dim_side" (see systems.camera.lighting_params).
         scene_objects: extra SceneObjects (distractors, occluders).
-        seed: the colour noise's.
+        seed: the colour and depth noises'.
         move_time, settle_time: each move between views, and each hold before a capture (s).
     """
     check_one_of(lighting, LIGHTINGS, "lighting")
     sigma = scenario.camera.noise_sigma if noise_sigma is None else check_noise_sigma(noise_sigma)
+    depth_noise_sigma = check_depth_noise(depth_noise_sigma)
     move_time = check_in_range(move_time, 0.1, 10.0, "move_time", unit="s")
     settle_time = check_in_range(settle_time, 0.0, 10.0, "settle_time", unit="s")
     plan = plan_measurement(scenario, views) if plan is None else plan
@@ -366,13 +372,21 @@ def build_camera_measurement(
     estimator = builder.AddNamedSystem(
         estimator_name, make_estimator(plan.views, times[0], move_time + settle_time)
     )
+    depth_port = sensor.depth_image_32F_output_port()
+    if depth_noise_sigma > 0:
+        depth_noise = builder.AddNamedSystem(
+            "depth_noise",
+            DepthImageNoise(scenario.camera.width, scenario.camera.height, depth_noise_sigma, seed),
+        )
+        builder.Connect(depth_port, depth_noise.get_input_port())
+        depth_port = depth_noise.get_output_port()
     builder.Connect(color_port, estimator.GetInputPort("color_image"))
-    builder.Connect(sensor.depth_image_32F_output_port(), estimator.GetInputPort("depth_image"))
+    builder.Connect(depth_port, estimator.GetInputPort("depth_image"))
     for i in range(estimator.num_output_ports()):
         port = estimator.get_output_port(i)
         builder.ExportOutput(port, port.get_name())
     builder.ExportOutput(color_port, "color_image")
-    builder.ExportOutput(sensor.depth_image_32F_output_port(), "depth_image")
+    builder.ExportOutput(depth_port, "depth_image")
     diagram = builder.Build()
     diagram.set_name(name)
     return MeasurementDiagram(diagram, world, plan, sensor, color_port, estimator, times)

@@ -232,13 +232,14 @@ def cmd_demo(args) -> dict:
     if args.tool_length is not None:
         tool = f"straight:{tool_length_arg(args.tool_length)}"
     seed_arg(args.seed)
-    from drake_tooluse.experiments.demo import SCRIPTED, run_demo
+    from drake_tooluse.experiments.demo import RANDOM, SCRIPTED, run_demo
     from drake_tooluse.robot.tool import parse_tool
 
     try:
-        tool = None if tool is None else parse_tool(tool)
+        tool = None if tool in (None, RANDOM) else parse_tool(tool)
     except ValueError as e:
-        raise UsageError(f"--tool: {e}") from None
+        raise UsageError(f"--tool: {e}; or random") from None
+    tool = RANDOM if args.tool == RANDOM else tool
     if args.policy is not None and str(args.policy) != SCRIPTED:
         policy_dir_arg(args.policy, "--policy")
     out = output_dir_arg(args.out or new_run_dir("demo"), "--out")
@@ -568,7 +569,9 @@ def add_parsers(sub) -> None:
         "--tool",
         metavar="SPEC",
         help="the true tool, straight:L or hook:HANDLE,HOOK,ANGLE (m, m, deg; default: the "
-        "task's, straight:0.125 or hook:0.25,0.05,75)",
+        "task's, straight:0.125 or hook:0.25,0.05,75), or random: a tool the robot has never "
+        "seen, drawn with --seed from the tool generator's held-out family (the rake) and "
+        "measured by its shape",
     )
     p.add_argument(
         "--tool-length",

@@ -1,5 +1,5 @@
-"""`measure`: the tool measured with the head camera; `measure-box`: where the box starts, with
-the hand camera."""
+"""`measure`: the tool measured with the head camera; `measure-shape`: a tool of unknown shape,
+with its depth views; `measure-box`: where the box starts, with the hand camera."""
 
 from __future__ import annotations
 
@@ -107,6 +107,55 @@ def format_hook_measurement(out: dict) -> str:
     return "\n".join(lines)
 
 
+def cmd_measure_shape(args) -> dict:
+    """A tool of unknown shape measured: the family named, its parameters, the grasp, the
+    working frames in G, and (for comparison) the truth's family and each frame's error."""
+    from drake_tooluse.builders.shape_measurement import measure_shape
+    from drake_tooluse.robot.tool_generator import FAMILIES, generate_tool
+    from drake_tooluse.systems.camera import check_depth_noise
+    from drake_tooluse.validation import check_one_of, check_seed
+    from drake_tooluse.world.scenario import with_tool
+
+    check_depth_noise(args.depth_noise, "--depth-noise")
+    scenario = scenario_from_args(args)
+    if args.family is not None:
+        family = check_one_of(args.family, tuple(FAMILIES), "--family")
+        seed = check_seed(0 if args.tool_seed is None else args.tool_seed, "--tool-seed")
+        scenario = with_tool(scenario, generate_tool(family, seed))
+    elif args.tool_seed is not None:
+        raise ValueError("--tool-seed draws a generated tool: give --family with it")
+    result = measure_shape(
+        scenario,
+        noise_sigma=args.noise,
+        depth_noise_sigma=args.depth_noise,
+        lighting=args.lighting,
+    )
+    return {"scenario": str(args.scenario), **result.as_dict()}
+
+
+def format_shape_measurement(out: dict) -> str:
+    """Human-readable lines of `cmd_measure_shape`'s dict."""
+    params = ", ".join(
+        f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in out["params"].items()
+    )
+    lines = [
+        f"family: {out['family']} (the scenario's: {out['truth_family']}); "
+        f"{out['points']} points, {out['rms_m'] * 1e3:.2f} mm RMS from the fitted {out['fitted_family']}",
+        f"parameters: {params}",
+        f"grasp: {out['grasp_across_m'] * 1e3:+.1f} mm across, {out['grasp_along_m'] * 1e3:+.1f} mm "
+        "along (a handle held deeper looks the same as a shorter one: the frames in G tell)",
+    ]
+    errors = out["frame_errors_m"]
+    for name, p in out["frames_G_m"].items():
+        error = f"; {errors[name] * 1e3:.2f} mm from the scenario's" if name in errors else ""
+        lines.append(
+            f"{name}: ({', '.join(f'{v * 1e3:.1f}' for v in p)}) mm in the gripper frame{error}"
+        )
+    lines += [f"dropped {d['view']}: {d['reason']}" for d in out["dropped"]]
+    lines.append(f"capture {out['capture_time_s']:.1f} s, fit {out['fit_time_s']:.1f} s")
+    return "\n".join(lines)
+
+
 def cmd_measure_box(args) -> dict:
     """The box's start as the hand camera measures it, beside the scenario's truth."""
     from drake_tooluse.builders.box_measurement import measure_box_start
@@ -204,6 +253,35 @@ def add_parsers(sub) -> None:
         help="the hook's angle to the handle (degrees, in [60, 120]; 90: an L)",
     )
     p.set_defaults(run=cmd_measure, show=format_measurement)
+    p = sub.add_parser(
+        "measure-shape",
+        help="measure a tool the robot was not told about with the head camera's depth views: "
+        "its family (or other), shape, grasp and working frames",
+    )
+    add_scenario_args(p)
+    p.add_argument(
+        "--family",
+        metavar="FAMILY",
+        help="hold the generator's tool of this family (with --tool-seed; default: the "
+        "scenario's tool)",
+    )
+    p.add_argument(
+        "--tool-seed", type=int, metavar="S", help="the generated tool's seed (default 0)"
+    )
+    p.add_argument(
+        "--noise", type=float, metavar="SIGMA", help="Gaussian colour noise, grey levels"
+    )
+    p.add_argument(
+        "--depth-noise",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="Gaussian depth noise, m (in [0, 0.01]; default 0)",
+    )
+    p.add_argument(
+        "--lighting", default="default", choices=list(LIGHTINGS), help="renderer lighting"
+    )
+    p.set_defaults(run=cmd_measure_shape, show=format_shape_measurement)
     p = sub.add_parser(
         "measure-box",
         help="measure where the box starts with the camera on the robot's hand (depth, OpenCV)",

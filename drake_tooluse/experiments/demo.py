@@ -2,10 +2,11 @@
 
 1. Draw a reality of the task (`--task`, as the task declares it: `tasks.contract.ToolTask`;
    seeded): a tool the robot has never trained with (`--tool`, default the task's
-   `demo_tool`), held with a shifted grasp; the object's mass and friction off; delayed
+   `demo_tool`; `random`: one the robot has never seen, from the tool generator's held-out
+   family), held with a shifted grasp; the object's mass and friction off; delayed
    actuation; a noisy camera.
 2. Measure the tool with the head camera (OpenCV; the straight tool's or the hook's
-   measurement, by the tool's kind).
+   measurement, by the tool's kind; a generated tool's shape from depth, its family unknown).
 3. Do the task with its shipped policy closed loop (or another policy directory of the task,
    or its scripted reference: `--policy scripted`), the IK holding the measured tool where the
    camera saw the hand hold it, recorded in Meshcat.
@@ -58,6 +59,7 @@ from drake_tooluse.paths import POLICIES_DIR, REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.perception.markers import ANNOTATION_COLORS
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.tool import parse_tool, tool_label
+from drake_tooluse.robot.tool_generator import HELD_OUT_FAMILY, GeneratedTool, generate_tool
 from drake_tooluse.systems.camera import (  # noqa: F401 (GOAL_RGB: the demo's figures' green)
     GOAL_RGB,
     SceneView,
@@ -72,6 +74,10 @@ from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import goal_position, initial_box_pose
 
 SCRIPTED = "scripted"  # the `policy` that is the task's scripted reference
+# The `tool` that is one the robot has never seen: drawn with the demo's seed from the tool
+# generator's held-out family (`robot.tool_generator.HELD_OUT_FAMILY`, which no policy
+# trains on), measured by its shape.
+RANDOM = "random"
 FIGURE_DPI = 110
 GOAL_RADIUS = SUCCESS_DISTANCE / 2  # m, the goal as drawn (as in the Meshcat recording)
 
@@ -149,7 +155,8 @@ def _plot_time(ax, run, scenario, object_name: str) -> None:
 def _camera_panel(ax_image, ax_text, measurement) -> None:
     """An accepted head-camera view (a view of a hook's end first: it shows the bend),
     annotated and cropped to the tool, and under it the measurement in words with a legend of
-    the annotation's colours."""
+    the annotation's colours (the measurement's `annotation_colors`, default the marker
+    bands')."""
     ax_image.axis("off")
     ax_text.axis("off")
     pairs = [(v, f) for v, f in zip(measurement.views, measurement.image_files) if v.accepted]
@@ -164,7 +171,7 @@ def _camera_panel(ax_image, ax_text, measurement) -> None:
     ax_image.legend(
         handles=[
             Patch(color=np.array(bgr[::-1]) / 255, label=label.split(": ", 1)[1])
-            for bgr, label in ANNOTATION_COLORS.values()
+            for bgr, label in getattr(measurement, "annotation_colors", ANNOTATION_COLORS).values()
         ],
         loc="lower left",
         fontsize=6.5,
@@ -247,7 +254,7 @@ def run_demo(
 ) -> dict:
     """Runs the demo of `task` (see the module docstring) and returns its metrics (also in
     `out_dir/metrics.json`). `tool`: a tool or its text (`straight:L`, `hook:H,K,A`; default
-    the task's `demo_tool`); `policy_dir`: default the task's shipped policy, `scripted` its
+    the task's `demo_tool`), a GeneratedTool, or RANDOM; `policy_dir`: default the task's shipped policy, `scripted` its
     scripted reference; `scenario_path`: reality (default the task's, as it declares it);
     `trust_pickle` lets `policy_dir` be of the older pickle format. The run is recorded in
     `meshcat` (default: a new one on a free loopback port), and the recording published there
@@ -261,10 +268,12 @@ def run_demo(
         raise ValueError(f"max_steps={max_steps!r} must be an integer in [1, 1000]")
     declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
     tool = declared.demo_tool if tool is None else tool
+    if tool == RANDOM:
+        tool = generate_tool(HELD_OUT_FAMILY, seed)
     tool = parse_tool(tool) if isinstance(tool, str) else tool
     why_not = no_policy_reason(task, tool)
     if why_not is not None:
-        raise ValueError(f"tool {tool_label(tool)}: {why_not}")
+        raise ValueError(f"tool {label(tool)}: {why_not}")
     controller = demo_controller(task, policy_dir, trust_pickle)
     if scenario_path is None:
         reality = task_scenarios(task)[1]
@@ -281,16 +290,24 @@ def run_demo(
     # Written into a staging directory that becomes `out` only when everything is there.
     with atomic_dir(out) as work:
         log(
-            f"[1/3] measuring the tool with the head camera ({tool_label(tool)}, unknown to the robot) …"
+            f"[1/3] measuring the tool with the head camera ({label(tool)}, unknown to the robot) …"
         )
         t0 = time.perf_counter()
         belief, measurement = measure(scenario, tool, seed, save_images_dir=work / "camera")
         times["measure_s"] = time.perf_counter() - t0
-        true = _tool_figures(tool.dimensions(), scenario.tool.grasp_offset_along)
-        # As measured: a value just past its range, which the belief holds at the range's end,
-        # is shown as it was (and `clamped` says so).
-        measured = _tool_figures(measurement.measured_dimensions(), belief.grasp_offset[1])
-        log(f"      {tool_text(true, measured)} in {times['measure_s']:.1f} s")
+        if isinstance(tool, GeneratedTool):
+            true = {"family": tool.family, **tool.params}
+            best = measurement.shape.best
+            measured = {"family": measurement.family, **best.params}
+            measured_grasp = {"across_m": best.grasp_across, "along_m": best.grasp_along}
+            text, clamped_figures = shape_text(measurement.as_dict()), {}
+        else:
+            true = _tool_figures(tool.dimensions(), scenario.tool.grasp_offset_along)
+            # As measured: a value just past its range, which the belief holds at the range's
+            # end, is shown as it was (and `clamped` says so).
+            measured = _tool_figures(measurement.measured_dimensions(), belief.grasp_offset[1])
+            text, clamped_figures = tool_text(true, measured), clamped(belief, measurement)
+        log(f"      {text} in {times['measure_s']:.1f} s")
 
         log(
             f"[2/3] {task}: the {object_name} with the {controller.name}, IK on the measured tool …"
@@ -328,10 +345,11 @@ def run_demo(
             "scenario": str(Path(scenario_path).resolve()),
             "seed": seed,
             "tool": {
-                "given": tool_label(tool),
+                "given": label(tool),
                 "true": true,
                 "measured": measured,
-                "clamped": clamped(belief, measurement),
+                **({"measured_grasp": measured_grasp} if isinstance(tool, GeneratedTool) else {}),
+                "clamped": clamped_figures,
                 "measurement": _without_files(measurement.as_dict()),
             },
             "perturbation": dc.asdict(draw),
@@ -386,11 +404,31 @@ def run_text(run: dict, object_name: str = "object") -> str:
     )
 
 
+def shape_text(measurement: dict) -> str:
+    """A shape measurement (`ShapeMeasurementResult.as_dict`) in words: the family named and
+    each working frame's distance from the truth."""
+    frames = ", ".join(f"{n} {e * 1000:.1f} mm" for n, e in measurement["frame_errors_m"].items())
+    return (
+        f"a {measurement['family']} (truth: {measurement['truth_family']}); working frames off "
+        f"the truth by {frames}"
+    )
+
+
+def label(tool) -> str:
+    """A tool in words: `robot.tool.tool_label`'s, or a generated tool's (`rake#3`)."""
+    return tool.label() if isinstance(tool, GeneratedTool) else tool_label(tool)
+
+
 def format_demo(m: dict) -> str:
     tool = m["tool"]
+    measured = (
+        shape_text(tool["measurement"])
+        if "family" in tool["true"]
+        else tool_text(tool["true"], tool["measured"])
+    )
     return "\n".join(
         [
-            f"tool: {tool['given']}, measured {tool_text(tool['true'], tool['measured'])}",
+            f"tool: {tool['given']}, measured {measured}",
             f"{m['task']} ({m['controller']}): {run_text(m['run'], m['object'])}",
             f"open {m['files']['recording']} in a browser; figures: {m['files']['summary']}",
             f"({m['times']['total_s']:.0f} s)",

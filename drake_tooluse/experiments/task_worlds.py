@@ -5,7 +5,7 @@ A tool is written `straight:L` (m) or `hook:HANDLE,HOOK,ANGLE` (m, m, deg) (`rob
 `robot.tool.tool_label`). A task's worlds (`task_scenarios`): its nominal world with its goal, and
 reality as it declares it: `diagrams/reality.yaml` with the task's goal, or the task's world with
 what reality changes (actuation delay, conservative joint limits, camera noise: `pull_reality`). The
-head camera measures a tool by its kind (`measure`).
+head camera measures a tool by its kind (`measure`); a generated tool by its shape.
 """
 
 from __future__ import annotations
@@ -14,8 +14,10 @@ import dataclasses as dc
 
 from drake_tooluse.builders.hook_measurement import measure_hook_belief
 from drake_tooluse.builders.measurement import measure_belief
+from drake_tooluse.builders.shape_measurement import measure_shape_belief
 from drake_tooluse.paths import REALITY_SCENARIO, SCENARIOS_DIR
 from drake_tooluse.robot.tool import HookTool
+from drake_tooluse.robot.tool_generator import GeneratedTool
 from drake_tooluse.tasks.contract import tool_tasks
 from drake_tooluse.validation import check_one_of
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
@@ -68,8 +70,17 @@ def measure(
     """(what the robot believes of `tool`, held in `reality`, after the head camera measures
     it; the measurement): the straight tool's or the hook's measurement, by the tool's kind.
     With `use_grasp_estimate` the robot holds the tool where the camera saw the grasp along
-    it; without, at the nominal grasp (the paper's measurement: the tool's size only). With
-    `save_images_dir`, the annotated views are written there."""
+    it; without, at the nominal grasp (the paper's measurement: the tool's size only). A
+    generated tool (`robot.tool_generator.GeneratedTool`) is measured by its shape
+    (`measure_shape_belief`: family, shape and grasp together). With `save_images_dir`, the
+    annotated views are written there."""
+    if isinstance(tool, GeneratedTool):
+        if not use_grasp_estimate:
+            raise ValueError(
+                "a generated tool's frames are measured with its grasp: use_grasp_estimate=False "
+                "is for a rod or a hook"
+            )
+        return measure_shape_belief(reality, save_images_dir=save_images_dir, seed=seed)
     measure_kind = measure_hook_belief if isinstance(tool, HookTool) else measure_belief
     return measure_kind(
         reality, save_images_dir=save_images_dir, seed=seed, use_grasp_estimate=use_grasp_estimate

@@ -58,6 +58,7 @@ from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_label
+from drake_tooluse.robot.tool_generator import GeneratedTool
 from drake_tooluse.tasks.contract import declaration, scripted_reference
 from drake_tooluse.tasks.deploy import deploy, run_controller
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
@@ -177,8 +178,15 @@ class ScriptedPolicy:
 
 def no_policy_reason(task: str, tool) -> str | None:
     """Why the robot has no way to do `task` with `tool` (its policy uses another kind of
-    tool: `ToolTask.tool_kind`), or None when it has one."""
+    tool: `ToolTask.tool_kind`), or None when it has one. A generated tool
+    (`robot.tool_generator`) serves a task whose policy is a straight tool's: it acts
+    through the tip frame."""
     declared = TOOL_TASKS[task]
+    if isinstance(tool, GeneratedTool):
+        # A straight tool's policy acts on the tool's tip frame alone, which every tool has.
+        if declared.tool_kind == "straight":
+            return None
+        return f"no {task} policy for a generated {tool.family} tool ({declared.why_not})"
     kind = "hook" if isinstance(tool, HookTool) else "straight"
     if kind == declared.tool_kind:
         return None

@@ -61,13 +61,30 @@ MAX_ARC_SEGMENT_DEG = 15.0
 
 
 @dataclass(frozen=True)
+class Skeleton:
+    """A tool as segments of one radius: `segments` (name, a, b) from point a to point b, and
+    `frames` name -> origin, all in H (m); every frame keeps H's orientation."""
+
+    frames: dict
+    segments: list
+
+    def end_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B): the segments' end points, (k, 3) each."""
+        return (
+            np.array([a for _, a, _ in self.segments], float),
+            np.array([b for _, _, b in self.segments], float),
+        )
+
+
+@dataclass(frozen=True)
 class Family:
     """A family of tools: its parameters' ranges ((low, high) floats; a tuple of choices for
-    a discrete one) and `build(params) -> CompositeTool`."""
+    a discrete one) and `skeleton(params) -> Skeleton`, its geometry (the segments' radius is
+    the parameter `radius`); `build(params)` is the tool."""
 
     name: str
     ranges: dict
-    build: Callable[[dict], CompositeTool] = field(repr=False)
+    skeleton: Callable[[dict], Skeleton] = field(repr=False)
 
     def sample(self, rng: np.random.Generator) -> dict:
         """Parameters drawn uniformly in the ranges (a choice uniformly among the choices)."""
@@ -81,6 +98,14 @@ class Family:
                 params[name] = float(rng.uniform(*spec))
         return params
 
+    def build(self, params: dict) -> CompositeTool:
+        """The tool of `params`: its skeleton's segments as cylinders, a mass of solid PLA."""
+        skeleton = self.skeleton(params)
+        pieces = [segment(name, a, b, params["radius"]) for name, a, b in skeleton.segments]
+        volume = sum(piece.shape.volume() for piece in pieces)
+        frames = {name: Pose(tuple(float(v) for v in p)) for name, p in skeleton.frames.items()}
+        return CompositeTool({GRASP: Pose(), **frames}, solids=tuple(pieces), mass=DENSITY * volume)
+
 
 @dataclass(frozen=True)
 class GeneratedTool:
@@ -92,6 +117,10 @@ class GeneratedTool:
     params: dict
     tool: CompositeTool
     region: str = "any"
+
+    def label(self) -> str:
+        """`rake#3`, or `hook#5 (corner)` where the draw was held to a region."""
+        return f"{self.family}#{self.seed}" + ("" if self.region == "any" else f" ({self.region})")
 
     def as_dict(self) -> dict:
         out = {"family": self.family, "seed": self.seed, "params": dict(self.params)}
@@ -120,67 +149,62 @@ def segment(name: str, a, b, radius: float) -> Piece:
     )
 
 
-def handle(length: float, radius: float) -> Piece:
+def handle(length: float) -> tuple:
     """The handle: from TOOL_HANDLE_DEPTH behind the grasp point (inside the hand) to
     `length` in front of it, along +z."""
-    return segment("tool_handle", (0, 0, -TOOL_HANDLE_DEPTH), (0, 0, length), radius)
+    return ("tool_handle", (0.0, 0.0, -TOOL_HANDLE_DEPTH), (0.0, 0.0, length))
 
 
-def _tool(frames: dict, pieces: list[Piece]) -> CompositeTool:
-    """The tool of `frames` and solid `pieces`, its mass that of solid PLA."""
-    volume = sum(p.shape.volume() for p in pieces)
-    return CompositeTool({GRASP: Pose(), **frames}, solids=tuple(pieces), mass=DENSITY * volume)
-
-
-def _straight(p: dict) -> CompositeTool:
+def _straight(p: dict) -> Skeleton:
     L = p["length"]
-    return _tool({TOOL_TIP: Pose((0, 0, L))}, [handle(L, p["radius"])])
+    return Skeleton({TOOL_TIP: (0, 0, L)}, [handle(L)])
 
 
-def _hook(p: dict) -> CompositeTool:
+def _hook(p: dict) -> Skeleton:
     h = HookTool(p["handle_length"], p["hook_length"], p["angle"], radius=p["radius"])
-    return _tool(h.frames(), [handle(h.handle_length, h.radius), h.pieces()[1]])
+    corner = np.array([0.0, 0.0, h.handle_length])
+    tip = corner + h.hook_length * h.direction()
+    return Skeleton(
+        {HOOK_CORNER: tuple(corner), TOOL_TIP: tuple(tip)},
+        [handle(h.handle_length), ("tool_hook", corner, tip)],
+    )
 
 
-def _t_head(p: dict) -> CompositeTool:
-    L, w, r = p["handle_length"], p["head_width"], p["radius"]
+def _t_head(p: dict) -> Skeleton:
+    L, w = p["handle_length"], p["head_width"]
     centre = p["head_offset"] * w  # along y, the bar's centre from the handle's axis
     left, right = (0, centre + w / 2, L), (0, centre - w / 2, L)
-    return _tool(
-        {TOOL_TIP: Pose((0, 0, L)), "head_left": Pose(left), "head_right": Pose(right)},
-        [handle(L, r), segment("tool_head", right, left, r)],
+    return Skeleton(
+        {TOOL_TIP: (0, 0, L), "head_left": left, "head_right": right},
+        [handle(L), ("tool_head", right, left)],
     )
 
 
-def _rake(p: dict) -> CompositeTool:
-    L, w, r, n, t = p["handle_length"], p["width"], p["radius"], p["tines"], p["tine_length"]
+def _rake(p: dict) -> Skeleton:
+    L, w, n, t = p["handle_length"], p["width"], p["tines"], p["tine_length"]
     ys = np.linspace(-w / 2, w / 2, n)
-    pieces = [handle(L, r), segment("tool_bar", (0, -w / 2, L), (0, w / 2, L), r)]
-    pieces += [segment(f"tool_tine_{i}", (0, y, L), (t, y, L), r) for i, y in enumerate(ys)]
-    return _tool(
+    segments = [handle(L), ("tool_bar", (0, -w / 2, L), (0, w / 2, L))]
+    segments += [(f"tool_tine_{i}", (0, y, L), (t, y, L)) for i, y in enumerate(ys)]
+    return Skeleton(
         {
-            TOOL_TIP: Pose((t, 0, L)),
-            HOOK_CORNER: Pose((0, 0, L)),
-            "tine_line_start": Pose((t, ys[0], L)),
-            "tine_line_end": Pose((t, ys[-1], L)),
+            TOOL_TIP: (t, 0, L),
+            HOOK_CORNER: (0, 0, L),
+            "tine_line_start": (t, ys[0], L),
+            "tine_line_end": (t, ys[-1], L),
         },
-        pieces,
+        segments,
     )
 
 
-def _two_bend(p: dict) -> CompositeTool:
-    a, d, b, r = p["first_length"], p["offset"], p["second_length"], p["radius"]
+def _two_bend(p: dict) -> Skeleton:
+    a, d, b = p["first_length"], p["offset"], p["second_length"]
     slant = math.radians(p["bend_angle"])  # the middle segment's angle to the handle's axis
     bend_1 = np.array([0.0, 0.0, a])
     bend_2 = bend_1 + np.array([d, 0.0, d / math.tan(slant)])
     tip = bend_2 + np.array([0.0, 0.0, b])
-    return _tool(
-        {TOOL_TIP: Pose(tuple(tip)), "bend_1": Pose(tuple(bend_1)), "bend_2": Pose(tuple(bend_2))},
-        [
-            handle(a, r),
-            segment("tool_middle", bend_1, bend_2, r),
-            segment("tool_end", bend_2, tip, r),
-        ],
+    return Skeleton(
+        {TOOL_TIP: tuple(tip), "bend_1": tuple(bend_1), "bend_2": tuple(bend_2)},
+        [handle(a), ("tool_middle", bend_1, bend_2), ("tool_end", bend_2, tip)],
     )
 
 
@@ -195,14 +219,12 @@ def arc_points(handle_length: float, arc_radius: float, sweep_deg: float) -> np.
     return np.stack([x, np.zeros_like(x), z], axis=1)
 
 
-def _arc(p: dict) -> CompositeTool:
-    L, r = p["handle_length"], p["radius"]
+def _arc(p: dict) -> Skeleton:
+    L = p["handle_length"]
     points = arc_points(L, p["arc_radius"], p["sweep_deg"])
-    pieces = [handle(L, r)]
-    pieces += [
-        segment(f"tool_arc_{i}", a, b, r) for i, (a, b) in enumerate(zip(points, points[1:]))
-    ]
-    return _tool({TOOL_TIP: Pose(tuple(points[-1])), HOOK_CORNER: Pose((0, 0, L))}, pieces)
+    segments = [handle(L)]
+    segments += [(f"tool_arc_{i}", a, b) for i, (a, b) in enumerate(zip(points, points[1:]))]
+    return Skeleton({TOOL_TIP: tuple(points[-1]), HOOK_CORNER: (0, 0, L)}, segments)
 
 
 FAMILIES = {

@@ -34,7 +34,7 @@ from pydrake.geometry import (
 )
 from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import LeafSystem
-from pydrake.systems.sensors import CameraInfo, ImageRgba8U, RgbdSensor
+from pydrake.systems.sensors import CameraInfo, ImageDepth32F, ImageRgba8U, RgbdSensor
 
 from drake_tooluse.perception.markers import (
     LIGHTINGS,
@@ -45,7 +45,7 @@ from drake_tooluse.perception.markers import (
 )
 from drake_tooluse.systems.lifetime import weak_method
 from drake_tooluse.systems.view_estimator import ViewByViewEstimator
-from drake_tooluse.validation import check_one_of
+from drake_tooluse.validation import check_in_range, check_one_of
 from drake_tooluse.world.scenario import CameraConfig
 
 HEAD_CAMERA_FRAME = "head_camera"
@@ -389,6 +389,55 @@ class ColorImageNoise(LeafSystem):
             rgb = image.data[:, :, :3].astype(np.float32)
             rgb += rng.normal(0.0, self._sigma, rgb.shape).astype(np.float32)
             data[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+
+
+MAX_DEPTH_NOISE = 0.01  # m
+
+
+def check_depth_noise(sigma, name: str = "depth noise sigma") -> float:
+    """The depth noise: a standard deviation in [0, MAX_DEPTH_NOISE] m."""
+    return check_in_range(sigma, 0.0, MAX_DEPTH_NOISE, name, unit="m")
+
+
+class DepthImageNoise(LeafSystem):
+    """Adds zero-mean Gaussian noise of `sigma` m to each finite depth of a depth image (a
+    depth camera's error at the tool's distance; the renderer's depth is exact). The noise is
+    a fixed function of (seed, time), so a run is repeatable.
+
+    .. pydrake_system::
+
+        name: DepthImageNoise
+        input_ports:
+        - depth_image
+        output_ports:
+        - depth_image
+    """
+
+    def __init__(self, width: int, height: int, sigma: float, seed: int = 0):
+        super().__init__()
+        self._sigma = check_depth_noise(sigma)
+        self._seed = int(seed)
+        width, height = int(width), int(height)  # the allocator must not hold self
+        self._input = self.DeclareAbstractInputPort(
+            "depth_image", AbstractValue.Make(ImageDepth32F(width, height))
+        )
+        self.DeclareAbstractOutputPort(
+            "depth_image",
+            lambda: AbstractValue.Make(ImageDepth32F(width, height)),
+            weak_method(self._calc),
+        )
+
+    def _calc(self, context, output):
+        image = self._input.Eval(context)
+        out = output.get_mutable_value()
+        out.resize(image.width(), image.height())
+        data = out.mutable_data
+        data[:] = image.data
+        if self._sigma > 0:
+            rng = np.random.default_rng([self._seed, int(round(context.get_time() * 1e6))])
+            noise = rng.normal(0.0, self._sigma, data.shape).astype(np.float32)
+            finite = np.isfinite(data)
+            data[finite] += noise[finite]
 
 
 class ToolLengthEstimator(ViewByViewEstimator, LeafSystem):

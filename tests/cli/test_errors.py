@@ -89,6 +89,10 @@ CASES = [
         r"--out '.*a_file' is a file",
     ),
     (["measure", "--save-images", "{d}/a_file"], r"--save-images '.*a_file' is a file"),
+    (["measure-shape", "--family", "spoon"], r"tool family|--family.*'spoon'.*straight"),
+    (["measure-shape", "--tool-seed", "3"], r"--tool-seed draws a generated tool: give --family"),
+    (["measure-shape", "--family", "arc", "--tool-seed", "-1"], r"--tool-seed"),
+    (["measure-shape", "--depth-noise", "0.5"], r"--depth-noise=0.5.*\[0, 0.01\]"),
     (
         [
             "export-csv",
