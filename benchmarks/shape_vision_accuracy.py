@@ -46,6 +46,7 @@ from drake_tooluse.builders.shape_measurement import (
 )
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.runs import BenchmarkOutput
+from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.perception.markers import LIGHTINGS, check_noise_sigma
 from drake_tooluse.robot.tool import (
     HOOK_ANGLE_RANGE,
@@ -180,7 +181,7 @@ def main() -> None:
     OUTPUT.add_arguments(ap)
     args = ap.parse_args()
     try:
-        check_int(args.tools, 1, 10_000, "--tools")
+        check_int(args.tools, 1, MAX_EPISODES, "--tools")
         check_int(args.reference, 0, 1_000, "--reference")
         check_seed(args.tool_seed, "--tool-seed")
         check_seed(args.seed, "--seed")

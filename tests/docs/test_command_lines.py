@@ -107,7 +107,7 @@ RULES = [
         "run",
         add=("--hyperparams", SMALL_TRAINING, "--no-progress"),
     ),
-    Rule(r"drake-tooluse (simulate|measure|measure-box|evaluate|demo) .*", "run"),
+    Rule(r"drake-tooluse (simulate|measure|measure-box|measure-shape|evaluate|demo) .*", "run"),
     Rule(r"drake-tooluse demo", "run"),
     Rule(r"drake-tooluse (trajectory|transfer) .*", "run", add=("--calibration-draws", "1")),
     Rule(r"drake-tooluse export-csv .*", "run"),

@@ -11,7 +11,7 @@ from tests.benchmark_scripts import benchmark_script
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["--tools", "0"], "--tools=0 is outside the allowed range [1, 10000]"),
+        (["--tools", "0"], "--tools=0 is outside the allowed range [1, 100000]"),
         (["--depth-noise", "0.2"], "--depth-noise=0.2"),
         (["--noise", "-1"], "--noise=-1"),
         (["--lighting", "disco"], "--lighting"),
