@@ -305,6 +305,13 @@ class MeasurementDiagram:
     capture_times: list
 
 
+def _through(builder, port, name: str, system):
+    """`port` passed through `system` (one input, one output), added as `name`: its output."""
+    builder.AddNamedSystem(name, system)
+    builder.Connect(port, system.get_input_port())
+    return system.get_output_port()
+
+
 def build_camera_measurement(
     scenario: Scenario,
     plan: MeasurementPlan | None,
@@ -360,26 +367,20 @@ def build_camera_measurement(
         schedule.get_output_port(), world.plant.get_desired_state_input_port(world.baxter)
     )
     sensor = add_head_camera(builder, world, scenario.camera, lighting)
+    size = (scenario.camera.width, scenario.camera.height)
     color_port = sensor.color_image_output_port()
     if sigma > 0:
-        noise = builder.AddNamedSystem(
-            "color_noise",
-            ColorImageNoise(scenario.camera.width, scenario.camera.height, sigma, seed),
+        color_port = _through(
+            builder, color_port, "color_noise", ColorImageNoise(*size, sigma, seed)
         )
-        builder.Connect(color_port, noise.get_input_port())
-        color_port = noise.get_output_port()
     times = capture_times(len(plan.views), move_time, settle_time)
     estimator = builder.AddNamedSystem(
         estimator_name, make_estimator(plan.views, times[0], move_time + settle_time)
     )
     depth_port = sensor.depth_image_32F_output_port()
     if depth_noise_sigma > 0:
-        depth_noise = builder.AddNamedSystem(
-            "depth_noise",
-            DepthImageNoise(scenario.camera.width, scenario.camera.height, depth_noise_sigma, seed),
-        )
-        builder.Connect(depth_port, depth_noise.get_input_port())
-        depth_port = depth_noise.get_output_port()
+        noise = DepthImageNoise(*size, depth_noise_sigma, seed)
+        depth_port = _through(builder, depth_port, "depth_noise", noise)
     builder.Connect(color_port, estimator.GetInputPort("color_image"))
     builder.Connect(depth_port, estimator.GetInputPort("depth_image"))
     for i in range(estimator.num_output_ports()):

@@ -349,7 +349,38 @@ def head_camera_pose(plant, plant_context) -> RigidTransform:
     return plant.GetFrameByName(HEAD_CAMERA_FRAME).CalcPoseInWorld(plant_context) @ X_HC
 
 
-class ColorImageNoise(LeafSystem):
+class _ImageNoise:
+    """A LeafSystem mixin: what the image noise systems share (declared by `_declare_noise`):
+    an input and an output port of one image type, named alike, the output the input with
+    noise drawn from a generator seeded by (seed, time), so a run is repeatable; with `sigma`
+    0 the image passes unchanged. A system using it gives `_perturb(data, rng)`, which adds
+    its noise to the output's data in place."""
+
+    def _declare_noise(self, port: str, image_type, width, height, sigma: float, seed) -> None:
+        self._sigma = sigma
+        self._seed = int(seed)
+        width, height = int(width), int(height)  # the allocator must not hold self
+        self._input = self.DeclareAbstractInputPort(
+            port, AbstractValue.Make(image_type(width, height))
+        )
+        self.DeclareAbstractOutputPort(
+            port,
+            lambda: AbstractValue.Make(image_type(width, height)),
+            weak_method(self._calc),
+        )
+
+    def _calc(self, context, output):
+        image = self._input.Eval(context)
+        out = output.get_mutable_value()
+        out.resize(image.width(), image.height())
+        data = out.mutable_data
+        data[:] = image.data
+        if self._sigma > 0:
+            rng = np.random.default_rng([self._seed, int(round(context.get_time() * 1e6))])
+            self._perturb(data, rng)
+
+
+class ColorImageNoise(_ImageNoise, LeafSystem):
     """Adds zero-mean Gaussian noise of `sigma` grey levels to each colour channel of each
     pixel (then rounds and clips to [0, 255]); the alpha channel passes through. The noise is
     a fixed function of (seed, time), so a run is repeatable.
@@ -365,30 +396,13 @@ class ColorImageNoise(LeafSystem):
 
     def __init__(self, width: int, height: int, sigma: float, seed: int = 0):
         super().__init__()
-        self._sigma = check_noise_sigma(sigma)
-        self._seed = int(seed)
-        self._width, self._height = int(width), int(height)
-        self._input = self.DeclareAbstractInputPort(
-            "color_image", AbstractValue.Make(ImageRgba8U(self._width, self._height))
-        )
-        width, height = self._width, self._height  # the allocator must not hold self
-        self.DeclareAbstractOutputPort(
-            "color_image",
-            lambda: AbstractValue.Make(ImageRgba8U(width, height)),
-            weak_method(self._calc),
-        )
+        sigma = check_noise_sigma(sigma)
+        self._declare_noise("color_image", ImageRgba8U, width, height, sigma, seed)
 
-    def _calc(self, context, output):
-        image = self._input.Eval(context)
-        out = output.get_mutable_value()
-        out.resize(image.width(), image.height())
-        data = out.mutable_data
-        data[:] = image.data
-        if self._sigma > 0:
-            rng = np.random.default_rng([self._seed, int(round(context.get_time() * 1e6))])
-            rgb = image.data[:, :, :3].astype(np.float32)
-            rgb += rng.normal(0.0, self._sigma, rgb.shape).astype(np.float32)
-            data[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+    def _perturb(self, data, rng):
+        rgb = data[:, :, :3].astype(np.float32)
+        rgb += rng.normal(0.0, self._sigma, rgb.shape).astype(np.float32)
+        data[:, :, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
 MAX_DEPTH_NOISE = 0.01  # m
@@ -399,7 +413,7 @@ def check_depth_noise(sigma, name: str = "depth noise sigma") -> float:
     return check_in_range(sigma, 0.0, MAX_DEPTH_NOISE, name, unit="m")
 
 
-class DepthImageNoise(LeafSystem):
+class DepthImageNoise(_ImageNoise, LeafSystem):
     """Adds zero-mean Gaussian noise of `sigma` m to each finite depth of a depth image (a
     depth camera's error at the tool's distance; the renderer's depth is exact). The noise is
     a fixed function of (seed, time), so a run is repeatable.
@@ -415,29 +429,13 @@ class DepthImageNoise(LeafSystem):
 
     def __init__(self, width: int, height: int, sigma: float, seed: int = 0):
         super().__init__()
-        self._sigma = check_depth_noise(sigma)
-        self._seed = int(seed)
-        width, height = int(width), int(height)  # the allocator must not hold self
-        self._input = self.DeclareAbstractInputPort(
-            "depth_image", AbstractValue.Make(ImageDepth32F(width, height))
-        )
-        self.DeclareAbstractOutputPort(
-            "depth_image",
-            lambda: AbstractValue.Make(ImageDepth32F(width, height)),
-            weak_method(self._calc),
-        )
+        sigma = check_depth_noise(sigma)
+        self._declare_noise("depth_image", ImageDepth32F, width, height, sigma, seed)
 
-    def _calc(self, context, output):
-        image = self._input.Eval(context)
-        out = output.get_mutable_value()
-        out.resize(image.width(), image.height())
-        data = out.mutable_data
-        data[:] = image.data
-        if self._sigma > 0:
-            rng = np.random.default_rng([self._seed, int(round(context.get_time() * 1e6))])
-            noise = rng.normal(0.0, self._sigma, data.shape).astype(np.float32)
-            finite = np.isfinite(data)
-            data[finite] += noise[finite]
+    def _perturb(self, data, rng):
+        noise = rng.normal(0.0, self._sigma, data.shape).astype(np.float32)
+        finite = np.isfinite(data)
+        data[finite] += noise[finite]
 
 
 class ToolLengthEstimator(ViewByViewEstimator, LeafSystem):
