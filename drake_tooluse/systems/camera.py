@@ -349,7 +349,7 @@ def head_camera_pose(plant, plant_context) -> RigidTransform:
     return plant.GetFrameByName(HEAD_CAMERA_FRAME).CalcPoseInWorld(plant_context) @ X_HC
 
 
-class _ImageNoise:
+class ImageNoise:
     """A LeafSystem mixin: what the image noise systems share (declared by `_declare_noise`):
     an input and an output port of one image type, named alike, the output the input with
     noise drawn from a generator seeded by (seed, time), so a run is repeatable; with `sigma`
@@ -380,7 +380,7 @@ class _ImageNoise:
             self._perturb(data, rng)
 
 
-class ColorImageNoise(_ImageNoise, LeafSystem):
+class ColorImageNoise(ImageNoise, LeafSystem):
     """Adds zero-mean Gaussian noise of `sigma` grey levels to each colour channel of each
     pixel (then rounds and clips to [0, 255]); the alpha channel passes through. The noise is
     a fixed function of (seed, time), so a run is repeatable.
@@ -413,7 +413,7 @@ def check_depth_noise(sigma, name: str = "depth noise sigma") -> float:
     return check_in_range(sigma, 0.0, MAX_DEPTH_NOISE, name, unit="m")
 
 
-class DepthImageNoise(_ImageNoise, LeafSystem):
+class DepthImageNoise(ImageNoise, LeafSystem):
     """Adds zero-mean Gaussian noise of `sigma` m to each finite depth of a depth image (a
     depth camera's error at the tool's distance; the renderer's depth is exact). The noise is
     a fixed function of (seed, time), so a run is repeatable.

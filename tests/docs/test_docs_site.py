@@ -155,13 +155,15 @@ def _leaves(diagram):
 
 def test_every_port_block_names_the_systems_ports():
     """The figures tell the truth: each block lists the ports the built system declares, in
-    order (the systems as the policy, pull, and tool and hook measurement diagrams build them)."""
+    order (the systems as the policy, pull, and tool, hook and shape measurement diagrams build
+    them)."""
     import gymnasium as gym
     from pydrake_system import parse_system_yaml
 
     import drake_tooluse  # noqa: F401  (registers the envs)
     from drake_tooluse.builders.hook_measurement import build_hook_measurement_diagram
     from drake_tooluse.builders.measurement import build_measurement_diagram
+    from drake_tooluse.builders.shape_measurement import build_shape_measurement_diagram
     from drake_tooluse.learning.policy_dir import load_policy
     from drake_tooluse.paths import TRANSFER_POLICY
     from drake_tooluse.tasks.deploy import build_policy_diagram
@@ -175,6 +177,7 @@ def test_every_port_block_names_the_systems_ports():
         build_policy_diagram(scenario, load_policy(TRANSFER_POLICY)).diagram,
         build_measurement_diagram(scenario, noise_sigma=2.0).diagram,
         build_hook_measurement_diagram(hooked, noise_sigma=2.0).diagram,
+        build_shape_measurement_diagram(hooked, noise_sigma=2.0, depth_noise_sigma=0.001).diagram,
         pull.unwrapped.diagram,
     ]
     checked = set()
