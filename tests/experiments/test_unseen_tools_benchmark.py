@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from drake_tooluse.robot.tool_generator import HELD_OUT_FAMILY, in_corner
+from drake_tooluse.robot.tool_fit import OTHER
+from drake_tooluse.robot.tool_generator import FAMILIES, HELD_OUT_FAMILY, in_corner
 from tests.benchmark_scripts import benchmark_script
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,3 +49,19 @@ def test_a_small_run_measures_the_policy_on_held_out_tools(tmp_path, monkeypatch
         assert row["family"] == HELD_OUT_FAMILY or in_corner(row["family"], row["params"])
         assert 0 <= row["object_to_goal_m"] < 1 and isinstance(row["success"], bool)
     assert policy["success_rate"] == sum(r["success"] for r in episodes) / 2
+
+
+@pytest.mark.slow
+def test_in_reality_each_tool_is_measured_by_the_camera(tmp_path, monkeypatch, capsys):
+    out_file = tmp_path / "unseen.json"
+    argv = ["--tools", "1", "--tool-seed", "5", "--reality", "--out", str(out_file)]
+    monkeypatch.setattr("sys.argv", ["unseen_tools.py", *argv])
+    assert benchmark_script("unseen_tools").main() == 0
+    assert (
+        "in the perturbed reality, each tool measured by the head camera" in capsys.readouterr().out
+    )
+    figures = json.loads(out_file.read_text())
+    assert figures["reality"] and figures["success_goal"] == 0.75
+    ((row,),) = [p["episodes"] for p in figures["policies"].values()]
+    assert row["measured_family"] in {*FAMILIES, OTHER}
+    assert 0 <= row["object_to_goal_m"] < 1
