@@ -6,7 +6,8 @@ is, its parameters, the grasp, and so its working frames. No Drake here.
    the grasp offsets (across: G's x; along: G's z) minimize, by `scipy.optimize.least_squares`
    within the family's ranges, each point's signed distance to the tool's solid (its
    skeleton's segments as flat-capped cylinders), plus a term for model parts that no point
-   supports (a tool longer than the one seen). A discrete parameter (a rake's tines) is
+   supports (a tool longer than the one seen) and one for a free end reaching past the points
+   along its axis (an end the other two leave loose by up to its radius). A discrete parameter (a rake's tines) is
    fitted at each of its values. Each fit starts from the middle of the ranges and from a few
    seeded draws in them.
 2. **Coarse to fine.** Every family is fitted to the cloud thinned to COARSE_VOXEL cubes; the
@@ -46,6 +47,10 @@ FIT_STARTS = 3  # the ranges' middle and two seeded draws
 MAX_EVALUATIONS = 150  # per start
 MODEL_SAMPLES = 16  # points along each model piece for the unsupported-part term
 SUPPORT_SLACK = 0.002  # m: a model part this near the cloud (past its radius) is supported
+# m: a free end this far past its nearest point along its axis is still held to the cloud
+# (the points lie about a millimetre apart; a larger slack is a free overhang: it measured a
+# 2 mm longer tip where 0.7 mm was measured without the term).
+OVERHANG_SLACK = 0.0005
 MAX_PIECES = 24  # the most pieces of any family's tool (an arc's segments and its handle)
 MIN_POINTS = 30
 COARSE_VOXEL = 0.008  # m: every family is first fitted to the cloud thinned this far
@@ -116,7 +121,7 @@ class _Problem:
         self.names = _continuous(family)
         ranges = [family.ranges[n] for n in self.names] + [GRASP_ACROSS_RANGE, GRASP_ALONG_RANGE]
         self.lo, self.hi = np.array(ranges, float).T
-        # The unsupported term weighs as much as the cloud, whatever the cloud's size.
+        # The unsupported and overhang terms weigh as much as the cloud, whatever its size.
         self.weight = math.sqrt(len(P) / (MAX_PIECES * MODEL_SAMPLES))
         self.t = np.linspace(0.0, 1.0, MODEL_SAMPLES)
 
@@ -134,8 +139,34 @@ class _Problem:
         gap, _ = self.tree.query(S)
         # Only what lies beyond the fingertips can be seen.
         unsupported = np.where(S[:, 2] > Z_MIN_G + 0.01, gap - r - SUPPORT_SLACK, 0.0)
-        pad = np.zeros(MAX_PIECES * MODEL_SAMPLES - len(S))
-        return np.concatenate([fit, self.weight * np.maximum(unsupported, 0.0), pad])
+        pad = np.zeros(MAX_PIECES * (MODEL_SAMPLES + 2) - len(S) - 2 * len(A))
+        return np.concatenate(
+            [
+                fit,
+                self.weight * np.maximum(unsupported, 0.0),
+                self.weight * self._overhang(A, B),
+                pad,
+            ]
+        )
+
+    def _overhang(self, A: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """Per piece end, how far a free end (one no other piece starts or ends at) reaches
+        past the cloud along its piece's axis, beyond OVERHANG_SLACK (m): the axial distance
+        from the end's centre back to its nearest point. Neither the points' distances hold an
+        end to the tool's (a point on the true end face, inside an overlong piece, is nearer
+        its side than its cap, so its signed distance does not change with the cap's place)
+        nor the support term (an overlong end is still within r + slack of the true end)."""
+        ends = np.concatenate([A, B])
+        u = (B - A) / np.linalg.norm(B - A, axis=1, keepdims=True)
+        outward = np.concatenate([-u, u])
+        shared = (np.linalg.norm(ends[:, None] - ends[None], axis=2) < 1e-9).sum(axis=1) > 1
+        free = ~shared & (ends[:, 2] > Z_MIN_G + 0.01)
+        out = np.zeros(len(ends))
+        if free.any():
+            _, nearest = self.tree.query(ends[free])
+            axial = np.einsum("kd,kd->k", ends[free] - self.P[nearest], outward[free])
+            out[free] = np.maximum(axial - OVERHANG_SLACK, 0.0)
+        return out
 
     def solve(self, x0, max_evaluations: int):
         x0 = np.clip(x0, self.lo, self.hi)

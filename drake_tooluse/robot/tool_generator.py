@@ -16,6 +16,11 @@ Each family draws its parameters from its ranges (`FAMILIES`: name -> `Family`) 
 - `arc`: a handle and a curved hook of short segments (at most 15° each) bending towards +x;
   `hook_corner` where the curve starts, `tool_tip` at its end.
 
+Every tool also has `push_point`, the point it pushes with: the point of its skeleton farthest
+along the handle (lowest when it points down, as the push holds it); where several lie within
+PUSH_POINT_TIE of that, the one nearest `tool_tip` (a rake's, a T-head's and an L-hook's tip
+itself; a curled arc's bottom, below its tip; a back-bent hook's corner).
+
 Every tool keeps H's orientation in its frames (a tip target's orientation is the handle's). The
 fabrication bounds hold for every draw (`check_fabrication`): a rod's radius within what the
 closed gripper holds, the mass of solid PLA, every point within TOOL_LENGTH_RANGE's reach of the
@@ -58,6 +63,8 @@ MAX_MASS = 0.30  # kg
 MAX_STATIC_MOMENT = 0.03
 HANDLE_RANGE = HOOK_HANDLE_RANGE  # m, grasp to the working end, every family with a handle
 MAX_ARC_SEGMENT_DEG = 15.0
+PUSH_POINT = "push_point"
+PUSH_POINT_TIE = 0.001  # m: points this near the lowest are as low (the tip is taken)
 
 
 @dataclass(frozen=True)
@@ -67,6 +74,18 @@ class Skeleton:
 
     frames: dict
     segments: list
+
+    def __post_init__(self):
+        self.frames[PUSH_POINT] = self.push_point()
+
+    def push_point(self) -> tuple:
+        """The lowest point when the tool points down (module docstring): a polyline's
+        farthest point along +z is one of its segments' ends, or the tip where it ties with
+        them (a rake with an even number of tines has its tip between two)."""
+        tip = np.asarray(self.frames[TOOL_TIP], float)
+        points = np.concatenate([*self.end_points(), [tip]])
+        tied = points[points[:, 2] >= points[:, 2].max() - PUSH_POINT_TIE]
+        return tuple(float(v) for v in tied[np.argmin(np.linalg.norm(tied - tip, axis=1))])
 
     def end_points(self) -> tuple[np.ndarray, np.ndarray]:
         """(A, B): the segments' end points, (k, 3) each."""

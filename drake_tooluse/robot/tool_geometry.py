@@ -27,10 +27,11 @@ CODE_SIZE = 3 * len(SUPPORT_DIRECTIONS)
 SAMPLE_SPACING = 0.005  # m
 
 
-def surface_samples(tool: Tool) -> tuple[np.ndarray, np.ndarray]:
-    """(P_TS (n, 3), r (n,)): sample points S of `tool`'s solid pieces in its tip frame T (m)
-    and the radius each stands for (a cylinder's; 0 at a box's corner)."""
-    X_TH = tool.X_HF(TOOL_TIP).inverse().matrix()
+def surface_samples(tool: Tool, frame: str = TOOL_TIP) -> tuple[np.ndarray, np.ndarray]:
+    """(P_TS (n, 3), r (n,)): sample points S of `tool`'s solid pieces in its frame `frame`
+    (T: default its tip; m) and the radius each stands for (a cylinder's; 0 at a box's
+    corner)."""
+    X_TH = tool.X_HF(frame).inverse().matrix()
     points, radii = [], []
     for piece in tool.pieces():
         X_HP = piece.X_HP.matrix()
@@ -58,13 +59,14 @@ def surface_samples(tool: Tool) -> tuple[np.ndarray, np.ndarray]:
 
 class GeometryCode:
     """The support-point code of one tool (module docstring). `code(R_WT)`: its CODE_SIZE
-    values with the tip frame T at orientation R_WT."""
+    values with the tip frame T at orientation R_WT; `frame`: the tool frame that is T
+    (default its tip)."""
 
-    def __init__(self, tool: Tool | None):
+    def __init__(self, tool: Tool | None, frame: str = TOOL_TIP):
         if tool is None:  # no tool: the tip is the gripper frame, nothing reaches beyond it
             self._P_TS, self._r = np.zeros((1, 3)), np.zeros(1)
         else:
-            self._P_TS, self._r = surface_samples(tool)
+            self._P_TS, self._r = surface_samples(tool, frame)
 
     def code(self, R_WT) -> np.ndarray:
         p_TS_W = self._P_TS @ np.asarray(R_WT).T  # each sample's offset from the tip, in W

@@ -8,6 +8,7 @@ import pytest
 from drake_tooluse.perception.tool_shape import Z_MIN_G
 from drake_tooluse.robot.tool_fit import (
     OTHER,
+    FamilyFit,
     fit_family,
     measure_shape_from_points,
     signed_distance,
@@ -92,3 +93,19 @@ def test_signed_distance_is_negative_inside_and_the_gap_outside():
     np.testing.assert_allclose(
         signed_distance(P, A, B, r), [-0.01, 0.02, 0.03, np.hypot(0.02, 0.04)], atol=1e-12
     )
+
+
+def test_a_rods_end_is_held_to_the_points_though_only_its_near_side_is_seen():
+    """A camera sees one side of a thick rod and its end face. Started 11 mm too long (more
+    than its 10 mm radius), the fit brings the end back: the points' distances alone cannot
+    (each end-face point, inside the overlong rod, is then nearer its side than its cap, so its
+    signed distance is to the side and the cap's place does not change it), nor the support
+    term (the overlong end is within r + slack of the end face); the overhang term does."""
+    generated = generate_tool("straight", 0)
+    params = {"length": 0.30, "radius": 0.010}
+    rod = type(generated)("straight", 0, params, FAMILIES["straight"].build(params))
+    P = surface_cloud(rod, 0.0, 0.0)
+    P = P[P[:, 0] < 0.004]  # the near side and the near part of the end face
+    long = FamilyFit("straight", {**params, "length": 0.311}, 0.0, 0.0, 0.0, 0.0)
+    fit = fit_family("straight", P, start=long)
+    assert abs(fit.frames_G()["tool_tip"][2] - 0.30) < 1e-3, fit

@@ -16,7 +16,7 @@ from drake_tooluse.experiments.tool_gallery import gallery_contents
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import load_tool_model, tool_spatial_inertia
-from drake_tooluse.robot.tool import GRASP, TOOL_LENGTH_RANGE
+from drake_tooluse.robot.tool import GRASP, HOOK_CORNER, TOOL_LENGTH_RANGE, TOOL_TIP
 from drake_tooluse.robot.tool_files import tool_mesh, write_tool_files
 from drake_tooluse.robot.tool_generator import (
     CORNER_PARAMETERS,
@@ -24,6 +24,7 @@ from drake_tooluse.robot.tool_generator import (
     HELD_OUT_FAMILY,
     MAX_MASS,
     MAX_STATIC_MOMENT,
+    PUSH_POINT,
     TRAINING_FAMILIES,
     check_fabrication,
     generate_tool,
@@ -214,3 +215,67 @@ def test_a_generated_tool_is_held_in_the_push_env_drawn_per_episode_from_its_spl
         env.close()
     with pytest.raises(ValueError, match="generated_tools"):
         gym.make("drake_tooluse/ToolPush-v1", generated_tools="all")
+
+
+def test_the_push_point_is_the_lowest_point_and_the_tip_where_that_ties():
+    """Held pointing down (+z of H downwards), the push point is the skeleton's farthest point
+    along +z: a curled arc's bottom below its tip, a back-bent hook's corner; and the tip where
+    the lowest points tie with it (a rod's end, a rake with an even number of tines)."""
+
+    def frames(family, **params):
+        ranges = FAMILIES[family].ranges
+        middle = {n: (lo + hi) / 2 for n, (lo, hi) in ranges.items() if isinstance(lo, float)}
+        return FAMILIES[family].skeleton({**middle, **params}).frames
+
+    arc = frames("arc", handle_length=0.25, arc_radius=0.045, sweep_deg=190.0)
+    assert arc[PUSH_POINT][2] == pytest.approx(0.25 + 0.045, abs=0.002)  # its bottom
+    assert arc[PUSH_POINT][2] > arc[TOOL_TIP][2] + 0.03
+    hook = frames("hook", handle_length=0.25, hook_length=0.08, angle=60.0)  # bent back up
+    assert hook[PUSH_POINT] == hook[HOOK_CORNER]
+    for family, params in [
+        ("straight", {}),
+        ("hook", {"angle": 120.0}),
+        ("rake", {"tines": 2}),
+        ("rake", {"tines": 3}),
+        ("t_head", {}),
+        ("two_bend", {}),
+    ]:
+        f = frames(family, **params)
+        assert f[PUSH_POINT] == f[TOOL_TIP], (family, params)
+    # It is one of the tool's frames, reached by the IK as the others (above).
+    assert PUSH_POINT in generate_tool("arc", 1).tool.frame_names()
+
+
+def test_the_push_env_places_and_observes_the_working_frame():
+    """With working_frame="push_point" the IK holds the push point where the tip would be held,
+    and the observation's tip is that point; a tool without the frame is refused."""
+    from drake_tooluse.world.scenario import Scenario, with_tool
+
+    arc = generate_tool("arc", 1, "corner")
+    tips = {}
+    for frame in ("tool_tip", PUSH_POINT):
+        env = gym.make(
+            "drake_tooluse/ToolPush-v1",
+            observation_mode="tip",
+            action_mode="position",
+            scenario=with_tool(Scenario(), arc),
+            working_frame=frame,
+        )
+        try:
+            obs, _ = env.reset(seed=0)
+            world = env.unwrapped.world
+            context = world.plant.GetMyContextFromRoot(env.unwrapped.simulator.get_context())
+            p = {
+                name: world.plant.GetFrameByName(name).CalcPoseInWorld(context).translation()
+                for name in ("tool_tip", PUSH_POINT)
+            }
+            np.testing.assert_allclose(obs[6:9], p[frame], atol=1e-6)
+            tips[frame] = p
+        finally:
+            env.close()
+    # The same place at home, taken by the frame the IK holds.
+    np.testing.assert_allclose(
+        tips["tool_tip"]["tool_tip"], tips[PUSH_POINT][PUSH_POINT], atol=1e-4
+    )
+    with pytest.raises(ValueError, match="working frame 'push_point' is not a frame of the tool"):
+        gym.make("drake_tooluse/ToolPush-v1", working_frame=PUSH_POINT).reset(seed=0)

@@ -19,7 +19,7 @@ from drake_tooluse.builders.control import (
     nominal_belief,
 )
 from drake_tooluse.builders.trajectory_diagram import SETTLE_TIME, build_trajectory_diagram
-from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.model import TIP_FRAME, RobotBelief
 from drake_tooluse.systems.lifetime import release_diagram
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.tasks.contract import GoalTaskParts
@@ -48,13 +48,21 @@ def add_push_task(
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
     robot_visuals: bool = True,
+    frame: str = TIP_FRAME,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
-    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s."""
+    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s;
+    `frame`: the believed tool's frame the IK places (the tip of the control and the
+    observation)."""
     belief = nominal_belief(scenario) if belief is None else belief
-    world, ik, q0 = add_world_at_home(builder, scenario, belief, robot_visuals=robot_visuals)
+    if frame not in belief.tool.frame_names():
+        raise ValueError(
+            f"working frame {frame!r} is not a frame of the tool the robot holds "
+            f"({', '.join(belief.tool.frame_names())})"
+        )
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, frame, robot_visuals=robot_visuals)
     control = add_tip_control(builder, world, ik, q0, action_mode)
     goal = goal_position(scenario)
     return PushTask.wire(
@@ -70,6 +78,7 @@ def add_push_task(
             belief.tool_length,
             observation_mode,
             belief.tool,
+            frame,
         ),
         PushOutcome(world, goal, initial_box_pose(scenario).translation(), reward_type),
     )

@@ -20,8 +20,9 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
+from drake_tooluse.robot.model import TIP_FRAME
 from drake_tooluse.robot.tool import check_tool_length
-from drake_tooluse.robot.tool_generator import SPLITS, generate_tool, split_draw
+from drake_tooluse.robot.tool_generator import PUSH_POINT, SPLITS, generate_tool, split_draw
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import RETIRED_VERSIONS, TaskEnv, env_config
 from drake_tooluse.tasks.push.diagram import add_push_task
@@ -75,7 +76,12 @@ class EnvConfig(ViewOptions):
     include_tool_length: bool = False
     observation_mode: str = "gripper_joints"  # "tip", "tip_geometry" (tasks.push.observation)
     randomize: bool = False  # ranges: the scenario's `randomization`
+    # The tool frame the IK places and the observation's "tip" is: `tool_tip`, or a generated
+    # tool's `push_point` (robot.tool_generator: the point it pushes with).
+    working_frame: str = TIP_FRAME
 
+
+WORKING_FRAMES = (TIP_FRAME, PUSH_POINT)
 
 # Keyword arguments of the earlier version that the push envs no longer take: each behaviour
 # they chose between is now the one behaviour (the integer control clock, episodes to the step
@@ -122,6 +128,7 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     check_one_of(config.action_mode, tuple(ACTION_MODES), "action_mode")
     check_views(config)
     check_one_of(config.observation_mode, tuple(OBSERVATION_SIZES), "observation_mode")
+    check_one_of(config.working_frame, WORKING_FRAMES, "working_frame")
     check_in_range(config.goal_extra, -0.15, 0.25, "goal_extra", unit="m")
     check_bool(config.include_tool_length, "include_tool_length")
     check_bool(config.randomize, "randomize")
@@ -365,6 +372,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | include_tool_length | False | the believed tool length as the observation's last value |
     | observation_mode | "gripper_joints" | "gripper_joints", "tip" or "tip_geometry" (Observation Space) |
     | randomize | False | draw the starting state per reset (Starting State) |
+    | working_frame | "tool_tip" | the frame the IK places (the observed tip): "tool_tip" or a generated tool's "push_point" |
 
     ### Info
 
@@ -440,6 +448,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.include_tool_length,
             config.reward_type,
             robot_visuals=robot_visuals,
+            frame=config.working_frame,
         )
 
     @classmethod

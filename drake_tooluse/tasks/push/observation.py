@@ -47,7 +47,7 @@ import numpy as np
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import LeafSystem
 
-from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME
+from drake_tooluse.robot.model import GRIPPER_FRAME, TIP_FRAME, plant_frame_name
 from drake_tooluse.robot.tool_geometry import CODE_SIZE, GeometryCode
 from drake_tooluse.systems.goal_observation import GoalObservation
 from drake_tooluse.validation import check_one_of
@@ -84,6 +84,7 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         believed_tool_length: float | None,
         mode: str = "gripper_joints",
         believed_tool=None,
+        frame: str = TIP_FRAME,
     ):
         check_one_of(mode, tuple(OBSERVATION_SIZES), "observation_mode")
         # The observation's tail: nothing, or the tool length (no empty piece to join: numpy
@@ -101,10 +102,10 @@ class ToolPushObservation(GoalObservation, LeafSystem):
         self._box_p = _index(range(box_q0 + 4, box_q0 + 7))  # after the quaternion
         self._model = robot_model
         self._model_context = robot_model.CreateDefaultContext()
-        self._tip = robot_model.GetFrameByName(TIP_FRAME)
+        self._tip = robot_model.GetFrameByName(plant_frame_name(frame))
         self._gripper = robot_model.GetFrameByName(GRIPPER_FRAME)
         # The believed tool's shape (`tip_geometry`); None: no tool or another mode.
-        self._geometry = GeometryCode(believed_tool) if mode == "tip_geometry" else None
+        self._geometry = GeometryCode(believed_tool, frame) if mode == "tip_geometry" else None
 
     def finite_observation(self, x, goal) -> np.ndarray:
         """`observation` of a plant state x known to be finite (not checked again)."""
