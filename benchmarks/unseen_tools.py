@@ -13,7 +13,7 @@ generator's training split (`generated_tools="training"`) and today's tip policy
 (`models/policies/ppo_toolpush_tip`, trained on straight rods), which acts on any tool through
 its tip frame. Goal for the policy trained over shapes: ≥ 85 % in simulation.
 
-With --reality, each tool is instead held in the push task's perturbed reality (its randomized
+With --reality, each tool is instead held in its policy's task's perturbed reality (its randomized
 draw from SEED + i), measured by the head camera (`measure_shape_belief`: the robot is not told
 its family, shape or grasp), and every policy is deployed on that measured belief
 (`tasks.deploy`), run to the step limit and judged where the box ends. Goal: ≥ 75 %.
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
-from drake_tooluse.experiments.task_worlds import holding, measure, task_scenarios
+from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, measure, task_scenarios
 from drake_tooluse.experiments.tool_choice import LearnedPolicy
 from drake_tooluse.files import atomic_write_json, check_output_file
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
@@ -66,6 +66,12 @@ def check_args(args) -> list:
                 f"{path} is a policy for {policy.meta.env_id}; this benchmark runs push "
                 f"policies ({', '.join(PUSH_ENV_IDS)})"
             )
+        if args.reality and policy.meta.env_id not in {t.env_id for t in TOOL_TASKS.values()}:
+            raise ValueError(
+                f"{path} is a policy for {policy.meta.env_id}, which no tool task deploys in "
+                "reality; --reality runs the policies of "
+                f"{', '.join(t.env_id for t in TOOL_TASKS.values())}"
+            )
         check_policy_env(policy, env_kwargs=ONE_TOOL)
         policies.append(policy)
     return policies
@@ -92,10 +98,15 @@ def run_policy(policy, tools, seed: int) -> list[dict]:
     return rows
 
 
-def measured_realities(tools, seed: int) -> list:
-    """(scenario, belief, measurement figures) per tool: tool i held in the push task's
-    reality with its randomized draw from seed + i, and what the head camera measured of it."""
-    reality = task_scenarios("push")[1]
+def task_of(env_id: str) -> str:
+    """The tool task (`experiments.task_worlds.TASKS`) whose policy acts in `env_id`."""
+    return next(name for name, task in TOOL_TASKS.items() if task.env_id == env_id)
+
+
+def measured_realities(task: str, tools, seed: int) -> list:
+    """(scenario, belief, measurement figures) per tool: tool i held in `task`'s reality with
+    its randomized draw from seed + i, and what the head camera measured of it."""
+    reality = task_scenarios(task)[1]
     worlds = []
     for i, generated in enumerate(tools):
         base = holding(reality, generated)
@@ -174,13 +185,16 @@ def main() -> int:
     print(f"| policy | success | distance (cm) | {heads} | wall (s) |")
     print("|---" * (4 + len(families)) + "|")
     results = {}
-    start = time.perf_counter()
-    worlds = measured_realities(tools, args.seed) if args.reality else None
-    measure_s = time.perf_counter() - start
+    worlds, measure_s = {}, 0.0  # task -> its measured realities (the tools measured once)
     for path, policy in zip(args.policies, policies):
         start = time.perf_counter()
         if args.reality:
-            rows = run_policy_in_reality(path, tools, worlds)
+            task = task_of(policy.meta.env_id)
+            if task not in worlds:
+                worlds[task] = measured_realities(task, tools, args.seed)
+                measure_s += time.perf_counter() - start
+                start = time.perf_counter()
+            rows = run_policy_in_reality(path, tools, worlds[task])
         else:
             rows = run_policy(policy, tools, args.seed)
         s = summary(rows)
@@ -196,7 +210,8 @@ def main() -> int:
         )
     where, goal = "in simulation", SIM_SUCCESS_GOAL
     if args.reality:
-        right = np.mean([f["measured_family"] == t.family for t, (_, _, f) in zip(tools, worlds)])
+        measured = next(iter(worlds.values()))
+        right = np.mean([f["measured_family"] == t.family for t, (_, _, f) in zip(tools, measured)])
         where = (
             f"in the perturbed reality, each tool measured by the head camera (family named "
             f"right for {right * 100:.0f} %, {measure_s:.0f} s)"

@@ -223,14 +223,18 @@ def _tool_figures(dimensions: dict, grasp_along: float) -> dict:
     }
 
 
-def demo_controller(task: str, policy=None, trust_pickle: bool = False):
-    """What does the demo's task: the task's shipped policy (`policy` None), a policy
+def demo_controller(task: str, policy=None, trust_pickle: bool = False, tool=None):
+    """What does the demo's task: the task's shipped policy (`policy` None; for a generated
+    `tool`, its policy for every shape where it has one: `ToolTask.shapes_policy`), a policy
     directory of that task, or `scripted` (its scripted reference). A policy of another task
     is a ValueError naming both."""
     declared = TOOL_TASKS[check_one_of(task, TASKS, "task")]
     if str(policy) == SCRIPTED:
         return ScriptedPolicy(declared.env_id)
-    learned = LearnedPolicy(policy or POLICIES_DIR / declared.policy, trust_pickle=trust_pickle)
+    shipped = declared.policy
+    if isinstance(tool, GeneratedTool) and declared.shapes_policy is not None:
+        shipped = declared.shapes_policy
+    learned = LearnedPolicy(policy or POLICIES_DIR / shipped, trust_pickle=trust_pickle)
     ours, theirs = declaration(declared.env_id), declaration(learned.env_id)
     if ours != theirs:
         raise ValueError(
@@ -274,7 +278,7 @@ def run_demo(
     why_not = no_policy_reason(task, tool)
     if why_not is not None:
         raise ValueError(f"tool {label(tool)}: {why_not}")
-    controller = demo_controller(task, policy_dir, trust_pickle)
+    controller = demo_controller(task, policy_dir, trust_pickle, tool)
     if scenario_path is None:
         reality = task_scenarios(task)[1]
         scenario_path = (

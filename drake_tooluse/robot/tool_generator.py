@@ -16,10 +16,14 @@ Each family draws its parameters from its ranges (`FAMILIES`: name -> `Family`) 
 - `arc`: a handle and a curved hook of short segments (at most 15° each) bending towards +x;
   `hook_corner` where the curve starts, `tool_tip` at its end.
 
-Every tool also has `push_point`, the point it pushes with: the point of its skeleton farthest
-along the handle (lowest when it points down, as the push holds it); where several lie within
-PUSH_POINT_TIE of that, the one nearest `tool_tip` (a rake's, a T-head's and an L-hook's tip
-itself; a curled arc's bottom, below its tip; a back-bent hook's corner).
+Every tool also has `push_point`, where it meets a box it pushes: every family reaches towards
++x (the hook's side), which the push holds towards the box (`world.scene.TOOL_DOWN_RPY` turns
+H's x to W's y, the push's direction). Of the skeleton within PUSH_BAND of its lowest point as
+held pointing down (+z of H downwards), the point farthest along +x (the tip where they tie),
+brought down to that lowest point's height: a rod's, a rake's, a T-head's and a J-hook's tip
+itself; a curled arc's front at the height of its bottom; a back-bent hook's front, in the
+band, at the height of its corner. The tip policy holds its rod's tip, front and bottom in
+one, where the push point holds both.
 
 Every tool keeps H's orientation in its frames (a tip target's orientation is the handle's). The
 fabrication bounds hold for every draw (`check_fabrication`): a rod's radius within what the
@@ -64,7 +68,10 @@ MAX_STATIC_MOMENT = 0.03
 HANDLE_RANGE = HOOK_HANDLE_RANGE  # m, grasp to the working end, every family with a handle
 MAX_ARC_SEGMENT_DEG = 15.0
 PUSH_POINT = "push_point"
-PUSH_POINT_TIE = 0.001  # m: points this near the lowest are as low (the tip is taken)
+# m: what of a tool meets the box's 4 cm face, over the ~7 mm the tip policy keeps its tip
+# above the table.
+PUSH_BAND = 0.03
+PUSH_POINT_TIE = 0.001  # m: points this near the front are as far (the tip is taken)
 
 
 @dataclass(frozen=True)
@@ -79,13 +86,25 @@ class Skeleton:
         self.frames[PUSH_POINT] = self.push_point()
 
     def push_point(self) -> tuple:
-        """The lowest point when the tool points down (module docstring): a polyline's
-        farthest point along +z is one of its segments' ends, or the tip where it ties with
-        them (a rake with an even number of tines has its tip between two)."""
+        """The push point (module docstring), in H."""
+        A, B = self.end_points()
+        z_low = float(max(A[:, 2].max(), B[:, 2].max()))  # farthest along +z: the lowest
+        z_band = z_low - PUSH_BAND
+        band = []  # each segment's part within the band
+        for a, b in zip(A, B):
+            if min(a[2], b[2]) < z_band <= max(a[2], b[2]):
+                inside, outside = (a, b) if a[2] >= z_band else (b, a)
+                cut = outside + (inside - outside) * (z_band - outside[2]) / (
+                    inside[2] - outside[2]
+                )
+                band += [inside, cut]
+            elif a[2] >= z_band:
+                band += [a, b]
         tip = np.asarray(self.frames[TOOL_TIP], float)
-        points = np.concatenate([*self.end_points(), [tip]])
-        tied = points[points[:, 2] >= points[:, 2].max() - PUSH_POINT_TIE]
-        return tuple(float(v) for v in tied[np.argmin(np.linalg.norm(tied - tip, axis=1))])
+        points = np.array(band + ([tip] if tip[2] >= z_band else []))
+        front = points[points[:, 0] >= points[:, 0].max() - PUSH_POINT_TIE]
+        x, y, _ = front[np.argmin(np.linalg.norm(front - tip, axis=1))]
+        return (float(x), float(y), z_low)
 
     def end_points(self) -> tuple[np.ndarray, np.ndarray]:
         """(A, B): the segments' end points, (k, 3) each."""

@@ -94,7 +94,9 @@ class ToolTask:
     `demo_tool`: the tool `drake-tooluse demo --task NAME` hands the robot (as `choose-tool
     --tools` writes one: "straight:0.125", "hook:0.25,0.05,75"). `transfer_tools`: the tools
     `drake-tooluse transfer` uses by default with its policy, written the same way (none:
-    the paper's tool lengths)."""
+    the paper's tool lengths). `shapes_policy`: the policy directory's name for a generated
+    tool of any shape (`robot.tool_generator`: trained over its training split); None: the
+    task's `policy`, through the tool's tip."""
 
     name: str
     env_id: str
@@ -106,6 +108,7 @@ class ToolTask:
     goal_extra: float = 0.0
     reality_world: bool = True
     transfer_tools: tuple = ()
+    shapes_policy: str | None = None
 
 
 # The declarations of the registered ids (`register_task_envs`), and the tool-choice tasks

@@ -16,7 +16,7 @@ from drake_tooluse.experiments.tool_gallery import gallery_contents
 from drake_tooluse.paths import DEFAULT_SCENARIO
 from drake_tooluse.robot.ik import ToolTipIK
 from drake_tooluse.robot.model import load_tool_model, tool_spatial_inertia
-from drake_tooluse.robot.tool import GRASP, HOOK_CORNER, TOOL_LENGTH_RANGE, TOOL_TIP
+from drake_tooluse.robot.tool import GRASP, TOOL_LENGTH_RANGE, TOOL_TIP
 from drake_tooluse.robot.tool_files import tool_mesh, write_tool_files
 from drake_tooluse.robot.tool_generator import (
     CORNER_PARAMETERS,
@@ -24,6 +24,7 @@ from drake_tooluse.robot.tool_generator import (
     HELD_OUT_FAMILY,
     MAX_MASS,
     MAX_STATIC_MOMENT,
+    PUSH_BAND,
     PUSH_POINT,
     TRAINING_FAMILIES,
     check_fabrication,
@@ -217,21 +218,26 @@ def test_a_generated_tool_is_held_in_the_push_env_drawn_per_episode_from_its_spl
         gym.make("drake_tooluse/ToolPush-v1", generated_tools="all")
 
 
-def test_the_push_point_is_the_lowest_point_and_the_tip_where_that_ties():
-    """Held pointing down (+z of H downwards), the push point is the skeleton's farthest point
-    along +z: a curled arc's bottom below its tip, a back-bent hook's corner; and the tip where
-    the lowest points tie with it (a rod's end, a rake with an even number of tines)."""
+def test_the_push_point_is_the_front_of_what_meets_the_box_at_the_lowest_height():
+    """Held pointing down (+z of H downwards) with +x towards the box: of the skeleton within
+    PUSH_BAND of its lowest point, the front (farthest along +x), at the lowest point's height;
+    the tip where the front ties with it."""
 
     def frames(family, **params):
         ranges = FAMILIES[family].ranges
         middle = {n: (lo + hi) / 2 for n, (lo, hi) in ranges.items() if isinstance(lo, float)}
         return FAMILIES[family].skeleton({**middle, **params}).frames
 
-    arc = frames("arc", handle_length=0.25, arc_radius=0.045, sweep_deg=190.0)
-    assert arc[PUSH_POINT][2] == pytest.approx(0.25 + 0.045, abs=0.002)  # its bottom
-    assert arc[PUSH_POINT][2] > arc[TOOL_TIP][2] + 0.03
+    R = 0.045
+    arc = frames("arc", handle_length=0.25, arc_radius=R, sweep_deg=190.0)
+    phi = np.pi - np.arcsin(1 - PUSH_BAND / R)  # where the curl leaves the band, in front
+    assert arc[PUSH_POINT][2] == pytest.approx(0.25 + R, abs=1e-3)  # the bottom's height
+    assert arc[PUSH_POINT][0] == pytest.approx(R * (1 - np.cos(phi)), abs=4e-3)  # its front
     hook = frames("hook", handle_length=0.25, hook_length=0.08, angle=60.0)  # bent back up
-    assert hook[PUSH_POINT] == hook[HOOK_CORNER]
+    # In the band, the hook reaches 3/4 of its 0.04 m rise: 0.75 * 0.08 sin 60° forward.
+    np.testing.assert_allclose(
+        hook[PUSH_POINT], [0.75 * 0.08 * np.sin(np.pi / 3), 0.0, 0.25], atol=1e-9
+    )
     for family, params in [
         ("straight", {}),
         ("hook", {"angle": 120.0}),
@@ -241,7 +247,7 @@ def test_the_push_point_is_the_lowest_point_and_the_tip_where_that_ties():
         ("two_bend", {}),
     ]:
         f = frames(family, **params)
-        assert f[PUSH_POINT] == f[TOOL_TIP], (family, params)
+        np.testing.assert_allclose(f[PUSH_POINT], f[TOOL_TIP], atol=1e-12, err_msg=family)
     # It is one of the tool's frames, reached by the IK as the others (above).
     assert PUSH_POINT in generate_tool("arc", 1).tool.frame_names()
 
