@@ -8,10 +8,10 @@ never draws, and the corner of every other family's two shape parameters) are dr
 from TOOL_SEED; tool i is run for one episode from env seed SEED + i by every policy, in
 simulation (the policy's own env and settings, the robot told the tool's geometry), run to
 the step limit and judged where the box ends. Each policy's success and mean final box–goal
-distance are printed over all tools and per family, side by side: a policy trained over the
-generator's training split (`generated_tools="training"`) and today's tip policy
-(`models/policies/ppo_toolpush_tip`, trained on straight rods), which acts on any tool through
-its tip frame. Goal for the policy trained over shapes: ≥ 85 % in simulation.
+distance are printed over all tools and per family, side by side: the policy trained over the
+generator's training split (`models/policies/ppo_toolpush_shapes`: `generated_tools="training"`,
+acting on each tool's push point) and today's tip policy (`models/policies/ppo_toolpush_tip`,
+trained on straight rods), which acts on any tool through its tip frame. Goal for the policy trained over shapes: ≥ 85 % in simulation.
 
 With --reality, each tool is instead held in its policy's task's perturbed reality (its randomized
 draw from SEED + i), measured by the head camera (`measure_shape_belief`: the robot is not told
@@ -45,7 +45,7 @@ from drake_tooluse.world.scenario import Scenario, with_tool
 
 SIM_SUCCESS_GOAL = 0.85
 REALITY_SUCCESS_GOAL = 0.75
-DEFAULT_POLICIES = (POLICIES_DIR / "ppo_toolpush_tip",)
+DEFAULT_POLICIES = (POLICIES_DIR / "ppo_toolpush_shapes", POLICIES_DIR / "ppo_toolpush_tip")
 # One tool per episode, given as the scenario's: the env draws none itself.
 ONE_TOOL = {"generated_tools": None, "tool_length_range": None, "tool_length": None}
 
@@ -161,7 +161,7 @@ def main() -> int:
         nargs="+",
         type=Path,
         default=list(DEFAULT_POLICIES),
-        help="push policy directories (default: the shipped tip policy)",
+        help="push policy directories (default: the shipped shapes and tip policies)",
     )
     ap.add_argument("--tools", type=int, default=200, help="held-out tools (one episode each)")
     ap.add_argument("--tool-seed", type=int, default=0, help="seed of the held-out tools' draw")

@@ -7,7 +7,10 @@ from pathlib import Path
 import pytest
 
 from drake_tooluse.cli import main
-from drake_tooluse.experiments.demo import run_demo
+from drake_tooluse.experiments.demo import demo_controller, run_demo
+from drake_tooluse.experiments.task_worlds import TOOL_TASKS
+from drake_tooluse.paths import POLICIES_DIR
+from drake_tooluse.robot.tool_generator import generate_tool
 
 
 def _paths_are_absolute_and_there(metrics) -> None:
@@ -136,3 +139,14 @@ def test_a_failed_demo_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError, match="simulated failure"):
         run_demo(tmp_path / "demo", progress=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_generated_tool_is_pushed_by_the_policy_for_every_shape():
+    """The push's shipped policy for a tool of any shape (`ToolTask.shapes_policy`) takes a
+    generated tool; a rod keeps the tip policy, and a policy given is the one used."""
+    push = TOOL_TASKS["push"]
+    rake = generate_tool("rake", 2)
+    assert demo_controller("push", tool=rake).directory.name == push.shapes_policy
+    assert demo_controller("push").directory.name == push.policy
+    given = demo_controller("push", POLICIES_DIR / push.policy, tool=rake)
+    assert given.directory.name == push.policy

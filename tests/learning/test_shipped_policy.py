@@ -6,7 +6,9 @@
   + quaternion change);
 - ppo_toolpull: one policy for every hook, pulling a cube from out of reach (ToolPull-v1);
 - ppo_toolpush_tip_far: ppo_toolpush_tip fine-tuned on the goal 0.10 m further (ToolPushFar-v1),
-  tool choice's push-far policy.
+  tool choice's push-far policy;
+- ppo_toolpush_shapes: ppo_toolpush_tip fine-tuned over the tool generator's training split,
+  acting on each tool's push point (the demo's policy for a generated tool).
 """
 
 import json
@@ -28,7 +30,11 @@ SHIPPED = {  # name -> (env id, observation size, action size)
     "ppo_toolpush_paper_action": (PUSH, 30, 7),
     "ppo_toolpull": (PULL, 16, 3),
     "ppo_toolpush_tip_far": ("drake_tooluse/ToolPushFar-v1", 12, 3),
+    "ppo_toolpush_shapes": (PUSH, 12, 3),
 }
+# What each claims in its own env (its headline mean at most, its success at least): the push's
+# goal of ≤ 4 cm and ≥ 80 %; over tools of six shapes, ≥ 60 % (docs/BENCHMARKS.md).
+CLAIMS = {name: (0.04, 0.8) for name in SHIPPED} | {"ppo_toolpush_shapes": (0.04, 0.6)}
 
 
 def _headline(name) -> tuple[str, str]:
@@ -59,7 +65,8 @@ def test_shipped_policy_loads_and_meets_the_goals_it_claims(name):
     assert action.shape == (actions,) and np.all(np.abs(action) <= 1.0)
     metrics = _metrics(name)
     assert metrics["episodes"] == 100
-    assert metrics[_headline(name)[1]] <= 0.04 and metrics["success_rate"] >= 0.8
+    most, least = CLAIMS[name]
+    assert metrics[_headline(name)[1]] <= most and metrics["success_rate"] >= least
 
 
 def _evaluated_with_drake(name) -> str:

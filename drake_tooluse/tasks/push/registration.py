@@ -35,6 +35,7 @@ TOOL_TASKS = (
         "push.yaml",
         STRAIGHT_ONLY,
         DEMO_TOOL,
+        shapes_policy="ppo_toolpush_shapes",
     ),
     ToolTask(
         "push-far",
