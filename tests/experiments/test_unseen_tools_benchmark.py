@@ -40,15 +40,21 @@ def test_a_small_run_measures_the_policy_on_held_out_tools(tmp_path, monkeypatch
     )
     assert benchmark_script("unseen_tools").main() == 0
     table = capsys.readouterr().out
-    assert "ppo_toolpush_tip" in table and "2 held-out tools drawn from tool seed 5" in table
+    assert "2 held-out tools drawn from tool seed 5" in table
     figures = json.loads(out_file.read_text())
-    (policy,) = figures["policies"].values()
-    episodes = policy["episodes"]
-    assert len(episodes) == 2 and policy["tools"] == 2
-    for row in episodes:
-        assert row["family"] == HELD_OUT_FAMILY or in_corner(row["family"], row["params"])
-        assert 0 <= row["object_to_goal_m"] < 1 and isinstance(row["success"], bool)
-    assert policy["success_rate"] == sum(r["success"] for r in episodes) / 2
+    # The shipped policy over shapes and the tip policy, side by side on the same tools.
+    assert [Path(p).name for p in figures["policies"]] == [
+        "ppo_toolpush_shapes",
+        "ppo_toolpush_tip",
+    ]
+    for name, policy in figures["policies"].items():
+        assert Path(name).name in table
+        episodes = policy["episodes"]
+        assert len(episodes) == 2 and policy["tools"] == 2
+        for row in episodes:
+            assert row["family"] == HELD_OUT_FAMILY or in_corner(row["family"], row["params"])
+            assert 0 <= row["object_to_goal_m"] < 1 and isinstance(row["success"], bool)
+        assert policy["success_rate"] == sum(r["success"] for r in episodes) / 2
 
 
 @pytest.mark.slow
@@ -62,6 +68,7 @@ def test_in_reality_each_tool_is_measured_by_the_camera(tmp_path, monkeypatch, c
     )
     figures = json.loads(out_file.read_text())
     assert figures["reality"] and figures["success_goal"] == 0.75
-    ((row,),) = [p["episodes"] for p in figures["policies"].values()]
-    assert row["measured_family"] in {*FAMILIES, OTHER}
-    assert 0 <= row["object_to_goal_m"] < 1
+    for policy in figures["policies"].values():
+        (row,) = policy["episodes"]
+        assert row["measured_family"] in {*FAMILIES, OTHER}
+        assert 0 <= row["object_to_goal_m"] < 1
