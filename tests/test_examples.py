@@ -20,11 +20,18 @@ def _examples(page: Path) -> list[str]:
 
 
 EXAMPLES = [(page, k) for page in PAGES for k in range(len(_examples(page)))]
+# Examples that start a Ray cluster (~10 s here): they run with the slow tests (CI runs both).
+SLOW = {"docs/guide/sweeps.md:0"}
+
+
+def _id(page: Path, index: int) -> str:
+    return f"{page.relative_to(ROOT)}:{index}"
 
 
 def test_the_readme_and_the_guide_have_examples():
     assert len(_examples(ROOT / "README.md")) >= 3
     assert len(EXAMPLES) >= 15
+    assert SLOW <= {_id(p, k) for p, k in EXAMPLES}  # each slow one is still an example
 
 
 def test_every_other_pages_python_block_has_its_test():
@@ -35,7 +42,11 @@ def test_every_other_pages_python_block_has_its_test():
 
 
 @pytest.mark.parametrize(
-    "page, index", EXAMPLES, ids=[f"{p.relative_to(ROOT)}:{k}" for p, k in EXAMPLES]
+    "page, index",
+    [
+        pytest.param(p, k, id=_id(p, k), marks=[pytest.mark.slow] if _id(p, k) in SLOW else [])
+        for p, k in EXAMPLES
+    ],
 )
 def test_the_example_runs(page, index, tmp_path, monkeypatch):
     # Run from the repo root (examples name diagrams/...), writing into a temporary runs/.

@@ -96,7 +96,7 @@ class FamilyFit:
         """The fitted tool's named frames' origins in G (m): H's, moved by the grasp."""
         offset = np.array([self.grasp_across, 0.0, self.grasp_along])
         skeleton = FAMILIES[self.family].skeleton(self.params)
-        return {n: np.asarray(p, float) + offset for n, p in skeleton.frames.items()}
+        return {n: np.asarray(p, float) + offset for n, p in skeleton.working_frames().items()}
 
 
 def _continuous(family) -> list[str]:
@@ -124,6 +124,7 @@ class _Problem:
         # The unsupported and overhang terms weigh as much as the cloud, whatever its size.
         self.weight = math.sqrt(len(P) / (MAX_PIECES * MODEL_SAMPLES))
         self.t = np.linspace(0.0, 1.0, MODEL_SAMPLES)
+        self._shared = {}  # pieces -> per end, whether another piece starts or ends there
 
     def params(self, x) -> dict:
         return {**dict(zip(self.names, (float(v) for v in x[:-2]))), **self.fixed}
@@ -159,7 +160,12 @@ class _Problem:
         ends = np.concatenate([A, B])
         u = (B - A) / np.linalg.norm(B - A, axis=1, keepdims=True)
         outward = np.concatenate([-u, u])
-        shared = (np.linalg.norm(ends[:, None] - ends[None], axis=2) < 1e-9).sum(axis=1) > 1
+        # Which ends meet another is the family's for a number of pieces (an arc's grows with
+        # its sweep), whatever the parameters.
+        shared = self._shared.get(len(A))
+        if shared is None:
+            shared = (np.linalg.norm(ends[:, None] - ends[None], axis=2) < 1e-9).sum(1) > 1
+            self._shared[len(A)] = shared
         free = ~shared & (ends[:, 2] > Z_MIN_G + 0.01)
         out = np.zeros(len(ends))
         if free.any():

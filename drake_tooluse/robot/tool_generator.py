@@ -82,8 +82,10 @@ class Skeleton:
     frames: dict
     segments: list
 
-    def __post_init__(self):
-        self.frames[PUSH_POINT] = self.push_point()
+    def working_frames(self) -> dict:
+        """`frames` and the push point (computed here, not in every skeleton: a fit builds
+        thousands and needs only their segments)."""
+        return {**self.frames, PUSH_POINT: self.push_point()}
 
     def push_point(self) -> tuple:
         """The push point (module docstring), in H."""
@@ -141,7 +143,9 @@ class Family:
         skeleton = self.skeleton(params)
         pieces = [segment(name, a, b, params["radius"]) for name, a, b in skeleton.segments]
         volume = sum(piece.shape.volume() for piece in pieces)
-        frames = {name: Pose(tuple(float(v) for v in p)) for name, p in skeleton.frames.items()}
+        frames = {
+            name: Pose(tuple(float(v) for v in p)) for name, p in skeleton.working_frames().items()
+        }
         return CompositeTool({GRASP: Pose(), **frames}, solids=tuple(pieces), mass=DENSITY * volume)
 
 

@@ -226,7 +226,7 @@ def test_the_push_point_is_the_front_of_what_meets_the_box_at_the_lowest_height(
     def frames(family, **params):
         ranges = FAMILIES[family].ranges
         middle = {n: (lo + hi) / 2 for n, (lo, hi) in ranges.items() if isinstance(lo, float)}
-        return FAMILIES[family].skeleton({**middle, **params}).frames
+        return FAMILIES[family].skeleton({**middle, **params}).working_frames()
 
     R = 0.045
     arc = frames("arc", handle_length=0.25, arc_radius=R, sweep_deg=190.0)
