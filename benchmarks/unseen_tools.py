@@ -11,7 +11,8 @@ the step limit and judged where the box ends. Each policy's success and mean fin
 distance are printed over all tools and per family, side by side: the policy trained over the
 generator's training split (`models/policies/ppo_toolpush_shapes`: `generated_tools="training"`,
 acting on each tool's push point) and today's tip policy (`models/policies/ppo_toolpush_tip`,
-trained on straight rods), which acts on any tool through its tip frame. Goal for the policy trained over shapes: ≥ 85 % in simulation.
+trained on straight rods), which acts on any tool through its tip frame. Goal for the policy
+trained over shapes: ≥ 85 % in simulation.
 
 With --reality, each tool is instead held in its policy's task's perturbed reality (its randomized
 draw from SEED + i), measured by the head camera (`measure_shape_belief`: the robot is not told
@@ -31,13 +32,13 @@ import numpy as np
 
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, measure, task_scenarios
-from drake_tooluse.experiments.tool_choice import LearnedPolicy
 from drake_tooluse.files import atomic_write_json, check_output_file
 from drake_tooluse.learning.evaluate import make_policy_env, run_episode
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
 from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.robot.tool_generator import FAMILIES, HELD_OUT_FAMILY, held_out_tools
+from drake_tooluse.tasks.deploy import deploy
 from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
@@ -66,7 +67,7 @@ def check_args(args) -> list:
                 f"{path} is a policy for {policy.meta.env_id}; this benchmark runs push "
                 f"policies ({', '.join(PUSH_ENV_IDS)})"
             )
-        if args.reality and policy.meta.env_id not in {t.env_id for t in TOOL_TASKS.values()}:
+        if args.reality and task_of(policy.meta.env_id) is None:
             raise ValueError(
                 f"{path} is a policy for {policy.meta.env_id}, which no tool task deploys in "
                 "reality; --reality runs the policies of "
@@ -98,9 +99,9 @@ def run_policy(policy, tools, seed: int) -> list[dict]:
     return rows
 
 
-def task_of(env_id: str) -> str:
-    """The tool task (`experiments.task_worlds.TASKS`) whose policy acts in `env_id`."""
-    return next(name for name, task in TOOL_TASKS.items() if task.env_id == env_id)
+def task_of(env_id: str) -> str | None:
+    """The tool task (`experiments.task_worlds.TASKS`) whose policy acts in `env_id`, or None."""
+    return next((name for name, task in TOOL_TASKS.items() if task.env_id == env_id), None)
 
 
 def measured_realities(task: str, tools, seed: int) -> list:
@@ -117,12 +118,12 @@ def measured_realities(task: str, tools, seed: int) -> list:
     return worlds
 
 
-def run_policy_in_reality(policy_dir, tools, worlds) -> list[dict]:
-    """One deployed run per tool in its measured reality (`measured_realities`)."""
-    policy = LearnedPolicy(policy_dir)
+def run_policy_in_reality(policy, tools, worlds) -> list[dict]:
+    """One deployed run (`tasks.deploy.deploy`) of the loaded `policy` per tool in its
+    measured reality (`measured_realities`)."""
     rows = []
     for generated, (scenario, belief, figures) in zip(tools, worlds):
-        run = policy.run(scenario, belief)
+        run = deploy(scenario, policy, belief)
         rows.append(
             {
                 **generated.as_dict(),
@@ -194,7 +195,7 @@ def main() -> int:
                 worlds[task] = measured_realities(task, tools, args.seed)
                 measure_s += time.perf_counter() - start
                 start = time.perf_counter()
-            rows = run_policy_in_reality(path, tools, worlds[task])
+            rows = run_policy_in_reality(policy, tools, worlds[task])
         else:
             rows = run_policy(policy, tools, args.seed)
         s = summary(rows)

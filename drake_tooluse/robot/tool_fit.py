@@ -7,9 +7,9 @@ is, its parameters, the grasp, and so its working frames. No Drake here.
    within the family's ranges, each point's signed distance to the tool's solid (its
    skeleton's segments as flat-capped cylinders), plus a term for model parts that no point
    supports (a tool longer than the one seen) and one for a free end reaching past the points
-   along its axis (an end the other two leave loose by up to its radius). A discrete parameter (a rake's tines) is
-   fitted at each of its values. Each fit starts from the middle of the ranges and from a few
-   seeded draws in them.
+   along its axis (an end the other two leave loose by up to its radius). A discrete parameter
+   (a rake's tines) is fitted at each of its values. Each fit starts from the middle of the
+   ranges and from a few seeded draws in them.
 2. **Coarse to fine.** Every family is fitted to the cloud thinned to COARSE_VOXEL cubes; the
    REFINED best (by cost) again to the whole cloud, from there.
 3. **Family.** The family of the lowest cost is named (`measure_shape_from_points`); where its
