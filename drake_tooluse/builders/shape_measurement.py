@@ -168,6 +168,7 @@ def measure_shape(
     keep_images: bool = False,
     save_images_dir=None,
     seed: int = 0,
+    families=None,
     **options,
 ) -> ShapeMeasurementResult:
     """Moves the held tool through the views in the dynamic simulation and measures its shape.
@@ -180,6 +181,8 @@ def measure_shape(
             (`annotate_shape_view`), as `measure_<view>.png`, all of them as one set
             (`check_images_dir`).
         seed: the noises' and the fit's.
+        families: the families fitted (default every one; a tool whose family is known
+            from an earlier measurement is fitted as that family alone, ~4× faster).
         options: `plan` (from `plan_shape_measurement`, to reuse), `noise_sigma`,
             `depth_noise_sigma`, `lighting`, `scene_objects`, `move_time`, `settle_time`, as
             `build_camera_measurement`'s.
@@ -195,7 +198,7 @@ def measure_shape(
     views: ShapeViews = run.measurement
     cloud = fuse([v.points_C for v in views.views], [X.GetAsMatrix4() for X in run.X_GC])
     start = time.perf_counter()
-    shape = measure_shape_from_points(cloud, seed=seed)
+    shape = measure_shape_from_points(cloud, families, seed=seed)
     fit_time = time.perf_counter() - start
     truth = true_frames_G(scenario)
     fitted = shape.best.frames_G()

@@ -44,6 +44,7 @@ from typing import Protocol
 
 import numpy as np
 
+from drake_tooluse.builders.shape_measurement import measure_shape_belief
 from drake_tooluse.experiments.task_worlds import (
     TASKS,
     TOOL_TASKS,
@@ -58,7 +59,13 @@ from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_label
-from drake_tooluse.robot.tool_generator import GeneratedTool
+from drake_tooluse.robot.tool_generator import (
+    FAMILIES,
+    HELD_OUT_FAMILY,
+    GeneratedTool,
+    generate_tool,
+    measured_tool,
+)
 from drake_tooluse.tasks.contract import declaration, scripted_reference
 from drake_tooluse.tasks.deploy import deploy, run_controller
 from drake_tooluse.validation import check_in_range, check_int, check_one_of, check_seed
@@ -102,9 +109,22 @@ def check_rack(rack) -> tuple:
     if not MIN_TOOLS <= len(rack) <= MAX_TOOLS:
         raise ValueError(f"the rack holds {len(rack)} tools; give {MIN_TOOLS} to {MAX_TOOLS}")
     for tool in rack:
-        if not isinstance(tool, (StraightTool, HookTool)):
-            raise ValueError(f"tool {tool!r} must be a StraightTool or a HookTool")
+        if not isinstance(tool, (StraightTool, HookTool, GeneratedTool)):
+            raise ValueError(f"tool {tool!r} must be a StraightTool, a HookTool or a GeneratedTool")
     return rack
+
+
+def generated_rack(seed: int, size: int = MAX_TOOLS) -> tuple:
+    """`size` tools the policies never trained with, each of another family: the held-out
+    family drawn anywhere in its ranges, every other family in its corner
+    (`robot.tool_generator.split_draw`'s "held_out" split), drawn with `seed`."""
+    check_int(size, MIN_TOOLS, min(MAX_TOOLS, len(FAMILIES)), "rack size")
+    rng = np.random.default_rng(check_seed(seed, "rack seed"))
+    families = rng.choice(list(FAMILIES), size, replace=False)
+    return tuple(
+        generate_tool(f, int(rng.integers(2**32)), "any" if f == HELD_OUT_FAMILY else "corner")
+        for f in families
+    )
 
 
 # -- the policies ------------------------------------------------------------------------
@@ -179,14 +199,14 @@ class ScriptedPolicy:
 def no_policy_reason(task: str, tool) -> str | None:
     """Why the robot has no way to do `task` with `tool` (its policy uses another kind of
     tool: `ToolTask.tool_kind`), or None when it has one. A generated tool
-    (`robot.tool_generator`) serves a task whose policy is a straight tool's: it acts
-    through the tip frame."""
+    (`robot.tool_generator`) serves a task whose policy is a straight tool's (it acts through
+    the tip frame or the push point, which every tool has) and, of the hook family, a
+    hook's."""
     declared = TOOL_TASKS[task]
     if isinstance(tool, GeneratedTool):
-        # A straight tool's policy acts on the tool's tip frame alone, which every tool has.
-        if declared.tool_kind == "straight":
+        if declared.tool_kind == "straight" or tool.family == "hook":
             return None
-        return f"no {task} policy for a generated {tool.family} tool ({declared.why_not})"
+        return f"no {task} policy for a tool of the {tool.family} family (only the hook family's)"
     kind = "hook" if isinstance(tool, HookTool) else "straight"
     if kind == declared.tool_kind:
         return None
@@ -196,21 +216,28 @@ def no_policy_reason(task: str, tool) -> str | None:
 
 class Policies:
     """The policy for each task (by its name in TASKS, `-` written `_`: `push_far=`): a
-    ToolPolicy, a policy directory, or None for the shipped one (`ToolTask.policy`); a
-    directory is loaded once, on first use."""
+    ToolPolicy, a policy directory, or None for the shipped one (`ToolTask.policy`, or for a
+    generated tool `ToolTask.shapes_policy` where the task has one); a directory is loaded
+    once, on first use."""
 
     def __init__(self, **by_task):
         self._policies = {name.replace("_", "-"): policy for name, policy in by_task.items()}
         unknown = sorted(set(self._policies) - set(TASKS))
         if unknown:
             raise ValueError(f"no task {unknown[0]!r}; the tasks: {list(TASKS)}")
+        self._loaded = {}
 
-    def for_task(self, task: str) -> ToolPolicy:
-        policy = self._policies.get(task)
-        if policy is None or isinstance(policy, (str, Path)):
-            default = POLICIES_DIR / TOOL_TASKS[task].policy
-            policy = self._policies[task] = LearnedPolicy(policy or default)
-        return policy
+    def for_task(self, task: str, generated: bool = False) -> ToolPolicy:
+        """`task`'s policy, for a generated tool where `generated`."""
+        given = self._policies.get(task)
+        if given is not None and not isinstance(given, (str, Path)):
+            return given
+        declared = TOOL_TASKS[task]
+        name = declared.shapes_policy if generated and declared.shapes_policy else declared.policy
+        directory = Path(given or POLICIES_DIR / name)
+        if directory not in self._loaded:
+            self._loaded[directory] = LearnedPolicy(directory)
+        return self._loaded[directory]
 
 
 # -- measuring, predicting, choosing -----------------------------------------------------
@@ -229,6 +256,47 @@ def clamped(belief: RobotBelief, measurement) -> dict:
         for name, value in measurement.measured_dimensions().items()
         if abs(value - believed[name]) > 1e-9
     }
+
+
+def rack_label(tool) -> str:
+    """A rack tool's name: `straight:0.3`, `hook:0.25,0.05,90`, `rake#3` (`robot.tool_generator`)."""
+    return tool.label() if isinstance(tool, GeneratedTool) else tool_label(tool)
+
+
+def believed_tool(task: str, measured: GeneratedTool):
+    """The tool the robot's IK holds for `task` after measuring a generated tool: the measured
+    tool, or for a task of hooks (`ToolTask.tool_kind`) the hook family's own geometry as the
+    `robot.tool.HookTool` the pull's control needs."""
+    if TOOL_TASKS[task].tool_kind != "hook":
+        return measured.tool
+    p = measured.params
+    return HookTool(p["handle_length"], p["hook_length"], p["angle"], radius=p["radius"])
+
+
+def measure_generated(reality: Scenario, seed: int, family: str | None = None):
+    """(the tool held in `reality` as the head camera measures it, `measure_shape_belief`: a
+    GeneratedTool of the fitted family and parameters; the grasp measured, (across, along)
+    m). `family`, where an earlier measurement named it, is the only one fitted. Raises
+    ValueError where the tool fits no family."""
+    belief, result = measure_shape_belief(
+        reality, seed=seed, families=None if family is None else (family,)
+    )
+    best = result.shape.best
+    return measured_tool(best.family, best.params), belief.grasp_offset
+
+
+def measure_rack(task: str, rack, seed: int = 0) -> dict:
+    """Each generated tool of `rack` measured once by the head camera (`measure_generated`),
+    held in `task`'s reality with the grasp of `seed`'s draw: the robot knows its rack's
+    shapes before it chooses. {rack index: (the measured tool or None, the error or None)}."""
+    nominal, reality = task_scenarios(task)
+    shapes = {}
+    for i, tool in enumerate(check_rack(rack)):
+        if isinstance(tool, GeneratedTool):
+            world = run_worlds(nominal, reality, tool, seed)[1]
+            measured, error = attempt(measure_generated, world, seed)
+            shapes[i] = (None if measured is None else measured[0], error)
+    return shapes
 
 
 def run_outcome(policy: ToolPolicy, scenario: Scenario, belief: RobotBelief) -> Outcome:
@@ -256,12 +324,14 @@ def predict(
     rollouts: int,
     seed: int,
     delay_margin: float = DELAY_MARGIN,
+    held=None,
 ) -> dict:
-    """K rollouts of `policy` in the nominal world holding the believed tool where the robot
-    believes it holds it, each with its own draw of the nominal mass, friction and grasp
-    (the box's start is the instance's) and its own actuation delay (`rollout_delays`): the
-    predicted success rate and mean final distance."""
-    world = holding(nominal, belief.tool, belief.grasp_offset[1])
+    """K rollouts of `policy` in the nominal world holding the believed tool (`held`, where it
+    is not the belief's: a measured GeneratedTool) where the robot believes it holds it, each
+    with its own draw of the nominal mass, friction and grasp (the box's start is the
+    instance's) and its own actuation delay (`rollout_delays`): the predicted success rate
+    and mean final distance."""
+    world = holding(nominal, held or belief.tool, belief.grasp_offset[1])
     delays = rollout_delays(rollouts, delay_margin, world.plant.time_step)
     outcomes = []
     for k, delay in enumerate(delays):
@@ -296,14 +366,22 @@ def choose_tool(
     delay_margin: float = DELAY_MARGIN,
     recording_path=None,
     progress: bool = True,
+    rack_shapes: dict | None = None,
 ) -> dict:
     """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
-    actuation delays up to `delay_margin` s), chooses the best and does the instance with it in reality. `instance` is a TaskInstance
-    or a task kind (TASKS, then drawn with `seed`). With `oracle`, every tool is also run in
-    reality (`oracle_success`: whether any tool succeeds). With `recording_path`, the chosen
-    tool's run in reality is recorded in Meshcat and written there as a standalone HTML file.
-    `progress`: a bar on stderr (a terminal only) over the tools' predictions and reality
-    runs. Returns a dict (see `format_choice`)."""
+    actuation delays up to `delay_margin` s), chooses the best and does the instance with it
+    in reality. `instance` is a TaskInstance or a task kind (TASKS, then drawn with `seed`).
+
+    A rod or a hook is measured on the instance, by its marker bands. A generated tool's
+    shape comes from `rack_shapes` (`measure_rack`: the rack measured once, before any
+    choice; measured here with the instance's seed where not given, its time apart from the
+    choice's) and is predicted at the nominal grasp; the chosen one is measured again in the
+    hand, its family known, for the grasp it is held at.
+
+    With `oracle`, every tool is also run in reality (`oracle_success`: whether any tool
+    succeeds). With `recording_path`, the chosen tool's run in reality is recorded in Meshcat
+    and written there as a standalone HTML file. `progress`: a bar on stderr (a terminal
+    only) over the tools' predictions and reality runs. Returns a dict (see `format_choice`)."""
     if not isinstance(instance, TaskInstance):
         instance = TaskInstance(instance, seed)
     rack = check_rack(rack)
@@ -314,46 +392,58 @@ def choose_tool(
     for tool in rack:  # a tool the world cannot hold is refused before any work
         if no_policy_reason(instance.task, tool) is None:
             holding(nominal, tool)
+    rack_measure_time = 0.0
+    if rack_shapes is None and any(isinstance(t, GeneratedTool) for t in rack):
+        start = time.perf_counter()
+        rack_shapes = measure_rack(instance.task, rack, instance.seed)
+        rack_measure_time = time.perf_counter() - start
     start = time.perf_counter()
     candidates = []
     worlds = {}
     bar = progress_bar(len(rack) * (2 if oracle else 1) + int(not oracle), "tools", "", progress)
     for i, tool in enumerate(rack):
         bar.update(1)
-        candidate = {"tool": tool_label(tool)}
-        reason = no_policy_reason(instance.task, tool)
+        candidate = {"tool": rack_label(tool)}
+        candidates.append(candidate)
+        if isinstance(tool, GeneratedTool):
+            held, error = rack_shapes[i]
+            reason = no_policy_reason(instance.task, held) if error is None else error
+        else:
+            held, reason = None, no_policy_reason(instance.task, tool)
         if reason is not None:
             candidate.update(predicted_success=0.0, predicted_final_distance_m=None, reason=reason)
-            candidates.append(candidate)
             continue
         nominal_world, reality_world = run_worlds(nominal, reality, tool, instance.seed)[:2]
         worlds[i] = (nominal_world, reality_world)
-        measured, error = attempt(measure, reality_world, tool, instance.seed)
-        belief = None if measured is None else measured[0]
-        if measured is not None:
+        if held is not None:
+            belief = RobotBelief(believed_tool(instance.task, held), (0.0, 0.0))
+            candidate["believed"] = f"{held.family} {_params_text(held.params)}"
+            candidate["_held"] = held
+        else:
+            measured, error = attempt(measure, reality_world, tool, instance.seed)
+            if measured is None:
+                candidate.update(
+                    predicted_success=0.0,
+                    predicted_final_distance_m=None,
+                    reason=f"measurement failed: {error}",
+                )
+                continue
+            belief = measured[0]
             candidate["clamped"] = clamped(*measured)
-        if belief is None:
-            candidate.update(
-                predicted_success=0.0,
-                predicted_final_distance_m=None,
-                reason=f"measurement failed: {error}",
-            )
-            candidates.append(candidate)
-            continue
-        candidate["believed"] = believed_tool_label(belief)
-        candidate["believed_grasp_along_m"] = belief.grasp_offset[1]
-        candidate["_belief"] = belief
+            candidate["believed"] = believed_tool_label(belief)
+            candidate["believed_grasp_along_m"] = belief.grasp_offset[1]
+            candidate["_belief"] = belief
         candidate.update(
             predict(
-                policies.for_task(instance.task),
+                policies.for_task(instance.task, generated=held is not None),
                 nominal_world,
                 belief,
                 rollouts,
                 instance.seed,
                 delay_margin,
+                held=held,
             )
         )
-        candidates.append(candidate)
     choice_time = time.perf_counter() - start
     chosen = min(range(len(candidates)), key=lambda i: _rank_key(candidates[i]))
     for i, candidate in enumerate(candidates):
@@ -379,6 +469,7 @@ def choose_tool(
         "success": candidates[chosen]["reality"]["success"],
         "final_distance_m": candidates[chosen]["reality"]["final_distance_m"],
         "choice_time_s": choice_time,
+        "rack_measure_time_s": rack_measure_time,
         "wall_time_s": time.perf_counter() - start,
         "candidates": [{k: v for k, v in c.items() if not k.startswith("_")} for c in candidates],
     }
@@ -390,15 +481,31 @@ def choose_tool(
     return result
 
 
+def _params_text(params: dict) -> str:
+    return ", ".join(f"{k} {v:.3g}" for k, v in params.items() if k != "radius")
+
+
+def _in_hand_belief(task: str, reality: Scenario, held: GeneratedTool, seed: int) -> RobotBelief:
+    """What the robot believes of a generated tool it picked up: measured again in the hand,
+    its family known from the rack's measurement, for the grasp it is held at."""
+    measured, grasp = measure_generated(reality, seed, held.family)
+    return RobotBelief(believed_tool(task, measured), grasp)
+
+
 def _reality_run(instance, candidate, worlds, policies: Policies, recording_path=None) -> dict:
     """The candidate's run in reality, with the belief the camera gave (recorded to
     `recording_path` if given); a tool the robot has no way to use (or could not measure) is
     not run and counts as a failure."""
-    belief = candidate.get("_belief")
-    if worlds is None or belief is None:
+    belief, held = candidate.get("_belief"), candidate.get("_held")
+    if worlds is None or (belief is None and held is None):
         return {"success": False, "final_distance_m": None, "run": False}
+    if held is not None:
+        belief, error = attempt(_in_hand_belief, instance.task, worlds[1], held, instance.seed)
+        if belief is None:
+            return {**Outcome(False, math.nan, error).as_dict(), "run": False}
     recording = {} if recording_path is None else {"recording_path": recording_path}
-    run, error = attempt(policies.for_task(instance.task).run, worlds[1], belief, **recording)
+    policy = policies.for_task(instance.task, generated=held is not None)
+    run, error = attempt(policy.run, worlds[1], belief, **recording)
     if run is None:  # the run raised: nothing was written
         return {**Outcome(False, math.nan, error).as_dict(), "run": True}
     outcome = Outcome(run.success, run.final_object_to_goal, run.error)

@@ -54,7 +54,7 @@ from drake_tooluse.robot.tool import (
     Piece,
     Pose,
 )
-from drake_tooluse.validation import check_one_of, check_seed
+from drake_tooluse.validation import check_in_range, check_one_of, check_seed
 
 # Fabrication bounds. A rod thinner than 4 mm bends under a push; the closed fingers leave
 # 12.5 mm either side (world.scenario.TOOL_RADIUS_RANGE), 10 mm keeps a margin.
@@ -138,6 +138,27 @@ class Family:
                 params[name] = float(rng.uniform(*spec))
         return params
 
+    def checked(self, params: dict) -> dict:
+        """`params` (e.g. a measured tool's, read from a scenario file) checked against the
+        family's ranges, integer ones made integers; raises ValueError naming a missing,
+        unknown or out-of-range one."""
+        unknown = sorted(set(params) - set(self.ranges))
+        missing = sorted(set(self.ranges) - set(params))
+        if unknown or missing:
+            raise ValueError(
+                f"a {self.name} tool's parameters are {sorted(self.ranges)}; "
+                f"got {sorted(params)}"
+            )
+        out = {}
+        for name, spec in self.ranges.items():
+            value = params[name]
+            check_in_range(value, spec[0], spec[1], f"{self.name} {name}")
+            integer = all(isinstance(v, int) for v in spec)
+            if integer and value != int(value):
+                raise ValueError(f"{self.name} {name}={value} must be a whole number")
+            out[name] = int(value) if integer else float(value)
+        return out
+
     def build(self, params: dict) -> CompositeTool:
         """The tool of `params`: its skeleton's segments as cylinders, a mass of solid PLA."""
         skeleton = self.skeleton(params)
@@ -152,21 +173,33 @@ class Family:
 @dataclass(frozen=True)
 class GeneratedTool:
     """A drawn tool: its family, the seed that drew it, its parameters, the tool, and the
-    region of its family's parameters it was drawn in (`REGIONS`)."""
+    region of its family's parameters it was drawn in (`REGIONS`). A tool the camera measured
+    (`measured_tool`) has no seed: its parameters are the fit's."""
 
     family: str
-    seed: int
+    seed: int | None
     params: dict
     tool: CompositeTool
     region: str = "any"
 
     def label(self) -> str:
-        """`rake#3`, or `hook#5 (corner)` where the draw was held to a region."""
+        """`rake#3`, `hook#5 (corner)` where the draw was held to a region, or `rake
+        (measured)`."""
+        if self.seed is None:
+            return f"{self.family} (measured)"
         return f"{self.family}#{self.seed}" + ("" if self.region == "any" else f" ({self.region})")
 
     def as_dict(self) -> dict:
         out = {"family": self.family, "seed": self.seed, "params": dict(self.params)}
         return out if self.region == "any" else {**out, "region": self.region}
+
+
+def measured_tool(family: str, params: dict) -> GeneratedTool:
+    """The tool of `family` with `params` (a fit's, `robot.tool_fit.FamilyFit`), checked
+    against the family's ranges (`Family.checked`)."""
+    f = FAMILIES[check_one_of(family, tuple(FAMILIES), "tool family")]
+    params = f.checked(params)
+    return GeneratedTool(family, None, params, f.build(params))
 
 
 def _rotation_z_to(d) -> tuple:

@@ -35,7 +35,13 @@ from drake_tooluse.robot.tool import (
     Tool,
     check_tool_length,
 )
-from drake_tooluse.robot.tool_generator import FAMILIES, REGIONS, GeneratedTool, generate_tool
+from drake_tooluse.robot.tool_generator import (
+    FAMILIES,
+    REGIONS,
+    GeneratedTool,
+    generate_tool,
+    measured_tool,
+)
 from drake_tooluse.validation import (
     check_bool,
     check_finite_vector,
@@ -103,19 +109,23 @@ class ToolConfig:
     model: str = ""
     # "straight" (a rod), "hook" (`robot.tool.HookTool`: `length` is then its handle's, with
     # a hook `hook_length` m long at `hook_angle` degrees to it) or "generated" (the tool
-    # `robot.tool_generator.generate_tool(family, seed, region)` draws; `length`, `radius`
-    # and `mass` are then its own).
+    # `robot.tool_generator.generate_tool(family, seed, region)` draws, or, where `params`
+    # are given, the family's tool of those parameters (a measured tool's); `length`,
+    # `radius` and `mass` are then its own).
     kind: str = "straight"
     hook_length: float = 0.05
     hook_angle: float = 90.0
     family: str = "straight"
     seed: int = 0
     region: str = "any"
+    params: dict[str, float] = dc.field(default_factory=dict)
 
     def description(self) -> Tool:
         """The tool this describes, as geometry (`robot.tool`): the rod, the hook or the
         generated tool, its frames and pieces (whether or not it is `attached`)."""
         if self.kind == "generated":
+            if self.params:
+                return measured_tool(self.family, self.params).tool
             return generate_tool(self.family, self.seed, self.region).tool
         if self.kind == "hook":
             return HookTool(
@@ -260,6 +270,10 @@ def validate_scenario(s: Scenario) -> Scenario:
         check_one_of(s.tool.family, tuple(FAMILIES), "tool.family")
         check_seed(s.tool.seed, "tool.seed")
         check_one_of(s.tool.region, REGIONS, "tool.region")
+        if s.tool.params:
+            FAMILIES[s.tool.family].checked(s.tool.params)
+    elif s.tool.params:
+        raise ValueError(f"tool.params are a generated tool's; tool.kind is {s.tool.kind!r}")
     if s.tool.kind == "hook":
         check_in_range(
             s.tool.length, *HOOK_HANDLE_RANGE, "tool.length (the hook's handle)", unit="m"
@@ -573,9 +587,18 @@ def with_actuation_delay(scenario: Scenario, delay: float) -> Scenario:
 def with_tool(scenario: Scenario, tool) -> Scenario:
     """A copy of `scenario` holding `tool`: a StraightTool or a length (m), a HookTool, or a
     GeneratedTool (`robot.tool_generator`)."""
-    if isinstance(tool, GeneratedTool):
+    if isinstance(tool, GeneratedTool) and tool.seed is None:  # a measured tool
         held = dc.replace(
-            scenario.tool, kind="generated", family=tool.family, seed=tool.seed, region=tool.region
+            scenario.tool, kind="generated", family=tool.family, seed=0, params=dict(tool.params)
+        )
+    elif isinstance(tool, GeneratedTool):
+        held = dc.replace(
+            scenario.tool,
+            kind="generated",
+            family=tool.family,
+            seed=tool.seed,
+            region=tool.region,
+            params={},
         )
     elif isinstance(tool, HookTool):
         held = dc.replace(
