@@ -21,7 +21,7 @@ def _examples(page: Path) -> list[str]:
 
 EXAMPLES = [(page, k) for page in PAGES for k in range(len(_examples(page)))]
 # Examples that start a Ray cluster (~10 s here): they run with the slow tests (CI runs both).
-SLOW = {"docs/guide/sweeps.md:0"}
+SLOW = {"docs/guide/sweeps.md:0", "docs/guide/tool-choice.md:1"}
 
 
 def _id(page: Path, index: int) -> str:

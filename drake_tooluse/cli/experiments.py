@@ -271,11 +271,15 @@ def format_demo(out: dict) -> str:
 def cmd_choose_tool(args) -> dict:
     rollouts = count_arg(args.rollouts, "--rollouts")
     seed_arg(args.seed)
-    from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool
+    from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool, generated_rack
 
     if args.record is not None:
         output_file_arg(args.record, "--record", ".html")
     rack = args.tools or DEFAULT_RACK
+    if args.rack_seed is not None:
+        if args.tools:
+            raise UsageError("--rack-seed draws the rack: give no --tools with it")
+        rack = generated_rack(seed_arg(args.rack_seed, "--rack-seed"))
     return choose_tool(
         args.task,
         rack,
@@ -534,6 +538,13 @@ def add_parsers(sub) -> None:
         metavar="TOOL",
         help="the rack, 1-5 tools: straight:L (m) or hook:HANDLE,HOOK,ANGLE (m, m, deg) "
         "(default: straight:0.03 straight:0.3 hook:0.25,0.05,90 hook:0.35,0.08,60)",
+    )
+    p.add_argument(
+        "--rack-seed",
+        type=int,
+        metavar="S",
+        help="instead, a rack of five generated tools of five families that no policy "
+        "trained with, drawn with S; each measured by its shape before the choice",
     )
     p.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
     p.add_argument("--oracle", action="store_true", help="also run every tool in reality")

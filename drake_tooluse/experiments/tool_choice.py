@@ -63,6 +63,7 @@ from drake_tooluse.robot.tool_generator import (
     FAMILIES,
     HELD_OUT_FAMILY,
     GeneratedTool,
+    equivalent_hook,
     generate_tool,
     measured_tool,
 )
@@ -200,13 +201,17 @@ def no_policy_reason(task: str, tool) -> str | None:
     """Why the robot has no way to do `task` with `tool` (its policy uses another kind of
     tool: `ToolTask.tool_kind`), or None when it has one. A generated tool
     (`robot.tool_generator`) serves a task whose policy is a straight tool's (it acts through
-    the tip frame or the push point, which every tool has) and, of the hook family, a
-    hook's."""
+    the tip frame or the push point, which every tool has) and a hook's where its family is
+    one the task's policy serves (`ToolTask.shape_families`)."""
     declared = TOOL_TASKS[task]
     if isinstance(tool, GeneratedTool):
-        if declared.tool_kind == "straight" or tool.family == "hook":
+        families = declared.shape_families
+        if families is None or tool.family in families:
             return None
-        return f"no {task} policy for a tool of the {tool.family} family (only the hook family's)"
+        return (
+            f"no {task} policy for a tool of the {tool.family} family (it serves the "
+            f"{' and '.join(families)} families)"
+        )
     kind = "hook" if isinstance(tool, HookTool) else "straight"
     if kind == declared.tool_kind:
         return None
@@ -265,12 +270,12 @@ def rack_label(tool) -> str:
 
 def believed_tool(task: str, measured: GeneratedTool):
     """The tool the robot's IK holds for `task` after measuring a generated tool: the measured
-    tool, or for a task of hooks (`ToolTask.tool_kind`) the hook family's own geometry as the
-    `robot.tool.HookTool` the pull's control needs."""
+    tool, or for a task of hooks (`ToolTask.tool_kind`) its equivalent hook
+    (`robot.tool_generator.equivalent_hook`), the `robot.tool.HookTool` the pull's control
+    needs."""
     if TOOL_TASKS[task].tool_kind != "hook":
         return measured.tool
-    p = measured.params
-    return HookTool(p["handle_length"], p["hook_length"], p["angle"], radius=p["radius"])
+    return equivalent_hook(measured)
 
 
 def measure_generated(reality: Scenario, seed: int, family: str | None = None):
@@ -540,9 +545,11 @@ def format_choice(out: dict) -> str:
         if "reality" in c and c["reality"]["run"]:
             text += f"; reality: {'success' if c['reality']['success'] else 'failed'}"
         lines.append(text)
+    measuring = out.get("rack_measure_time_s") or 0.0
     lines.append(
         f"chosen: {out['chosen']}; in reality "
-        f"{'succeeded' if out['success'] else 'failed'} ({out['choice_time_s']:.0f} s to choose)"
+        f"{'succeeded' if out['success'] else 'failed'} ({out['choice_time_s']:.0f} s to choose"
+        + (f", after {measuring:.0f} s measuring the rack's shapes)" if measuring else ")")
     )
     if "oracle_success" in out:
         lines.append(f"oracle: {', '.join(out['oracle_tools']) or 'no tool'} succeeds")

@@ -146,8 +146,7 @@ class Family:
         missing = sorted(set(self.ranges) - set(params))
         if unknown or missing:
             raise ValueError(
-                f"a {self.name} tool's parameters are {sorted(self.ranges)}; "
-                f"got {sorted(params)}"
+                f"a {self.name} tool's parameters are {sorted(self.ranges)}; got {sorted(params)}"
             )
         out = {}
         for name, spec in self.ranges.items():
@@ -192,6 +191,25 @@ class GeneratedTool:
     def as_dict(self) -> dict:
         out = {"family": self.family, "seed": self.seed, "params": dict(self.params)}
         return out if self.region == "any" else {**out, "region": self.region}
+
+
+def equivalent_hook(generated: GeneratedTool) -> HookTool:
+    """The hook (`robot.tool.HookTool`) a tool with a hook corner pulls as: its handle up to
+    the corner, its hook the chord from the corner to the tip (length and angle), each held
+    within HookTool's ranges; the hook family's own hook. Raises ValueError for a tool
+    without a hook corner."""
+    frames = generated.tool.frames()
+    if HOOK_CORNER not in frames:
+        raise ValueError(f"a {generated.family} tool has no {HOOK_CORNER}: it pulls as no hook")
+    corner = np.asarray(frames[HOOK_CORNER].translation, float)
+    chord = np.asarray(frames[TOOL_TIP].translation, float) - corner
+    angle = math.degrees(math.atan2(chord[0], -chord[2]))  # HookTool.direction's angle
+    return HookTool(
+        float(np.clip(corner[2], *HOOK_HANDLE_RANGE)),
+        float(np.clip(np.linalg.norm(chord), *HOOK_LENGTH_RANGE)),
+        float(np.clip(angle, *HOOK_ANGLE_RANGE)),
+        radius=generated.params["radius"],
+    )
 
 
 def measured_tool(family: str, params: dict) -> GeneratedTool:

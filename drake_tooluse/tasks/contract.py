@@ -96,7 +96,9 @@ class ToolTask:
     `drake-tooluse transfer` uses by default with its policy, written the same way (none:
     the paper's tool lengths). `shapes_policy`: the policy directory's name for a generated
     tool of any shape (`robot.tool_generator`: trained over its training split); None: the
-    task's `policy`, through the tool's tip."""
+    task's `policy`, through the tool's tip. `shape_families`: the generator's families the
+    policy serves (None: every family, through the tip or the push point; a hook policy's
+    tools are held as their `robot.tool_generator.equivalent_hook`)."""
 
     name: str
     env_id: str
@@ -109,6 +111,7 @@ class ToolTask:
     reality_world: bool = True
     transfer_tools: tuple = ()
     shapes_policy: str | None = None
+    shape_families: tuple | None = None
 
 
 # The declarations of the registered ids (`register_task_envs`), and the tool-choice tasks

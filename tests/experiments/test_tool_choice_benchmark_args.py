@@ -16,6 +16,9 @@ from tests.benchmark_scripts import benchmark_script
         (["--rollouts", "0"], "--rollouts=0 is outside the allowed range [1, 20]"),
         (["--delay-margin", "nan"], "--delay-margin=nan must be a finite number"),
         (["--instances", "0"], "--instances=0 is outside the allowed range"),
+        (["--generated-racks", "2", "--tools", "straight:0.3"], "give no --tools with it"),
+        (["--instances", "3", "--generated-racks", "4"], "--generated-racks=4 is outside"),
+        (["--generated-racks", "2", "--out", "x.txt"], "--out 'x.txt' must be a .json file"),
     ],
 )
 def test_bad_arguments_are_one_line_errors(argv, says, monkeypatch, capsys):

@@ -3,6 +3,7 @@ tools`: seeded draws in each family's ranges and fabrication bounds, an SDF that
 the same tool, a closed mesh, every working frame reached by the IK, and every family held in
 the push env through Gymnasium's checker."""
 
+import dataclasses as dc
 import json
 from pathlib import Path
 
@@ -10,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from pydrake.common.yaml import yaml_dump_typed
 
 from drake_tooluse.cli import main
 from drake_tooluse.experiments.tool_gallery import gallery_contents
@@ -31,8 +33,10 @@ from drake_tooluse.robot.tool_generator import (
     generate_tool,
     held_out_tools,
     in_corner,
+    measured_tool,
     split_draw,
 )
+from drake_tooluse.world.scenario import load_scenario, validate_scenario, with_tool
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -285,3 +289,30 @@ def test_the_push_env_places_and_observes_the_working_frame():
     )
     with pytest.raises(ValueError, match="working frame 'push_point' is not a frame of the tool"):
         gym.make("drake_tooluse/ToolPush-v1", working_frame=PUSH_POINT).reset(seed=0)
+
+
+@pytest.mark.parametrize("family", list(FAMILIES))
+def test_a_measured_tool_is_held_by_its_parameters(family, tmp_path):
+    """A tool the camera measured has no seed: a scenario holds it by its family's
+    parameters, which a scenario file keeps (integers read back as floats)."""
+    drawn = generate_tool(family, 4)
+    measured = measured_tool(family, {k: float(v) for k, v in drawn.params.items()})
+    assert measured.params == drawn.params and measured.label() == f"{family} (measured)"
+    held = with_tool(load_scenario(DEFAULT_SCENARIO), measured)
+    path = tmp_path / "held.yaml"
+    path.write_text(yaml_dump_typed(held))
+    tool = load_scenario(path).tool.description()
+    assert tool.frames() == drawn.tool.frames() and tool.mass == pytest.approx(drawn.tool.mass)
+
+
+def test_a_bad_measured_tool_is_refused():
+    params = dict(generate_tool("rake", 1).params)
+    with pytest.raises(ValueError, match=r"rake tines=2.5 must be a whole number"):
+        measured_tool("rake", {**params, "tines": 2.5})
+    with pytest.raises(ValueError, match=r"rake width=0.5 is outside the allowed range"):
+        measured_tool("rake", {**params, "width": 0.5})
+    with pytest.raises(ValueError, match=r"a rake tool's parameters are \["):
+        measured_tool("rake", {"width": 0.1})
+    scenario = load_scenario(DEFAULT_SCENARIO)
+    with pytest.raises(ValueError, match="tool.params are a generated tool's; tool.kind is"):
+        validate_scenario(dc.replace(scenario, tool=dc.replace(scenario.tool, params=params)))
