@@ -1,23 +1,28 @@
-"""Tools the robot has never seen: push policies zero-shot on the generator's held-out tools.
+"""Tools the robot has never seen: each task's policies zero-shot on the generator's held-out
+tools.
 
     python benchmarks/unseen_tools.py --policies DIR [DIR ...] [--tools 200] [--tool-seed 0]
         [--seed 1000] [--reality] [--out FILE]
 
-The held-out tools (`robot.tool_generator.held_out_tools`: the rake family, which training
-never draws, and the corner of every other family's two shape parameters) are drawn once
-from TOOL_SEED; tool i is run for one episode from env seed SEED + i by every policy, in
-simulation (the policy's own env and settings, the robot told the tool's geometry), run to
-the step limit and judged where the box ends. Each policy's success and mean final box–goal
-distance are printed over all tools and per family, side by side: the policy trained over the
-generator's training split (`models/policies/ppo_toolpush_shapes`: `generated_tools="training"`,
-acting on each tool's push point) and today's tip policy (`models/policies/ppo_toolpush_tip`,
-trained on straight rods), which acts on any tool through its tip frame. Goal for the policy
-trained over shapes: ≥ 85 % in simulation.
+The held-out tools (`robot.tool_generator.split_draw`'s "held_out" split: the rake family,
+which training never draws, and the corner of every other family's two shape parameters) are
+drawn in turn from TOOL_SEED, keeping the first `--tools` of the families the policy's task
+serves (`ToolTask.shape_families`: every family for a push; for the pull the hooks and the
+arcs, held as their equivalent hook; the draws of other families are counted and printed).
+Tool i is held in the task's nominal world with its randomized draw from SEED + i, the robot
+told its geometry and grasp, and every policy is deployed there (`tasks.deploy.deploy`), run
+to the step limit and judged where the object ends. Each policy's success and mean final
+distance are printed over all tools and per family, side by side: by default the push policy
+trained over the generator's training split (`models/policies/ppo_toolpush_shapes`, acting on
+each tool's push point) and today's tip policy (`models/policies/ppo_toolpush_tip`, trained on
+straight rods), which acts on any tool through its tip frame. Goal for a policy trained over
+shapes: ≥ 85 % in simulation.
 
-With --reality, each tool is instead held in its policy's task's perturbed reality (its randomized
-draw from SEED + i), measured by the head camera (`measure_shape_belief`: the robot is not told
-its family, shape or grasp), and every policy is deployed on that measured belief
-(`tasks.deploy`), run to the step limit and judged where the box ends. Goal: ≥ 75 %.
+With --reality, each tool is instead held in its policy's task's perturbed reality (its
+randomized draw from SEED + i), measured by the head camera (`measure_shape_belief`: the robot
+is not told its family, shape or grasp), and every policy is deployed on that measured belief.
+Goal: ≥ 75 %. A tool the camera fits to no family (or to one without what the task's policy
+holds) is a failed run, with its error.
 
 Prints a Markdown table; with --out, writes it as JSON (atomically).
 """
@@ -25,30 +30,39 @@ Prints a Markdown table; with --out, writes it as JSON (atomically).
 import argparse
 import sys
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, measure, task_scenarios
+from drake_tooluse.experiments.tool_choice import believed_tool
+from drake_tooluse.experiments.transfer import attempt
 from drake_tooluse.files import atomic_write_json, check_output_file
-from drake_tooluse.learning.evaluate import make_policy_env, run_episode
-from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
+from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.paths import POLICIES_DIR
-from drake_tooluse.robot.tool_generator import FAMILIES, HELD_OUT_FAMILY, held_out_tools
+from drake_tooluse.robot.model import RobotBelief
+from drake_tooluse.robot.tool_generator import (
+    FAMILIES,
+    HELD_OUT_FAMILY,
+    generate_tool,
+    measured_tool,
+    split_draw,
+)
 from drake_tooluse.tasks.deploy import deploy
-from drake_tooluse.tasks.push.registration import ENV_IDS as PUSH_ENV_IDS
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
-from drake_tooluse.world.scenario import Scenario, with_tool
 
 SIM_SUCCESS_GOAL = 0.85
 REALITY_SUCCESS_GOAL = 0.75
 DEFAULT_POLICIES = (POLICIES_DIR / "ppo_toolpush_shapes", POLICIES_DIR / "ppo_toolpush_tip")
-# One tool per episode, given as the scenario's: the env draws none itself.
-ONE_TOOL = {"generated_tools": None, "tool_length_range": None, "tool_length": None}
+
+
+def task_of(env_id: str) -> str | None:
+    """The tool task (`experiments.task_worlds.TASKS`) whose policy acts in `env_id`, or None."""
+    return next((name for name, task in TOOL_TASKS.items() if task.env_id == env_id), None)
 
 
 def check_args(args) -> list:
@@ -62,72 +76,84 @@ def check_args(args) -> list:
     policies = []
     for path in args.policies:
         policy = load_policy(path)
-        if policy.meta.env_id not in PUSH_ENV_IDS:
+        if task_of(policy.meta.env_id) is None:
             raise ValueError(
-                f"{path} is a policy for {policy.meta.env_id}; this benchmark runs push "
-                f"policies ({', '.join(PUSH_ENV_IDS)})"
-            )
-        if args.reality and task_of(policy.meta.env_id) is None:
-            raise ValueError(
-                f"{path} is a policy for {policy.meta.env_id}, which no tool task deploys in "
-                "reality; --reality runs the policies of "
+                f"{path} is a policy for {policy.meta.env_id}, which no tool task deploys; "
+                f"this benchmark runs the policies of "
                 f"{', '.join(t.env_id for t in TOOL_TASKS.values())}"
             )
-        check_policy_env(policy, env_kwargs=ONE_TOOL)
         policies.append(policy)
     return policies
 
 
-def run_policy(policy, tools, seed: int) -> list[dict]:
-    """One episode per tool (env seed seed + i), each row its tool, success and distance."""
-    rows = []
-    for i, generated in enumerate(tools):
-        scenario = with_tool(Scenario(), generated)
-        _, env = make_policy_env(policy, env_kwargs={**ONE_TOOL, "scenario": scenario})
-        try:
-            info, _ = run_episode(env, policy, seed + i)
-        finally:
-            env.close()
-        rows.append(
-            {
-                **generated.as_dict(),
-                "success": bool(info["is_success"]) and not info["sim_error"],
-                "object_to_goal_m": float(info["object_to_goal"]),
-                "sim_error": bool(info["sim_error"]),
-            }
-        )
-    return rows
+def served_tools(task: str, count: int, seed: int) -> tuple[list, Counter]:
+    """(the first `count` held-out tools drawn from `seed` of the families `task` serves; how
+    many of each other family were drawn and passed over)."""
+    families = TOOL_TASKS[task].shape_families
+    rng = np.random.default_rng(seed)
+    tools, passed = [], Counter()
+    while len(tools) < count:
+        tool = generate_tool(*split_draw("held_out", rng))
+        if families is None or tool.family in families:
+            tools.append(tool)
+        else:
+            passed[tool.family] += 1
+    return tools, passed
 
 
-def task_of(env_id: str) -> str | None:
-    """The tool task (`experiments.task_worlds.TASKS`) whose policy acts in `env_id`, or None."""
-    return next((name for name, task in TOOL_TASKS.items() if task.env_id == env_id), None)
+def _drawn(world, tool, seed: int):
+    base = holding(world, tool)
+    return apply_draw(base, draw_randomization(base, np.random.default_rng(seed)))
 
 
-def measured_realities(task: str, tools, seed: int) -> list:
-    """(scenario, belief, measurement figures) per tool: tool i held in `task`'s reality with
-    its randomized draw from seed + i, and what the head camera measured of it."""
-    reality = task_scenarios(task)[1]
+def told_worlds(task: str, tools, seed: int) -> list:
+    """(scenario, belief, figures) per tool: tool i held in `task`'s nominal world with its
+    randomized draw from seed + i, the robot told its geometry and grasp."""
+    nominal = task_scenarios(task)[0]
     worlds = []
     for i, generated in enumerate(tools):
-        base = holding(reality, generated)
-        scenario = apply_draw(base, draw_randomization(base, np.random.default_rng(seed + i)))
-        belief, measurement = measure(scenario, generated, seed + i)
-        figures = {"measured_family": measurement.family}
-        worlds.append((scenario, belief, figures))
+        scenario = _drawn(nominal, generated, seed + i)
+        grasp = (scenario.tool.grasp_offset_across, scenario.tool.grasp_offset_along)
+        worlds.append((scenario, RobotBelief(believed_tool(task, generated), grasp), {}))
     return worlds
 
 
-def run_policy_in_reality(policy, tools, worlds) -> list[dict]:
-    """One deployed run (`tasks.deploy.deploy`) of the loaded `policy` per tool in its
-    measured reality (`measured_realities`)."""
+def _measured_belief(task: str, scenario, generated, seed: int) -> tuple:
+    belief, measurement = measure(scenario, generated, seed)
+    best = measurement.shape.best
+    tool = believed_tool(task, measured_tool(best.family, best.params))
+    return RobotBelief(tool, belief.grasp_offset), measurement.family
+
+
+def measured_realities(task: str, tools, seed: int) -> list:
+    """(scenario, belief or None, figures) per tool: tool i held in `task`'s reality with its
+    randomized draw from seed + i, and what the head camera measured of it (None, with the
+    error in the figures, where the measurement gives the task's policy no tool)."""
+    reality = task_scenarios(task)[1]
+    worlds = []
+    for i, generated in enumerate(tools):
+        scenario = _drawn(reality, generated, seed + i)
+        measured, error = attempt(_measured_belief, task, scenario, generated, seed + i)
+        if measured is None:
+            worlds.append((scenario, None, {"measured_family": None, "error": error}))
+        else:
+            worlds.append((scenario, measured[0], {"measured_family": measured[1]}))
+    return worlds
+
+
+def run_deployed(policy, tools, worlds) -> list[dict]:
+    """One deployed run (`tasks.deploy.deploy`) of the loaded `policy` per tool in its world
+    (`told_worlds`, `measured_realities`); a tool with no belief is a failed run."""
     rows = []
     for generated, (scenario, belief, figures) in zip(tools, worlds):
+        row = {**generated.as_dict(), **figures}
+        if belief is None:
+            rows.append({**row, "success": False, "object_to_goal_m": None, "sim_error": False})
+            continue
         run = deploy(scenario, policy, belief)
         rows.append(
             {
-                **generated.as_dict(),
-                **figures,
+                **row,
                 "success": run.success,
                 "object_to_goal_m": run.final_object_to_goal,
                 "sim_error": run.sim_error,
@@ -146,7 +172,10 @@ def summary(rows: list[dict]) -> dict:
         return {
             "tools": len(rs),
             "success_rate": float(np.mean([r["success"] for r in rs])),
-            "object_to_goal_mean_m": float(np.mean([r["object_to_goal_m"] for r in rs])),
+            # Over the runs that ran (a tool the camera gave no belief of did not).
+            "object_to_goal_mean_m": float(
+                np.mean([r["object_to_goal_m"] for r in rs if r["object_to_goal_m"] is not None])
+            ),
         }
 
     return {
@@ -162,7 +191,8 @@ def main() -> int:
         nargs="+",
         type=Path,
         default=list(DEFAULT_POLICIES),
-        help="push policy directories (default: the shipped shapes and tip policies)",
+        help="policy directories of tool tasks (default: the shipped push policies over shapes "
+        "and of the tip)",
     )
     ap.add_argument("--tools", type=int, default=200, help="held-out tools (one episode each)")
     ap.add_argument("--tool-seed", type=int, default=0, help="seed of the held-out tools' draw")
@@ -178,51 +208,59 @@ def main() -> int:
         policies = check_args(args)
     except (ValueError, FileNotFoundError) as e:
         ap.error(str(e))
-    tools = held_out_tools(args.tools, args.tool_seed)
-    families = [f for f in FAMILIES if any(t.family == f for t in tools)]
+    tasks = list(dict.fromkeys(task_of(p.meta.env_id) for p in policies))
+    tools, passed = {}, {}
+    for task in tasks:
+        tools[task], passed[task] = served_tools(task, args.tools, args.tool_seed)
+    families = [f for f in FAMILIES if any(t.family == f for ts in tools.values() for t in ts)]
     heads = " | ".join(
         f"{f}{' (held-out family)' if f == HELD_OUT_FAMILY else ' (corner)'}" for f in families
     )
-    print(f"| policy | success | distance (cm) | {heads} | wall (s) |")
-    print("|---" * (4 + len(families)) + "|")
+    print(f"| policy | task | success | distance (cm) | {heads} | wall (s) |")
+    print("|---" * (5 + len(families)) + "|")
     results = {}
-    worlds, measure_s = {}, 0.0  # task -> its measured realities (the tools measured once)
+    worlds, measure_s = {}, 0.0  # task -> its worlds (each reality's tools measured once)
     for path, policy in zip(args.policies, policies):
+        task = task_of(policy.meta.env_id)
         start = time.perf_counter()
-        if args.reality:
-            task = task_of(policy.meta.env_id)
-            if task not in worlds:
-                worlds[task] = measured_realities(task, tools, args.seed)
-                measure_s += time.perf_counter() - start
-                start = time.perf_counter()
-            rows = run_policy_in_reality(policy, tools, worlds[task])
-        else:
-            rows = run_policy(policy, tools, args.seed)
+        if task not in worlds:
+            make = measured_realities if args.reality else told_worlds
+            worlds[task] = make(task, tools[task], args.seed)
+            measure_s += time.perf_counter() - start
+            start = time.perf_counter()
+        rows = run_deployed(policy, tools[task], worlds[task])
         s = summary(rows)
-        results[str(path)] = {**s, "episodes": rows}
+        results[str(path)] = {**s, "task": task, "episodes": rows}
         per_family = " | ".join(
             f"{s['families'][f]['success_rate'] * 100:.0f} % of {s['families'][f]['tools']}"
+            if f in s["families"]
+            else "–"
             for f in families
         )
         print(
-            f"| {path} | {s['success_rate'] * 100:.1f} % | {s['object_to_goal_mean_m'] * 100:.2f} "
-            f"| {per_family} | {time.perf_counter() - start:.0f} |",
+            f"| {path} | {task} | {s['success_rate'] * 100:.1f} % | "
+            f"{s['object_to_goal_mean_m'] * 100:.2f} | {per_family} | "
+            f"{time.perf_counter() - start:.0f} |",
             flush=True,
         )
-    where, goal = "in simulation", SIM_SUCCESS_GOAL
+    where, goal = "in simulation, the robot told each tool's geometry and grasp", SIM_SUCCESS_GOAL
     if args.reality:
-        measured = next(iter(worlds.values()))
-        right = np.mean([f["measured_family"] == t.family for t, (_, _, f) in zip(tools, measured)])
+        rows = [row for r in results.values() for row in r["episodes"]]
+        right = np.mean([row["measured_family"] == row["family"] for row in rows])
         where = (
             f"in the perturbed reality, each tool measured by the head camera (family named "
             f"right for {right * 100:.0f} %, {measure_s:.0f} s)"
         )
         goal = REALITY_SUCCESS_GOAL
     print(
-        f"{args.tools} held-out tools drawn from tool seed {args.tool_seed}, one episode each "
-        f"from env seed {args.seed}, {where}, to the step limit. Goal for a policy "
+        f"{args.tools} held-out tools per task drawn from tool seed {args.tool_seed}, one "
+        f"episode each from env seed {args.seed}, {where}, to the step limit. Goal for a policy "
         f"trained over the generator's training split: ≥ {goal * 100:g} %."
     )
+    for task in tasks:
+        if passed[task]:
+            others = ", ".join(f"{n} {f}" for f, n in sorted(passed[task].items()))
+            print(f"{task}: the draws of families its policy does not serve, passed over: {others}")
     if args.out is not None:
         atomic_write_json(
             args.out,
@@ -232,6 +270,7 @@ def main() -> int:
                 "seed": args.seed,
                 "reality": args.reality,
                 "success_goal": goal,
+                "passed_over": {t: dict(passed[t]) for t in tasks},
                 "policies": results,
             },
         )

@@ -2,6 +2,7 @@
 run measures each policy on the held-out tools, one episode per tool, the JSON the table's."""
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -17,10 +18,6 @@ ROOT = Path(__file__).resolve().parents[2]
     "argv, message",
     [
         (["--policies", "no/such/policy"], "'no/such/policy' is not a policy directory"),
-        (
-            ["--policies", str(ROOT / "models" / "policies" / "ppo_toolpull")],
-            "is a policy for drake_tooluse/ToolPull-v",
-        ),
         (["--tools", "0"], "--tools=0 is outside the allowed range [1, 100000]"),
         (["--out", "x.txt"], "--out 'x.txt' must be a .json file"),
     ],
@@ -33,6 +30,35 @@ def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
     assert exit.value.code == 2 and message in err and out == ""
 
 
+def test_a_policy_no_tool_task_deploys_is_refused(tmp_path, monkeypatch, capsys):
+    policy = tmp_path / "box_reward"
+    shutil.copytree(ROOT / "models" / "policies" / "ppo_toolpush_tip", policy)
+    meta = policy / "policy.json"
+    text = meta.read_text().replace("ToolPush-v1", "ToolPushBoxReward-v1")
+    meta.write_text(text)
+    monkeypatch.setattr("sys.argv", ["unseen_tools.py", "--policies", str(policy)])
+    with pytest.raises(SystemExit) as exit:
+        benchmark_script("unseen_tools").main()
+    assert exit.value.code == 2
+    assert "ToolPushBoxReward-v1, which no tool task deploys" in capsys.readouterr().err
+
+
+def test_the_pull_runs_on_the_held_out_tools_it_serves(tmp_path, monkeypatch, capsys):
+    """The hook policy on held-out hooks and arcs (as their equivalent hooks); the draws of
+    the families it does not serve passed over and counted."""
+    out_file = tmp_path / "unseen.json"
+    policy = str(ROOT / "models" / "policies" / "ppo_toolpull")
+    argv = ["--policies", policy, "--tools", "3", "--out", str(out_file)]
+    monkeypatch.setattr("sys.argv", ["unseen_tools.py", *argv])
+    assert benchmark_script("unseen_tools").main() == 0
+    assert "pull: the draws of families its policy does not serve" in capsys.readouterr().out
+    figures = json.loads(out_file.read_text())
+    (result,) = figures["policies"].values()
+    assert result["task"] == "pull" and len(result["episodes"]) == 3
+    assert {row["family"] for row in result["episodes"]} <= {"hook", "arc"}
+    assert sum(figures["passed_over"]["pull"].values()) > 0
+
+
 def test_a_small_run_measures_the_policy_on_held_out_tools(tmp_path, monkeypatch, capsys):
     out_file = tmp_path / "unseen.json"
     monkeypatch.setattr(
@@ -40,7 +66,7 @@ def test_a_small_run_measures_the_policy_on_held_out_tools(tmp_path, monkeypatch
     )
     assert benchmark_script("unseen_tools").main() == 0
     table = capsys.readouterr().out
-    assert "2 held-out tools drawn from tool seed 5" in table
+    assert "2 held-out tools per task drawn from tool seed 5" in table
     figures = json.loads(out_file.read_text())
     # The shipped policy over shapes and the tip policy, side by side on the same tools.
     assert [Path(p).name for p in figures["policies"]] == [
