@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from drake_tooluse.cli.common import run_script
-from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, measure, task_scenarios
-from drake_tooluse.experiments.tool_choice import believed_tool
+from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, task_scenarios
+from drake_tooluse.experiments.tool_choice import believed_tool, measure_generated
 from drake_tooluse.experiments.transfer import attempt
 from drake_tooluse.files import atomic_write_json, check_output_file
 from drake_tooluse.learning.policy_dir import load_policy
@@ -48,7 +48,6 @@ from drake_tooluse.robot.tool_generator import (
     FAMILIES,
     HELD_OUT_FAMILY,
     generate_tool,
-    measured_tool,
     split_draw,
 )
 from drake_tooluse.tasks.deploy import deploy
@@ -118,11 +117,9 @@ def told_worlds(task: str, tools, seed: int) -> list:
     return worlds
 
 
-def _measured_belief(task: str, scenario, generated, seed: int) -> tuple:
-    belief, measurement = measure(scenario, generated, seed)
-    best = measurement.shape.best
-    tool = believed_tool(task, measured_tool(best.family, best.params))
-    return RobotBelief(tool, belief.grasp_offset), measurement.family
+def _measured_belief(task: str, scenario, seed: int) -> tuple:
+    measured, grasp = measure_generated(scenario, seed)
+    return RobotBelief(believed_tool(task, measured), grasp), measured.family
 
 
 def measured_realities(task: str, tools, seed: int) -> list:
@@ -133,7 +130,7 @@ def measured_realities(task: str, tools, seed: int) -> list:
     worlds = []
     for i, generated in enumerate(tools):
         scenario = _drawn(reality, generated, seed + i)
-        measured, error = attempt(_measured_belief, task, scenario, generated, seed + i)
+        measured, error = attempt(_measured_belief, task, scenario, seed + i)
         if measured is None:
             worlds.append((scenario, None, {"measured_family": None, "error": error}))
         else:
