@@ -157,4 +157,5 @@ def test_cli_chooses_from_a_generated_rack(capsys):
     assert main(argv) == 0
     text = capsys.readouterr().out
     assert "measuring the rack's shapes" in text
-    assert text.count("predicted success") == MAX_TOOLS and "chosen: hook#" in text
+    assert text.count("predicted success") == MAX_TOOLS
+    assert "chosen: hook#" in text or "chosen: arc#" in text
