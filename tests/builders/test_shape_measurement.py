@@ -26,6 +26,7 @@ def held(generated, across, along):
     return dc.replace(scenario, tool=tool)
 
 
+@pytest.mark.slow  # ~5 s; benchmarks/shape_vision_accuracy.py measures 100 such tools
 def test_a_held_out_tool_is_named_and_its_frames_found_under_noise_and_dim_light():
     scenario = held(generate_tool("rake", 11), -0.006, 0.02)  # the family training never sees
     result = measure_shape(scenario, noise_sigma=8.0, depth_noise_sigma=0.001, lighting="dim_side")

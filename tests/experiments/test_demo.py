@@ -55,6 +55,7 @@ def test_the_push_demo_end_to_end(tmp_path, capsys, monkeypatch):
     assert metrics["files"]["summary"] == str(out / "summary.png")
 
 
+@pytest.mark.slow  # ~3 s; the push demo's end to end runs in the default suite
 def test_the_pull_demo_end_to_end(tmp_path, capsys):
     """The same command and the same run directory for the pull: the task's own tool (a
     hook), its shipped policy, its object (the cube)."""
@@ -106,6 +107,7 @@ def test_the_demo_refuses_bad_arguments_before_any_work(tmp_path, capsys, argv, 
     assert not out.exists()
 
 
+@pytest.mark.slow  # ~2-3 s each
 @pytest.mark.parametrize("task", ["push-far", "pull"])
 def test_the_demo_runs_a_tasks_scripted_reference_when_asked(tmp_path, task):
     m = run_demo(tmp_path / "run", task, "scripted", max_steps=5, progress=False)

@@ -1,12 +1,13 @@
 """docs/TRAINING.md is the page `drake-tooluse study-report` makes from the committed results
 (docs/results/paper_study.json and its archive), so a results file committed without its page
-(or a page edited by hand) fails the suite; a results file of the -v1 cells makes the page's
+(or a page edited by hand) fails CI's slow tests; a results file of the -v1 cells makes the page's
 parts: the IQM/CI table beside the paper, the curves, the costs and the earlier study's tag."""
 
 import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from drake_tooluse.cli import main as cli_main
 from drake_tooluse.experiments import paper_study_report as report
@@ -15,6 +16,7 @@ from drake_tooluse.experiments.paper_study_cells import StudyFiles, load_cells
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow  # ~5 s; CI runs it with the slow tests
 def test_committed_training_page_is_current():
     files = StudyFiles.docs(ROOT)
     cells, _, _ = load_cells()

@@ -150,7 +150,13 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
     assert "reality" in c[3] and not any("reality" in x for x in c[:3])
 
 
-@pytest.mark.parametrize("pull", [ScriptedPolicy(PULL), None], ids=["scripted", "shipped"])
+@pytest.mark.parametrize(
+    "pull",
+    [
+        pytest.param(ScriptedPolicy(PULL), id="scripted", marks=pytest.mark.slow),
+        pytest.param(None, id="shipped"),
+    ],
+)
 def test_choose_pull_succeeds_in_reality(pull):
     rack = ["straight:0.3", "hook:0.25,0.05,90"]
     policies = Policies(pull=pull)  # None: the shipped hook policy

@@ -68,8 +68,9 @@ def _die_on_second_checkpoint(moment: str):
     "moment",
     [
         "before the new checkpoint appears",
-        "after it appears, before latest.json",
-        "while the old one is deleted",
+        # ~1.5 s each: with the slow tests CI runs.
+        pytest.param("after it appears, before latest.json", marks=pytest.mark.slow),
+        pytest.param("while the old one is deleted", marks=pytest.mark.slow),
     ],
 )
 def test_a_kill_while_checkpointing_leaves_a_complete_checkpoint(tmp_path, moment):
@@ -285,7 +286,7 @@ def test_a_run_that_fails_to_start_leaves_a_directory_that_can_be_reused(tmp_pat
     assert train(tiny_config(128), out, progress_bar=False)["timesteps"] == 128
 
 
-@pytest.mark.parametrize("how", ["failed", "killed"])
+@pytest.mark.parametrize("how", [pytest.param("failed", marks=pytest.mark.slow), "killed"])
 def test_a_run_stopped_before_its_first_checkpoint_resumes_or_is_reused(tmp_path, how):
     config = tiny_config(256)
 

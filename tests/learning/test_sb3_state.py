@@ -233,9 +233,10 @@ def _damage(path, how: str) -> None:
     "how, says",
     [
         ("missing", "No such file"),
-        ("garbage", "not an .npz file"),
-        ("truncated", "not a zip file"),
-        ("an array missing", "rewards is not a file"),
+        # ~1 s each (a DDPG model apiece): with the slow tests CI runs.
+        pytest.param("garbage", "not an .npz file", marks=pytest.mark.slow),
+        pytest.param("truncated", "not a zip file", marks=pytest.mark.slow),
+        pytest.param("an array missing", "rewards is not a file", marks=pytest.mark.slow),
         ("pos disagrees", "holds 48 transitions where pos=40"),
     ],
 )

@@ -28,8 +28,9 @@ PER_ALGO = {
 }
 
 
-# PPO and A2C by default; DDPG (~20 s, its replay buffer) and TRPO (~6 s) slow, run by .ci/run.
-SLOW_ALGOS = ("ddpg", "trpo")
+# PPO by default; A2C (~4 s), DDPG (~20 s, its replay buffer) and TRPO (~6 s) slow, run by
+# .ci/run.
+SLOW_ALGOS = ("a2c", "ddpg", "trpo")
 
 
 @pytest.mark.parametrize(

@@ -79,6 +79,7 @@ def test_held_deep_the_fingers_hide_the_grip_band_from_the_hook_views_not_the_gr
     assert_within_goal(result)
 
 
+@pytest.mark.slow  # ~2 s; the hook's noisy measurement is benchmarked by hook_vision_accuracy.py
 def test_side_light_colour_noise_and_an_orange_distractor_keep_the_estimate():
     from drake_tooluse.builders.measurement import orange_distractor
 

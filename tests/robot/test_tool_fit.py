@@ -48,7 +48,15 @@ def true_frames(generated, across, along):
     return {n: np.array(X.translation) + offset for n, X in generated.tool.frames().items()}
 
 
-@pytest.mark.parametrize("family, seed", [("hook", 2), ("rake", 5), ("two_bend", 1)])
+# One family in the default suite; the others (~4 s each) with the slow tests CI runs.
+@pytest.mark.parametrize(
+    "family, seed",
+    [
+        ("hook", 2),
+        pytest.param("rake", 5, marks=pytest.mark.slow),
+        pytest.param("two_bend", 1, marks=pytest.mark.slow),
+    ],
+)
 def test_a_tool_is_named_and_its_frames_found_within_a_millimetre(family, seed):
     generated = generate_tool(family, seed)
     across, along = 0.004, -0.012
