@@ -168,6 +168,7 @@ def test_a_study_cell_of_the_pull_task_runs_and_only_the_papers_page_is_refused(
     assert code == 2 and "--update-docs: cell 'pull'" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_reader_that_leaves_the_pipe_ends_no_command_in_a_traceback():
     """`drake-tooluse ... --json | head -1`: the reader closes the pipe before the result."""
     import subprocess

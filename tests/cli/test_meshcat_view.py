@@ -46,6 +46,7 @@ def test_without_a_terminal_the_end_of_stdin_ends_the_wait(capsys):
     assert "send a line or close stdin to close it" in capsys.readouterr().err
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_simulate_keeps_its_view_open_until_stdin_says_so():
     argv = [sys.executable, "-m", "drake_tooluse.cli", "simulate", "--tip-waypoints"]
     argv += ["0.66,-0.2,-0.12", "--move-time", "0.1", "--dwell", "0", "--meshcat", "--json"]

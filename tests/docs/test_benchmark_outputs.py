@@ -75,6 +75,7 @@ def test_by_default_a_script_writes_a_new_run_directory_and_the_docs_only_when_a
     assert docs.is_file()  # the tracked file the docs quote
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_run_without_update_docs_leaves_the_docs_untouched(tmp_path):
     before = _docs_digest()
     done = subprocess.run(

@@ -172,6 +172,7 @@ def _stop_after(round_: int):
     return log
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_stopped_distillation_goes_on_to_the_same_student(tmp_path):
     """Stopped after its second round (as by Ctrl-C: the round is saved before it is
     logged), then resumed: the student, its normalization and the rounds' records are the

@@ -52,6 +52,7 @@ def _row(page: str, cell: str) -> str:
     return next(line for line in page.splitlines() if line.startswith(f"| {cell} |"))
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_v1_results_file_makes_the_page_of_its_cells(tmp_path):
     """The shipped cells (DDPG's at a smaller budget): a row per cell with its IQM, mean
     and success CIs, its seeds and the paper's figure for its algorithm; the runs still to run

@@ -249,6 +249,7 @@ def test_worlds_posing_different_tasks_are_refused():
         )
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_transfer_length_only_is_the_papers_measurement(tmp_path):
     result = run_transfer(
         SHIPPED_POLICY, tools=[0.15], runs=1, log=lambda text: None, use_grasp_estimate=False

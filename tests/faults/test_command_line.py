@@ -65,6 +65,7 @@ def test_any_finite_quaternion_is_a_unit_one_or_a_value_error(q):
 # -- a result of several files is one set ----------------------------------------------------
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_measure_images_killed_midway_leave_the_old_set_whole(tmp_path, monkeypatch):
     images = tmp_path / "images"
     images.mkdir()

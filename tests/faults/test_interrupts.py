@@ -147,6 +147,7 @@ def test_a_full_disk_under_train_is_exit_2_naming_the_file(tmp_path):
     assert "internal error" not in done.stderr
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_envs_close_in_bounded_time_after_a_ctrl_c_between_two_step_results():
     """The Ctrl-C that lands in step_wait after the first env process's result was read: that
     process has nothing more to send, and SubprocVecEnv's own close would wait for it forever."""

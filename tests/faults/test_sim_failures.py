@@ -92,6 +92,7 @@ def test_evaluate_counts_the_episodes_the_simulation_failed_in(monkeypatch):
     assert np.isfinite(result.metrics["final_object_to_goal_mean_m"]) and result.success_rate == 0.0
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_failed_transfer_run_is_recorded_and_the_experiment_goes_on(monkeypatch, tmp_path):
     run_closed_loop = transfer.run_closed_loop
     failing = {"reality": 0}

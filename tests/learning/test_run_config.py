@@ -57,6 +57,7 @@ def test_another_scenario_is_written_into_the_run_directory(tmp_path):
     assert str(tmp_path) not in text and (run / "scenario.yaml").is_file()
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_a_run_resumes_after_its_directory_and_its_scenario_file_moved(tmp_path):
     first = tmp_path / "first"
     train(config_for(own_scenario(first / "src")), first / "run", progress_bar=False)

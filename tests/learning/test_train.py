@@ -114,6 +114,7 @@ def test_a_hyperparameter_the_algorithm_does_not_take(tmp_path):
     assert not (tmp_path / "run" / "config.json").exists()
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_resume_with_different_hyperparameters_is_refused(tmp_path):
     config = resolve_config(ENV, "ppo", 300, 1, 0, overrides={**TINY, **PER_ALGO["ppo"]})
     train(config, tmp_path / "run", progress_bar=False)

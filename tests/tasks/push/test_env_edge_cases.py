@@ -94,6 +94,7 @@ def _rss_mb() -> float:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
+@pytest.mark.slow  # ~1.5-2.5 s: with the slow tests CI runs
 def test_rebuilding_envs_does_not_grow_memory():
     """pydrake keeps a diagram with Python systems alive forever unless close() releases it:
     2-3 MB per rebuild before (50+ MB over these 20)."""
