@@ -37,19 +37,14 @@ import numpy as np
 
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.task_worlds import TOOL_TASKS, holding, task_scenarios
-from drake_tooluse.experiments.tool_choice import believed_tool, measure_generated
+from drake_tooluse.experiments.tool_choice import believed_tool, measured_belief
 from drake_tooluse.experiments.transfer import attempt
 from drake_tooluse.files import atomic_write_json, check_output_file
 from drake_tooluse.learning.policy_dir import load_policy
 from drake_tooluse.limits import MAX_EPISODES
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.robot.model import RobotBelief
-from drake_tooluse.robot.tool_generator import (
-    FAMILIES,
-    HELD_OUT_FAMILY,
-    generate_tool,
-    split_draw,
-)
+from drake_tooluse.robot.tool_generator import FAMILIES, HELD_OUT_FAMILY, held_out_draws
 from drake_tooluse.tasks.deploy import deploy
 from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.randomization import apply_draw, draw_randomization
@@ -89,15 +84,14 @@ def served_tools(task: str, count: int, seed: int) -> tuple[list, Counter]:
     """(the first `count` held-out tools drawn from `seed` of the families `task` serves; how
     many of each other family were drawn and passed over)."""
     families = TOOL_TASKS[task].shape_families
-    rng = np.random.default_rng(seed)
     tools, passed = [], Counter()
-    while len(tools) < count:
-        tool = generate_tool(*split_draw("held_out", rng))
+    for tool in held_out_draws(seed):
         if families is None or tool.family in families:
             tools.append(tool)
+            if len(tools) == count:
+                return tools, passed
         else:
             passed[tool.family] += 1
-    return tools, passed
 
 
 def _drawn(world, tool, seed: int):
@@ -117,11 +111,6 @@ def told_worlds(task: str, tools, seed: int) -> list:
     return worlds
 
 
-def _measured_belief(task: str, scenario, seed: int) -> tuple:
-    measured, grasp = measure_generated(scenario, seed)
-    return RobotBelief(believed_tool(task, measured), grasp), measured.family
-
-
 def measured_realities(task: str, tools, seed: int) -> list:
     """(scenario, belief or None, figures) per tool: tool i held in `task`'s reality with its
     randomized draw from seed + i, and what the head camera measured of it (None, with the
@@ -130,11 +119,11 @@ def measured_realities(task: str, tools, seed: int) -> list:
     worlds = []
     for i, generated in enumerate(tools):
         scenario = _drawn(reality, generated, seed + i)
-        measured, error = attempt(_measured_belief, task, scenario, seed + i)
+        measured, error = attempt(measured_belief, task, scenario, seed + i)
         if measured is None:
             worlds.append((scenario, None, {"measured_family": None, "error": error}))
         else:
-            worlds.append((scenario, measured[0], {"measured_family": measured[1]}))
+            worlds.append((scenario, measured[0], {"measured_family": measured[1].family}))
     return worlds
 
 

@@ -61,10 +61,10 @@ from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_label
 from drake_tooluse.robot.tool_generator import (
     FAMILIES,
-    HELD_OUT_FAMILY,
     GeneratedTool,
     equivalent_hook,
     generate_tool,
+    held_out_region,
     measured_tool,
 )
 from drake_tooluse.tasks.contract import declaration, scripted_reference
@@ -122,10 +122,7 @@ def generated_rack(seed: int, size: int = MAX_TOOLS) -> tuple:
     check_int(size, MIN_TOOLS, min(MAX_TOOLS, len(FAMILIES)), "rack size")
     rng = np.random.default_rng(check_seed(seed, "rack seed"))
     families = rng.choice(list(FAMILIES), size, replace=False)
-    return tuple(
-        generate_tool(f, int(rng.integers(2**32)), "any" if f == HELD_OUT_FAMILY else "corner")
-        for f in families
-    )
+    return tuple(generate_tool(f, int(rng.integers(2**32)), held_out_region(f)) for f in families)
 
 
 # -- the policies ------------------------------------------------------------------------
@@ -288,6 +285,15 @@ def measure_generated(reality: Scenario, seed: int, family: str | None = None):
     )
     best = result.shape.best
     return measured_tool(best.family, best.params), belief.grasp_offset
+
+
+def measured_belief(task: str, reality: Scenario, seed: int, family: str | None = None):
+    """(what the robot believes for `task` of the generated tool it holds in `reality`, once
+    the head camera measured it (`measure_generated`; `family` as there); the measured
+    tool). A chosen tool is measured so again in the hand, its family known from the rack's
+    measurement, for the grasp it is held at."""
+    measured, grasp = measure_generated(reality, seed, family)
+    return RobotBelief(believed_tool(task, measured), grasp), measured
 
 
 def measure_rack(task: str, rack, seed: int = 0) -> dict:
@@ -490,13 +496,6 @@ def _params_text(params: dict) -> str:
     return ", ".join(f"{k} {v:.3g}" for k, v in params.items() if k != "radius")
 
 
-def _in_hand_belief(task: str, reality: Scenario, held: GeneratedTool, seed: int) -> RobotBelief:
-    """What the robot believes of a generated tool it picked up: measured again in the hand,
-    its family known from the rack's measurement, for the grasp it is held at."""
-    measured, grasp = measure_generated(reality, seed, held.family)
-    return RobotBelief(believed_tool(task, measured), grasp)
-
-
 def _reality_run(instance, candidate, worlds, policies: Policies, recording_path=None) -> dict:
     """The candidate's run in reality, with the belief the camera gave (recorded to
     `recording_path` if given); a tool the robot has no way to use (or could not measure) is
@@ -505,9 +504,12 @@ def _reality_run(instance, candidate, worlds, policies: Policies, recording_path
     if worlds is None or (belief is None and held is None):
         return {"success": False, "final_distance_m": None, "run": False}
     if held is not None:
-        belief, error = attempt(_in_hand_belief, instance.task, worlds[1], held, instance.seed)
-        if belief is None:
+        measured, error = attempt(
+            measured_belief, instance.task, worlds[1], instance.seed, held.family
+        )
+        if measured is None:
             return {**Outcome(False, math.nan, error).as_dict(), "run": False}
+        belief = measured[0]
     recording = {} if recording_path is None else {"recording_path": recording_path}
     policy = policies.for_task(instance.task, generated=held is not None)
     run, error = attempt(policy.run, worlds[1], belief, **recording)

@@ -34,8 +34,9 @@ grasp, and the static moment about the grasp bounded. No Drake here.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from itertools import islice
 
 import numpy as np
 
@@ -485,11 +486,27 @@ def split_draw(split: str, rng: np.random.Generator) -> tuple[str, int, str]:
     seed = int(rng.integers(2**32))
     if split == "training":
         return family, seed, "training"
-    return family, seed, "any" if family == HELD_OUT_FAMILY else "corner"
+    return family, seed, held_out_region(family)
+
+
+def held_out_region(family: str) -> str:
+    """The region (REGIONS) of `family` that training never draws: the whole held-out family,
+    or another family's corner."""
+    return "any" if family == HELD_OUT_FAMILY else "corner"
+
+
+def held_out_draws(seed: int = 0) -> Iterator[GeneratedTool]:
+    """The tools of the held-out split, drawn in turn from `seed`'s generator, without end."""
+    rng = np.random.default_rng(check_seed(seed, "seed"))
+
+    def draws():
+        while True:
+            yield generate_tool(*split_draw("held_out", rng))
+
+    return draws()
 
 
 def held_out_tools(count: int, seed: int = 0) -> list[GeneratedTool]:
-    """`count` tools of the held-out split, drawn in turn from `seed`'s generator: the test
-    set of a policy trained on the "training" split."""
-    rng = np.random.default_rng(check_seed(seed, "seed"))
-    return [generate_tool(*split_draw("held_out", rng)) for _ in range(count)]
+    """The first `count` tools of `held_out_draws(seed)`: the test set of a policy trained on
+    the "training" split."""
+    return list(islice(held_out_draws(seed), count))
