@@ -21,7 +21,14 @@ def _examples(page: Path) -> list[str]:
 
 EXAMPLES = [(page, k) for page in PAGES for k in range(len(_examples(page)))]
 # Examples that start a Ray cluster (~10 s here): they run with the slow tests (CI runs both).
-SLOW = {"docs/guide/sweeps.md:0", "docs/guide/tool-choice.md:1"}
+# Each over 1.5 s (a Ray cluster, a rack's shapes measured, a choice, a transfer): with the slow
+# tests CI runs.
+SLOW = {
+    "docs/guide/sweeps.md:0",
+    "docs/guide/tool-choice.md:0",
+    "docs/guide/tool-choice.md:1",
+    "docs/guide/transfer.md:0",
+}
 
 
 def _id(page: Path, index: int) -> str:

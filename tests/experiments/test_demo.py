@@ -130,6 +130,7 @@ def test_demo_refuses_a_used_directory_and_bad_input(tmp_path):
     assert not (tmp_path / "new").exists()
 
 
+@pytest.mark.slow  # ~1.2-2.4 s: with the slow tests CI runs
 def test_a_failed_demo_leaves_nothing(tmp_path, monkeypatch):
     """A failure half-way (here: the run) leaves no half-written run directory."""
     import drake_tooluse.experiments.demo as demo

@@ -154,7 +154,7 @@ def test_the_choice_is_the_best_prediction_ties_by_distance():
     "pull",
     [
         pytest.param(ScriptedPolicy(PULL), id="scripted", marks=pytest.mark.slow),
-        pytest.param(None, id="shipped"),
+        pytest.param(None, id="shipped", marks=pytest.mark.slow),
     ],
 )
 def test_choose_pull_succeeds_in_reality(pull):

@@ -98,6 +98,7 @@ def test_tip_trajectory_source_interpolates_holds_and_leads():
     np.testing.assert_allclose(np.abs(at(0.05)[3:]), q, atol=1e-12)  # no flip through zero
 
 
+@pytest.mark.slow  # ~1.2-2.4 s: with the slow tests CI runs
 def test_transfer_closed_loop_json(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["transfer", "--runs", "1", "--tools", "0.15", "--out", "t", "--json"]) == 0

@@ -207,6 +207,7 @@ def test_train_and_evaluate_bad_input(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow  # ~1.2-2.4 s: with the slow tests CI runs
 def test_resume_with_flags_that_match_the_run_takes_the_rest_from_it(tmp_path, capsys):
     """`train --resume RUN --algo ppo --env ITS_ENV`: the settings not given are the run's
     (it was refused, "hyperparams.n_envs: saved 1, asked 2", for a value never given)."""

@@ -82,6 +82,7 @@ def test_the_fit_starts_nowhere_near_and_still_finds_the_tool():
     assert own.rms < 1e-3 < 5 * 1e-3 < other.rms
 
 
+@pytest.mark.slow  # ~1.2-2.4 s: with the slow tests CI runs
 def test_a_cloud_of_no_family_is_other():
     rng = np.random.default_rng(0)
     d = rng.normal(size=(600, 3))

@@ -56,6 +56,7 @@ def test_the_world_holds_it_and_the_ik_solves_for_any_of_its_frames(scenario_fil
     assert np.linalg.norm(p_tip - p_corner) == pytest.approx(0.05, abs=1e-9)
 
 
+@pytest.mark.slow  # ~1.2-2.4 s: with the slow tests CI runs
 def test_the_toy_task_trains_with_the_toy_tool(scenario_file, tmp_path):
     toy_touch.register()
     env = gym.make(toy_touch.ENV_ID, scenario=str(scenario_file))
