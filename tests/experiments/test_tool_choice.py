@@ -190,6 +190,7 @@ def test_cli_refuses_bad_input(capsys, argv, message):
     assert message in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow  # ~4.5 s (a recording): with the slow tests CI runs
 def test_cli_prints_the_choice_and_records_the_chosen_run(capsys, tmp_path):
     argv = ["choose-tool", "--task", "pull", "--tools", "straight:0.3", "hook:0.25,0.05,90"]
     assert main([*argv, "--rollouts", "1", "--delay-margin", "0", "--json"]) == 0

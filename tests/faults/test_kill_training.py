@@ -67,8 +67,8 @@ def _die_on_second_checkpoint(moment: str):
 @pytest.mark.parametrize(
     "moment",
     [
-        "before the new checkpoint appears",
-        # ~1.5 s each: with the slow tests CI runs.
+        # ~1.5-2 s each: with the slow tests CI runs.
+        pytest.param("before the new checkpoint appears", marks=pytest.mark.slow),
         pytest.param("after it appears, before latest.json", marks=pytest.mark.slow),
         pytest.param("while the old one is deleted", marks=pytest.mark.slow),
     ],
