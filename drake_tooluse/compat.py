@@ -18,18 +18,26 @@ metrics) record the release that made them, and are reproduced exactly only on t
 (`reproduces_exactly`); elsewhere their checks compare what the project owns within stated
 tolerances. A rollout's floats also move with the builds of numpy, torch and OpenCV, so the
 shipped policies' episodes are compared bit for bit only where the builds that made them are
-all installed (`exact_versions_installed`, with the pins of `.ci/exact-versions.txt`).
+all installed (`exact_versions_installed`, with the pins of `.ci/exact-versions.txt`), and
+only on the kind of CPU that made them (`cpu_kernels`, `.ci/exact-cpu.txt`): torch's and
+numpy's kernels are chosen at run time by the CPU's vector instructions and maker. (A CI run
+of 2026-12-07 with the same builds moved two shipped evaluations' means by 22 and 193 µm,
+where this project's machine reproduced them exactly running the same tests in the same
+order; its CPU was not recorded, and another CPU is the difference left.)
 """
 
 from __future__ import annotations
 
+import platform
 import re
 from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
 
 from pydrake.systems.framework import LeafSystem
 
 __all__ = [
     "BINDINGS",
+    "cpu_kernels",
     "DRAKE_VERSION",
     "NO_WITNESS_FUNCTIONS",
     "drake_version",
@@ -76,6 +84,24 @@ def exact_versions_installed(pins: dict[str, str]) -> tuple[bool, str]:
         if installed != wanted:
             return False, f"{name} {installed} is installed, the exact figures need {wanted}"
     return True, ""
+
+
+def cpu_kernels() -> str:
+    """The CPU as the float kernels see it, e.g. "x86_64 AuthenticAMD-25-17 AVX512": the
+    machine, the CPU's maker, family and model (MKL and OpenBLAS pick their code paths by
+    them) and the vector instruction set torch dispatches to (numpy's dispatch follows the
+    same instructions)."""
+    import torch  # only where a rollout's floats are compared: torch is slow to import
+
+    fields = {}
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            name, _, value = line.partition(":")
+            fields.setdefault(name.strip(), value.strip())
+    except OSError:  # not Linux: the CPU stays unknown, and so no exact comparison
+        pass
+    cpu = "-".join(fields.get(k, "unknown") for k in ("vendor_id", "cpu family", "model"))
+    return f"{platform.machine()} {cpu} {torch.backends.cpu.get_cpu_capability()}"
 
 
 def read_pins(text: str) -> dict[str, str]:

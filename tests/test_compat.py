@@ -1,6 +1,7 @@
 """drake_tooluse.compat: the installed Drake release, what pyproject.toml asks for it, and the
 Drake names the project calls whose neighbours were renamed or removed after 1.51."""
 
+import platform
 import sys
 import tomllib
 from pathlib import Path
@@ -107,3 +108,11 @@ def test_pins_are_read_from_a_constraints_file():
         "torch",
         "opencv-python-headless",
     }
+
+
+def test_the_cpu_is_named_as_its_float_kernels_see_it():
+    import torch
+
+    machine, cpu, capability = compat.cpu_kernels().split(" ")
+    assert machine == platform.machine() and cpu.count("-") >= 2
+    assert capability == torch.backends.cpu.get_cpu_capability()

@@ -96,15 +96,30 @@ ACROSS_BUILDS_BRANCHED = 1  # … but for at most this many of the first episode
 ACROSS_BUILDS_MEAN_M = 0.001  # the mean of that over the 100 episodes
 ACROSS_BUILDS_SUCCESS_RATE = 0.03  # the success rate over the 100 episodes
 
-# Bit for bit (to 1e-6 m) only under the builds that made the figures: the pins of this
-# constraints file, all installed (.ci/run runs the exact checks; elsewhere they skip).
+# Bit for bit (to 1e-6 m) only under the builds that made the figures, the pins of this
+# constraints file all installed, and on the kind of CPU that made them (.ci/run runs the exact
+# checks; elsewhere they skip).
 EXACT_VERSIONS = Path(__file__).resolve().parents[2] / ".ci" / "exact-versions.txt"
+EXACT_CPU = EXACT_VERSIONS.with_name("exact-cpu.txt")
+
+
+def _exact_cpu() -> str:
+    return next(
+        line.strip()
+        for line in EXACT_CPU.read_text().splitlines()
+        if line.strip() and not line.startswith("#")
+    )
 
 
 def _exact(name) -> tuple[bool, str]:
     """Whether `name`'s shipped figures must come out exactly here, and if not, why."""
     if not compat.reproduces_exactly(_evaluated_with_drake(name)):
         return False, f"evaluated with Drake {_evaluated_with_drake(name)}"
+    if compat.cpu_kernels() != _exact_cpu():
+        return (
+            False,
+            f"the figures were made on a {_exact_cpu()} CPU, this is {compat.cpu_kernels()}",
+        )
     return compat.exact_versions_installed(compat.read_pins(EXACT_VERSIONS.read_text()))
 
 
