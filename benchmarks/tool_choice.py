@@ -16,17 +16,21 @@ chooses); each choice predicts from those shapes, and the chosen tool is measure
 the hand for its grasp. Goals: ratio >= 0.95 and <= 5 s per choice. Instances where no tool
 succeeds (the oracle fails) count for neither.
 
-    python benchmarks/tool_choice.py [--instances 20] [--tasks push-far pull] [--rollouts 3]
-        [--delay-margin 0.06] [--generated-racks R] [--out FILE.json]
+    python benchmarks/tool_choice.py [--instances 20] [--tasks push-far pull] [--rollouts 6]
+        [--delay-margin 0.06] [--generated-racks R] [--workers N] [--out FILE.json [--resume]]
 """
 
 import argparse
+import json
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from drake_tooluse.cli.common import count_arg, run_script, seed_arg
+from drake_tooluse.experiments.choices import DEFAULT_ROLLOUTS
+from drake_tooluse.experiments.parallel import available_cores
 from drake_tooluse.experiments.tool_choice import (
     DEFAULT_RACK,
     DELAY_MARGIN,
@@ -44,6 +48,27 @@ from drake_tooluse.validation import check_in_range, check_int
 
 RATIO_GOAL, END_TO_END_GOAL = 0.90, 0.75
 GENERATED_RATIO_GOAL, CHOICE_TIME_GOAL = 0.95, 5.0  # s per choice, on 2 cores
+
+
+def recorded_args(args) -> dict:
+    """The arguments that make the results (not where they go, nor how many processes)."""
+    return {k: v for k, v in vars(args).items() if k not in ("out", "resume", "workers")}
+
+
+def done_results(args) -> list:
+    """The results an earlier run of the same arguments wrote to --out; ValueError where
+    there is no such file or its arguments differ."""
+    if not args.out:
+        raise ValueError("--resume needs --out, the file of the run to resume")
+    try:
+        done = json.loads(Path(args.out).read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"--resume: cannot read {args.out!r}: {e}") from None
+    if not isinstance(done, dict) or done.get("args") != recorded_args(args):
+        raise ValueError(
+            f"--resume: {args.out!r} holds a run of other arguments: {done.get('args')}"
+        )
+    return done["results"][: args.instances]
 
 
 def row(name: str, results: list) -> str:
@@ -93,13 +118,15 @@ def generated_report(args, results: list, shapes: dict, seconds: float) -> None:
     )
 
 
-def main() -> None:
+def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--instances", type=int, default=20, help="seeded task instances")
     ap.add_argument("--seed", type=int, default=0, help="the first instance's seed")
     ap.add_argument("--tasks", nargs="+", default=["push-far", "pull"], help=f"of {TASKS}")
     ap.add_argument("--tools", nargs="+", help="the rack (default: the default rack)")
-    ap.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
+    ap.add_argument(
+        "--rollouts", type=int, default=DEFAULT_ROLLOUTS, help="predicted rollouts per tool"
+    )
     ap.add_argument(
         "--delay-margin", type=float, default=DELAY_MARGIN, help="see tool_choice.predict (s)"
     )
@@ -109,7 +136,23 @@ def main() -> None:
         metavar="R",
         help="R racks of five generated tools the policies never trained with (not with --tools)",
     )
-    ap.add_argument("--out", help="write every instance's result there (JSON)")
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=available_cores(),
+        help="processes running a choice's rollouts (default: this machine's cores)",
+    )
+    ap.add_argument("--out", help="write every instance's result there (JSON), after each instance")
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep --out's results (of the same arguments) and run the instances after them",
+    )
+    return ap
+
+
+def main() -> None:
+    ap = parser()
     args = ap.parse_args()
     for task in args.tasks:
         if task not in TASKS:
@@ -118,6 +161,7 @@ def main() -> None:
         check_int(args.instances, 1, 10_000, "--instances")
         seed_arg(args.seed, "--seed", args.instances)
         count_arg(args.rollouts, "--rollouts")
+        count_arg(args.workers, "--workers")
         check_in_range(args.delay_margin, 0.0, MAX_DELAY_MARGIN, "--delay-margin", unit="s")
         rack = check_rack(args.tools or DEFAULT_RACK)
         if args.generated_racks is not None:
@@ -125,15 +169,17 @@ def main() -> None:
                 raise ValueError("--generated-racks draws the racks: give no --tools with it")
             check_int(args.generated_racks, 1, args.instances, "--generated-racks")
             seed_arg(args.seed, "--seed", args.generated_racks)
-        if args.out:
+        results = []
+        if args.resume:
+            results = done_results(args)
+        elif args.out:
             check_output_file(args.out, "--out", ".json")
     except ValueError as e:
         ap.error(str(e))
     policies = Policies()
     start = time.perf_counter()
-    results = []
     shapes = {}  # (task, rack index) -> the rack's shapes, measured once
-    for i in range(args.instances):
+    for i in range(len(results), args.instances):
         instance = TaskInstance(args.tasks[i % len(args.tasks)], args.seed + i)
         rack_shapes = None
         if args.generated_racks:
@@ -153,8 +199,11 @@ def main() -> None:
             delay_margin=args.delay_margin,
             rack_shapes=rack_shapes,
             progress=False,
+            workers=args.workers,
         )
         results.append(out)
+        if args.out:  # a kill loses at most the instance in progress (--resume)
+            atomic_write_json(args.out, {"args": recorded_args(args), "results": results})
         if not out["success"]:
             print(
                 f"seed {instance.seed} {instance.task}: chose {out['chosen']}, failed; the "
@@ -162,8 +211,6 @@ def main() -> None:
                 flush=True,
             )
     seconds = time.perf_counter() - start
-    if args.out:
-        atomic_write_json(args.out, {"args": vars(args), "results": results})
     if args.generated_racks:
         generated_report(args, results, shapes, seconds)
         return

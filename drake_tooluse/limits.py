@@ -15,6 +15,7 @@ MAX_PARALLEL = 64  # study runs at a time
 MAX_TRAJECTORIES = 1000  # generated trajectories a study report draws
 MAX_CALIBRATION_DRAWS = 1000  # randomized replays of an open-loop calibration
 MAX_ROLLOUTS = 20  # rollouts per tool of a tool choice
+MAX_WORKERS = 64  # worker processes of a tool choice's rollouts
 MAX_ROUNDS = 1000  # distillation rounds
 MAX_EPOCHS = 10_000  # epochs of a distillation round
 MAX_BATCH_SIZE = 1_000_000  # samples of a distillation batch
@@ -40,6 +41,7 @@ OPTION_RANGES = {
     "--trajectories": (1, MAX_TRAJECTORIES),
     "--calibration-draws": (0, MAX_CALIBRATION_DRAWS),
     "--rollouts": (1, MAX_ROLLOUTS),
+    "--workers": (1, MAX_WORKERS),
     "--rounds": (1, MAX_ROUNDS),
     "--epochs": (0, MAX_EPOCHS),
     "--every": (1, MAX_FRAME_STEP),

@@ -27,6 +27,7 @@ from drake_tooluse.cli.common import (
 from drake_tooluse.experiments.choices import (
     ALIGNMENTS,
     CALIBRATION_DRAWS,
+    DEFAULT_ROLLOUTS,
     EXTRACTIONS,
     MODES,
     RECORDS,
@@ -34,6 +35,7 @@ from drake_tooluse.experiments.choices import (
     task_tools,
     transfer_tool,
 )
+from drake_tooluse.experiments.parallel import available_cores
 from drake_tooluse.paths import DEFAULT_SCENARIO, REALITY_SCENARIO, TRANSFER_POLICY
 from drake_tooluse.tasks.contract import tool_tasks
 from drake_tooluse.world.paper import PAPER_TOOL_LENGTHS
@@ -270,6 +272,7 @@ def format_demo(out: dict) -> str:
 
 def cmd_choose_tool(args) -> dict:
     rollouts = count_arg(args.rollouts, "--rollouts")
+    workers = count_arg(args.workers, "--workers")
     seed_arg(args.seed)
     from drake_tooluse.experiments.tool_choice import DEFAULT_RACK, choose_tool, generated_rack
 
@@ -288,6 +291,7 @@ def cmd_choose_tool(args) -> dict:
         oracle=args.oracle,
         delay_margin=args.delay_margin,
         recording_path=args.record,
+        workers=workers,
     )
 
 
@@ -546,7 +550,15 @@ def add_parsers(sub) -> None:
         help="instead, a rack of five generated tools of five families that no policy "
         "trained with, drawn with S; each measured by its shape before the choice",
     )
-    p.add_argument("--rollouts", type=int, default=3, help="predicted rollouts per tool")
+    p.add_argument(
+        "--rollouts", type=int, default=DEFAULT_ROLLOUTS, help="predicted rollouts per tool"
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=available_cores(),
+        help="processes running the rollouts (default: this machine's cores)",
+    )
     p.add_argument("--oracle", action="store_true", help="also run every tool in reality")
     p.add_argument(
         "--record",

@@ -45,6 +45,8 @@ from typing import Protocol
 import numpy as np
 
 from drake_tooluse.builders.shape_measurement import measure_shape_belief
+from drake_tooluse.experiments.choices import DEFAULT_ROLLOUTS
+from drake_tooluse.experiments.parallel import map_forked
 from drake_tooluse.experiments.task_worlds import (
     TASKS,
     TOOL_TASKS,
@@ -54,7 +56,7 @@ from drake_tooluse.experiments.task_worlds import (
 )
 from drake_tooluse.experiments.transfer import attempt, run_worlds
 from drake_tooluse.learning.policy_dir import check_policy_env, load_policy
-from drake_tooluse.limits import MAX_ROLLOUTS
+from drake_tooluse.limits import MAX_ROLLOUTS, MAX_WORKERS
 from drake_tooluse.paths import POLICIES_DIR
 from drake_tooluse.progress import progress_bar
 from drake_tooluse.robot.model import RobotBelief
@@ -74,7 +76,6 @@ from drake_tooluse.world.randomization import apply_draw, draw_randomization
 from drake_tooluse.world.scenario import Scenario, validate_scenario
 
 MIN_TOOLS, MAX_TOOLS = 1, 5
-DEFAULT_ROLLOUTS = 3
 # Which tool succeeds depends on the task and the instance: a very short straight tool
 # (misses some pushes), a long one, an L-hook, and a long J-hook the scripted pull succeeds
 # with in the nominal simulation but not in reality (benchmarks/tool_choice.py).
@@ -328,24 +329,21 @@ def rollout_delays(rollouts: int, delay_margin: float, time_step: float) -> list
     return [min(round(f * delay_margin / time_step), most) * time_step for f in fractions]
 
 
-def predict(
-    policy: ToolPolicy,
+def prediction_worlds(
     nominal: Scenario,
     belief: RobotBelief,
     rollouts: int,
     seed: int,
     delay_margin: float = DELAY_MARGIN,
     held=None,
-) -> dict:
-    """K rollouts of `policy` in the nominal world holding the believed tool (`held`, where it
-    is not the belief's: a measured GeneratedTool) where the robot believes it holds it, each
-    with its own draw of the nominal mass, friction and grasp (the box's start is the
-    instance's) and its own actuation delay (`rollout_delays`): the predicted success rate
-    and mean final distance."""
+) -> list[tuple[Scenario, float]]:
+    """The worlds of K rollouts in the nominal world holding the believed tool (`held`, where
+    it is not the belief's: a measured GeneratedTool) where the robot believes it holds it,
+    each with its own draw of the nominal mass, friction and grasp (the box's start is the
+    instance's) and its own actuation delay (`rollout_delays`): [(world, delay s)]."""
     world = holding(nominal, held or belief.tool, belief.grasp_offset[1])
-    delays = rollout_delays(rollouts, delay_margin, world.plant.time_step)
-    outcomes = []
-    for k, delay in enumerate(delays):
+    worlds = []
+    for k, delay in enumerate(rollout_delays(rollouts, delay_margin, world.plant.time_step)):
         rng = np.random.default_rng(ROLLOUT_SEED_BASE + seed * ROLLOUT_SEED_STRIDE + k)
         draw = draw_randomization(world, rng)
         draw.box_dxy, draw.box_dyaw = [0.0, 0.0], 0.0  # the instance's box start
@@ -353,7 +351,12 @@ def predict(
         rollout = validate_scenario(
             dc.replace(rollout, control=dc.replace(rollout.control, actuation_delay=delay))
         )
-        outcomes.append(run_outcome(policy, rollout, belief))
+        worlds.append((rollout, delay))
+    return worlds
+
+
+def prediction(outcomes: list[Outcome], delays: list[float]) -> dict:
+    """The predicted success rate and mean final distance of a tool's rollouts."""
     finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
     return {
         "predicted_success": float(np.mean([o.success for o in outcomes])),
@@ -378,10 +381,12 @@ def choose_tool(
     recording_path=None,
     progress: bool = True,
     rack_shapes: dict | None = None,
+    workers: int = 1,
 ) -> dict:
-    """Measures each tool of the rack, predicts its success (`predict`, `rollouts` each,
-    actuation delays up to `delay_margin` s), chooses the best and does the instance with it
-    in reality. `instance` is a TaskInstance or a task kind (TASKS, then drawn with `seed`).
+    """Measures each tool of the rack, predicts its success (`rollouts` rollouts each,
+    `prediction_worlds`: actuation delays up to `delay_margin` s, run by up to `workers`
+    processes, `experiments.parallel.map_forked`), chooses the best and does the instance with
+    it in reality. `instance` is a TaskInstance or a task kind (TASKS, then drawn with `seed`).
 
     A rod or a hook is measured on the instance, by its marker bands. A generated tool's
     shape comes from `rack_shapes` (`measure_rack`: the rack measured once, before any
@@ -397,6 +402,7 @@ def choose_tool(
         instance = TaskInstance(instance, seed)
     rack = check_rack(rack)
     check_int(rollouts, 1, MAX_ROLLOUTS, "rollouts")
+    check_int(workers, 1, MAX_WORKERS, "workers")
     check_in_range(delay_margin, 0.0, MAX_DELAY_MARGIN, "delay_margin", unit="s")
     policies = policies or Policies()
     nominal, reality = task_scenarios(instance.task)
@@ -411,6 +417,7 @@ def choose_tool(
     start = time.perf_counter()
     candidates = []
     worlds = {}
+    runs = []  # (candidate index, policy, world, belief, delay) of each predicted rollout
     bar = progress_bar(len(rack) * (2 if oracle else 1) + int(not oracle), "tools", "", progress)
     for i, tool in enumerate(rack):
         bar.update(1)
@@ -444,17 +451,17 @@ def choose_tool(
             candidate["believed"] = believed_tool_label(belief)
             candidate["believed_grasp_along_m"] = belief.grasp_offset[1]
             candidate["_belief"] = belief
-        candidate.update(
-            predict(
-                policies.for_task(instance.task, generated=held is not None),
-                nominal_world,
-                belief,
-                rollouts,
-                instance.seed,
-                delay_margin,
-                held=held,
-            )
-        )
+        policy = policies.for_task(instance.task, generated=held is not None)
+        for world, delay in prediction_worlds(
+            nominal_world, belief, rollouts, instance.seed, delay_margin, held=held
+        ):
+            runs.append((i, policy, world, belief, delay))
+    # Every tool's rollouts, on the cores given (each seeded: the same for any `workers`).
+    outcomes = map_forked(lambda run: run_outcome(*run[1:4]), runs, workers)
+    for i, candidate in enumerate(candidates):
+        mine = [(o, run[4]) for o, run in zip(outcomes, runs) if run[0] == i]
+        if mine:
+            candidate.update(prediction([o for o, _ in mine], [d for _, d in mine]))
     choice_time = time.perf_counter() - start
     chosen = min(range(len(candidates)), key=lambda i: _rank_key(candidates[i]))
     for i, candidate in enumerate(candidates):

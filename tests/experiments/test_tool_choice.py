@@ -241,3 +241,13 @@ def test_the_delay_margin_tells_the_hooks_apart():
     assert out["chosen"] == "hook:0.25,0.05,90" and out["success"]
     plain = choose_tool("pull", rack, 2, seed=1, delay_margin=0.0, policies=scripted)
     assert all(r["actuation_delay_s"] == 0 for c in plain["candidates"] for r in c["rollouts"])
+
+
+@pytest.mark.slow
+def test_the_rollouts_on_two_workers_predict_what_one_does():
+    rack = ["straight:0.03", "straight:0.3"]
+    one = choose_tool("push-far", rack, rollouts=2, seed=3, progress=False)
+    two = choose_tool("push-far", rack, rollouts=2, seed=3, progress=False, workers=2)
+    for a, b in zip(one["candidates"], two["candidates"]):
+        assert a["rollouts"] == b["rollouts"] and a["predicted_success"] == b["predicted_success"]
+    assert one["chosen"] == two["chosen"] and one["success"] == two["success"]

@@ -19,6 +19,9 @@ from tests.benchmark_scripts import benchmark_script
         (["--generated-racks", "2", "--tools", "straight:0.3"], "give no --tools with it"),
         (["--instances", "3", "--generated-racks", "4"], "--generated-racks=4 is outside"),
         (["--generated-racks", "2", "--out", "x.txt"], "--out 'x.txt' must be a .json file"),
+        (["--workers", "0"], "--workers=0 is outside the allowed range [1, 64]"),
+        (["--resume"], "--resume needs --out"),
+        (["--resume", "--out", "/no/such/run.json"], "--resume: cannot read '/no/such/run.json'"),
     ],
 )
 def test_bad_arguments_are_one_line_errors(argv, says, monkeypatch, capsys):
@@ -30,3 +33,17 @@ def test_bad_arguments_are_one_line_errors(argv, says, monkeypatch, capsys):
     assert exited.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert says in err[-1] and "Traceback" not in "\n".join(err)
+
+
+def test_a_resume_of_other_arguments_is_refused(tmp_path, monkeypatch, capsys):
+    tool_choice = benchmark_script("tool_choice")
+    out = tmp_path / "run.json"
+    args = ["--tasks", "pull", "--instances", "4"]
+    recorded = tool_choice.recorded_args(tool_choice.parser().parse_args(args))
+    out.write_text(tool_choice.json.dumps({"args": {**recorded, "rollouts": 1}, "results": []}))
+    monkeypatch.setattr("sys.argv", ["tool_choice.py", *args, "--out", str(out), "--resume"])
+    monkeypatch.setattr(tool_choice, "Policies", lambda: pytest.fail("work started"))
+    with pytest.raises(SystemExit) as exited:
+        tool_choice.main()
+    assert exited.value.code == 2
+    assert "holds a run of other arguments" in capsys.readouterr().err
