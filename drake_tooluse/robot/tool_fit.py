@@ -235,8 +235,11 @@ class ShapeFit:
     best: FamilyFit
     fits: dict  # family -> FamilyFit
     points: int
+    refined: tuple = ()  # the families fitted again on the whole cloud
 
     def as_dict(self) -> dict:
+        """The measurement as JSON: each family's cost apart by the cloud it was fitted to
+        (the two clouds' costs do not compare)."""
         return {
             "family": self.family,
             "fitted_family": self.best.family,
@@ -244,7 +247,10 @@ class ShapeFit:
             "grasp_across_m": self.best.grasp_across,
             "grasp_along_m": self.best.grasp_along,
             "rms_m": self.best.rms,
-            "cost": {name: fit.cost for name, fit in self.fits.items()},
+            "cost": {name: self.fits[name].cost for name in self.refined},
+            "cost_thinned_cloud": {
+                name: fit.cost for name, fit in self.fits.items() if name not in self.refined
+            },
             "frames_G_m": {n: p.tolist() for n, p in self.best.frames_G().items()},
             "points": self.points,
         }
@@ -274,4 +280,4 @@ def measure_shape_from_points(P: np.ndarray, families=None, seed: int = 0) -> Sh
     except ValueError:
         fabricable = False
     family = best.family if best.rms <= OTHER_RMS and fabricable else OTHER
-    return ShapeFit(family, best, fits, len(P))
+    return ShapeFit(family, best, fits, len(P), tuple(refined))

@@ -68,6 +68,11 @@ def test_a_tool_is_named_and_its_frames_found_within_a_millimetre(family, seed):
         if name != "grasp":  # the grasp along a handle that enters the hand is not seen
             assert np.linalg.norm(fitted[name] - p) < 1e-3, name
     assert shape.best.rms < 1e-3
+    # Each family's cost is reported with the cloud it was fitted to: those refined on the
+    # whole cloud (the named one among them), the others on the thinned one.
+    costs = shape.as_dict()
+    assert family in costs["cost"] and len(costs["cost"]) == len(shape.refined)
+    assert set(costs["cost"]) | set(costs["cost_thinned_cloud"]) == set(shape.fits)
     if family == "rake":  # a discrete parameter is fitted too
         assert shape.best.params["tines"] == generated.params["tines"]
 
