@@ -557,7 +557,7 @@ def add_parsers(sub) -> None:
         "--workers",
         type=int,
         default=available_cores(),
-        help="processes running the rollouts (default: this machine's cores)",
+        help="processes running the rollouts (default: this machine's cores, %(default)s)",
     )
     p.add_argument("--oracle", action="store_true", help="also run every tool in reality")
     p.add_argument(
