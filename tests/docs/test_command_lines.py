@@ -75,6 +75,7 @@ BUDGETS = {
     "--num-cpus": ["1"],
     "--count": ["2"],
     "--instances": ["2"],
+    "--generated-racks": ["1"],
     "--cross-instances": ["1"],
     "--rollouts": ["1"],
     "--rounds": ["1"],
