@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 
@@ -31,9 +32,11 @@ def _run(i: int):
     return function(items[i])
 
 
-def _single_threaded() -> None:
+def _worker_start() -> None:
     """Each worker is one core's worth: torch (where the parent loaded it, with a policy)
-    runs no intra-op threads beside the other workers."""
+    runs no intra-op threads beside the other workers. Ctrl-C is the parent's to handle (it
+    ends the pool, and the command says so in one line); a worker ignores it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(1)
@@ -50,7 +53,7 @@ def map_forked(function: Callable, items: Sequence, workers: int) -> list:
         return [function(item) for item in items]
     _RUNS = (function, items)
     try:
-        with multiprocessing.get_context("fork").Pool(workers, _single_threaded) as pool:
+        with multiprocessing.get_context("fork").Pool(workers, _worker_start) as pool:
             return pool.map(_run, range(len(items)), chunksize=1)
     finally:
         _RUNS = None
