@@ -64,10 +64,9 @@ def done_results(args) -> list:
         done = json.loads(Path(args.out).read_text())
     except (OSError, ValueError) as e:
         raise ValueError(f"--resume: cannot read {args.out!r}: {e}") from None
-    if not isinstance(done, dict) or done.get("args") != recorded_args(args):
-        raise ValueError(
-            f"--resume: {args.out!r} holds a run of other arguments: {done.get('args')}"
-        )
+    recorded = done.get("args") if isinstance(done, dict) else None
+    if recorded != recorded_args(args) or not isinstance(done.get("results"), list):
+        raise ValueError(f"--resume: {args.out!r} holds a run of other arguments: {recorded}")
     return done["results"][: args.instances]
 
 
@@ -128,7 +127,10 @@ def parser() -> argparse.ArgumentParser:
         "--rollouts", type=int, default=DEFAULT_ROLLOUTS, help="predicted rollouts per tool"
     )
     ap.add_argument(
-        "--delay-margin", type=float, default=DELAY_MARGIN, help="see tool_choice.predict (s)"
+        "--delay-margin",
+        type=float,
+        default=DELAY_MARGIN,
+        help="see tool_choice.rollout_delays (s)",
     )
     ap.add_argument(
         "--generated-racks",

@@ -47,3 +47,8 @@ def test_a_resume_of_other_arguments_is_refused(tmp_path, monkeypatch, capsys):
         tool_choice.main()
     assert exited.value.code == 2
     assert "holds a run of other arguments" in capsys.readouterr().err
+    out.write_text("[]")  # JSON, but no run's file
+    with pytest.raises(SystemExit) as exited:
+        tool_choice.main()
+    assert exited.value.code == 2
+    assert "holds a run of other arguments: None" in capsys.readouterr().err
