@@ -52,3 +52,23 @@ def test_a_resume_of_other_arguments_is_refused(tmp_path, monkeypatch, capsys):
         tool_choice.main()
     assert exited.value.code == 2
     assert "holds a run of other arguments: None" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_resumed_run_keeps_the_results_written_and_runs_the_rest(tmp_path, monkeypatch):
+    tool_choice = benchmark_script("tool_choice")
+    out = tmp_path / "run.json"
+    argv = ["tool_choice.py", "--tasks", "push", "--instances", "2", "--rollouts", "1"]
+    argv += ["--tools", "straight:0.3", "--workers", "1", "--out", str(out)]
+    monkeypatch.setattr("sys.argv", argv)
+    tool_choice.main()
+    whole = tool_choice.json.loads(out.read_text())
+    killed = {**whole, "results": whole["results"][:1]}  # as a kill in the second leaves it
+    killed["results"][0]["kept"] = True
+    out.write_text(tool_choice.json.dumps(killed))
+    monkeypatch.setattr("sys.argv", [*argv, "--resume"])
+    tool_choice.main()
+    resumed = tool_choice.json.loads(out.read_text())["results"]
+    assert resumed[0].get("kept") and "kept" not in resumed[1]
+    assert [r["seed"] for r in resumed] == [r["seed"] for r in whole["results"]]
+    assert resumed[1]["success"] == whole["results"][1]["success"]
