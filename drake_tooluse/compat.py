@@ -17,13 +17,10 @@ So files that record what Drake computed (the committed block diagrams, the ship
 metrics) record the release that made them, and are reproduced exactly only on that release
 (`reproduces_exactly`); elsewhere their checks compare what the project owns within stated
 tolerances. A rollout's floats also move with the builds of numpy, torch and OpenCV, so the
-shipped policies' episodes are compared bit for bit only where the builds that made them are
+shipped policies' first episodes are compared bit for bit only where the builds that made them are
 all installed (`exact_versions_installed`, with the pins of `.ci/exact-versions.txt`), and
 only on the kind of CPU that made them (`cpu_kernels`, `.ci/exact-cpu.txt`): torch's and
-numpy's kernels are chosen at run time by the CPU's vector instructions and maker. (A CI run
-of 2026-12-07 with the same builds moved two shipped evaluations' means by 22 and 193 µm,
-where this project's machine reproduced them exactly running the same tests in the same
-order; its CPU was not recorded, and another CPU is the difference left.)
+numpy's kernels are chosen at run time by the CPU's vector instructions and maker.
 """
 
 from __future__ import annotations

@@ -155,25 +155,20 @@ def test_evaluate_reproduces_the_first_shipped_episodes_exactly(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SHIPPED)
 def test_evaluate_reproduces_all_shipped_metrics(name):
+    """All the shipped episodes, their mean and success rate within the tolerances measured
+    across builds, wherever it runs. Not bit for bit even under the builds and the CPU that
+    made them (the first episodes are, above): a CI run of 2026-12-07 with those builds
+    reproduced the first episodes of every policy and all 100 of four, while a few episodes
+    of two branched (means 22 and 193 µm apart), where this machine reproduced all of them
+    twice. MKL, torch's BLAS, may round differently with its buffers' memory alignment, and an
+    episode's contact amplifies one rounding."""
     metrics = _metrics(name)
-    key, mean_key = _headline(name)
-    result = evaluate(
-        POLICIES / name,
-        episodes=metrics["episodes"],
-        seed=metrics["seed"],
+    _, mean_key = _headline(name)
+    result = evaluate(POLICIES / name, episodes=metrics["episodes"], seed=metrics["seed"])
+    assert result.metrics[mean_key] == pytest.approx(metrics[mean_key], abs=ACROSS_BUILDS_MEAN_M)
+    assert result.success_rate == pytest.approx(
+        metrics["success_rate"], abs=ACROSS_BUILDS_SUCCESS_RATE
     )
-    if not _exact(name)[0]:
-        assert result.metrics[mean_key] == pytest.approx(
-            metrics[mean_key], abs=ACROSS_BUILDS_MEAN_M
-        )
-        assert result.success_rate == pytest.approx(
-            metrics["success_rate"], abs=ACROSS_BUILDS_SUCCESS_RATE
-        )
-        return
-    assert result.metrics[mean_key] == pytest.approx(metrics[mean_key], abs=1e-6)
-    assert result.success_rate == metrics["success_rate"]
-    # The policy files (converted from the pickle format) act exactly as the ones evaluated.
-    assert [e[key] for e in result.per_episode] == [e[key] for e in metrics["per_episode"]]
 
 
 class TerminatingEnv:
