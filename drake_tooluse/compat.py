@@ -34,9 +34,9 @@ from pydrake.systems.framework import LeafSystem
 
 __all__ = [
     "BINDINGS",
-    "cpu_kernels",
     "DRAKE_VERSION",
     "NO_WITNESS_FUNCTIONS",
+    "cpu_kernels",
     "drake_version",
     "exact_versions_installed",
     "read_pins",

@@ -235,7 +235,7 @@ class ShapeFit:
     best: FamilyFit
     fits: dict  # family -> FamilyFit
     points: int
-    refined: tuple = ()  # the families fitted again on the whole cloud
+    refined: tuple  # the families fitted again on the whole cloud
 
     def as_dict(self) -> dict:
         """The measurement as JSON: each family's cost apart by the cloud it was fitted to
