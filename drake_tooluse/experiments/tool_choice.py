@@ -40,7 +40,7 @@ import dataclasses as dc
 import math
 import time
 from pathlib import Path
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -355,6 +355,17 @@ def prediction_worlds(
     return worlds
 
 
+class PredictedRollout(NamedTuple):
+    """One rollout of a choice's predictions: the rack candidate it predicts, the policy, the
+    world (`prediction_worlds`), the robot's belief and the world's actuation delay (s)."""
+
+    candidate: int
+    policy: ToolPolicy
+    world: Scenario
+    belief: RobotBelief
+    delay: float
+
+
 def prediction(outcomes: list[Outcome], delays: list[float]) -> dict:
     """The predicted success rate and mean final distance of a tool's rollouts."""
     finals = [o.final_distance for o in outcomes if math.isfinite(o.final_distance)]
@@ -417,7 +428,7 @@ def choose_tool(
     start = time.perf_counter()
     candidates = []
     worlds = {}
-    runs = []  # (candidate index, policy, world, belief, delay) of each predicted rollout
+    runs: list[PredictedRollout] = []
     bar = progress_bar(len(rack) * (2 if oracle else 1) + int(not oracle), "tools", "", progress)
     for i, tool in enumerate(rack):
         bar.update(1)
@@ -455,11 +466,11 @@ def choose_tool(
         for world, delay in prediction_worlds(
             nominal_world, belief, rollouts, instance.seed, delay_margin, held=held
         ):
-            runs.append((i, policy, world, belief, delay))
+            runs.append(PredictedRollout(i, policy, world, belief, delay))
     # Every tool's rollouts, on the cores given (each seeded: the same for any `workers`).
-    outcomes = map_forked(lambda run: run_outcome(*run[1:4]), runs, workers)
+    outcomes = map_forked(lambda r: run_outcome(r.policy, r.world, r.belief), runs, workers)
     for i, candidate in enumerate(candidates):
-        mine = [(o, run[4]) for o, run in zip(outcomes, runs) if run[0] == i]
+        mine = [(o, r.delay) for o, r in zip(outcomes, runs) if r.candidate == i]
         if mine:
             candidate.update(prediction([o for o, _ in mine], [d for _, d in mine]))
     choice_time = time.perf_counter() - start
