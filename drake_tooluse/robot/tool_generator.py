@@ -46,6 +46,7 @@ from drake_tooluse.robot.tool import (
     HOOK_CORNER,
     HOOK_HANDLE_RANGE,
     HOOK_LENGTH_RANGE,
+    TIP_COLLISION_LENGTH,
     TOOL_HANDLE_DEPTH,
     TOOL_LENGTH_RANGE,
     TOOL_TIP,
@@ -167,7 +168,12 @@ class Family:
         frames = {
             name: Pose(tuple(float(v) for v in p)) for name, p in skeleton.working_frames().items()
         }
-        return CompositeTool({GRASP: Pose(), **frames}, solids=tuple(pieces), mass=DENSITY * volume)
+        return CompositeTool(
+            {GRASP: Pose(), **frames},
+            solids=tuple(pieces),
+            mass=DENSITY * volume,
+            collisions=collision_segments(skeleton.segments, params["radius"]),
+        )
 
 
 @dataclass(frozen=True)
@@ -241,6 +247,34 @@ def segment(name: str, a, b, radius: float) -> Piece:
         CylinderShape(radius, float(np.linalg.norm(d))),
         Pose(tuple((a + b) / 2), _rotation_z_to(d)),
     )
+
+
+def collision_segments(segments: list, radius: float) -> tuple[Piece, ...]:
+    """The collision cylinders of `segments` (name, a, b): each segment's, but where its end b
+    is free (no other segment meets it there: a tip), that end's last TIP_COLLISION_LENGTH is
+    a cylinder of its own (`<name>_end`), as a rod's tip is (`robot.tool.StraightTool`). Why:
+    a point contact between a box's face and a cylinder lying along it falls anywhere along
+    their overlap, so on one long cylinder it may act far above the tip and lift the tool
+    over the box. A generated 0.40 m rod as one cylinder pushed 2 of 12 boxes to the goal
+    under the tip policy, with its own tip piece 12 of 12, as the rod of `StraightTool`."""
+    lines = [(np.asarray(a, float), np.asarray(b, float)) for _, a, b in segments]
+    pieces = []
+    for i, (name, _, _) in enumerate(segments):
+        a, b = lines[i]
+        meets = any(_distance_to_segment(b, *line) < 1e-9 for j, line in enumerate(lines) if j != i)
+        length = float(np.linalg.norm(b - a))
+        if meets or length <= 2 * TIP_COLLISION_LENGTH:
+            pieces.append(segment(name, a, b, radius))
+            continue
+        cut = b - TIP_COLLISION_LENGTH * (b - a) / length
+        pieces += [segment(name, a, cut, radius), segment(f"{name}_end", cut, b, radius)]
+    return tuple(pieces)
+
+
+def _distance_to_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    d = b - a
+    t = float(np.clip(np.dot(p - a, d) / np.dot(d, d), 0.0, 1.0))
+    return float(np.linalg.norm(p - (a + t * d)))
 
 
 def handle(length: float) -> tuple:
@@ -475,18 +509,34 @@ def generate_tool(family: str, seed: int, region: str = "any") -> GeneratedTool:
     )
 
 
-def split_draw(split: str, rng: np.random.Generator) -> tuple[str, int, str]:
+def split_draw(
+    split: str, rng: np.random.Generator, families: tuple | None = None
+) -> tuple[str, int, str]:
     """(family, seed, region) of a tool drawn from `split` (SPLITS) with `rng`: "training",
     a family of TRAINING_FAMILIES outside its corner; "held_out", any family uniformly, the
-    held-out family anywhere and another in its corner. `generate_tool(*split_draw(...))`
-    is the tool."""
+    held-out family anywhere and another in its corner. `families` (names of FAMILIES; None:
+    all) keeps the draw to those a task uses (the pull's hooks and arcs); a split holding
+    none of them is a ValueError. `generate_tool(*split_draw(...))` is the tool."""
     check_one_of(split, SPLITS, "tool split")
-    families = TRAINING_FAMILIES if split == "training" else tuple(FAMILIES)
+    families = _split_families(split, families)
     family = families[int(rng.integers(len(families)))]
     seed = int(rng.integers(2**32))
     if split == "training":
         return family, seed, "training"
     return family, seed, held_out_region(family)
+
+
+def _split_families(split: str, families: tuple | None) -> tuple:
+    """The families `split` draws from, kept to `families` where given (in FAMILIES' order)."""
+    of_split = TRAINING_FAMILIES if split == "training" else tuple(FAMILIES)
+    if families is None:
+        return of_split
+    for family in families:
+        check_one_of(family, tuple(FAMILIES), "tool family")
+    kept = tuple(f for f in of_split if f in families)
+    if not kept:
+        raise ValueError(f"the {split} split draws none of the families {list(families)}")
+    return kept
 
 
 def held_out_region(family: str) -> str:

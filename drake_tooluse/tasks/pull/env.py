@@ -18,17 +18,19 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.task_gym_env import TaskGymEnv, ViewOptions, check_views, has_views
 from drake_tooluse.paths import PULL_SCENARIO
+from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool
+from drake_tooluse.robot.tool_generator import SPLITS, equivalent_hook, generate_tool, split_draw
 from drake_tooluse.systems.tip_target import ACTION_MODES
 from drake_tooluse.tasks.contract import TaskEnv, env_config
 from drake_tooluse.tasks.pull.diagram import add_pull_task
 from drake_tooluse.tasks.pull.hook import check_hook, draw_hook
 from drake_tooluse.tasks.pull.metrics import PULL_EPISODE_METRICS, PullMetricsReader, reward
 from drake_tooluse.tasks.pull.observation import OBSERVATION_SIZE
-from drake_tooluse.tasks.pull.registration import TASK
+from drake_tooluse.tasks.pull.registration import SHAPE_FAMILIES, TASK
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
-from drake_tooluse.validation import all_finite, check_bool, check_mapping
+from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of
 from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
 
 ACTION_SIZE = ACTION_MODES["position"]
@@ -43,6 +45,9 @@ class PullEnvConfig(ViewOptions):
     # (handle length m, hook length m, angle °): every episode's hook; None: drawn per episode.
     hook: tuple | None = None
     randomize: bool = True  # the cube's start, mass, friction and the grasp (`randomization`)
+    # "training" or "held_out": each episode's tool a hook or an arc the tool generator draws
+    # from that split, held as its equivalent hook (not with `hook`).
+    generated_tools: str | None = None
 
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
@@ -51,6 +56,10 @@ def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
     if config.hook is not None:
         config.hook = check_hook(config.hook, "hook")
     check_bool(config.randomize, "randomize")
+    if config.generated_tools is not None:
+        check_one_of(config.generated_tools, SPLITS, "generated_tools")
+        if config.hook is not None:
+            raise ValueError("give generated_tools or a hook, not both")
     check_views(config, (None, "rgb_array"))
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
@@ -135,8 +144,12 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     ## Arguments
 
     `gym.make("drake_tooluse/ToolPull-v1", hook=None, randomize=True, scenario=None,
-    render_mode=None, meshcat=None)`: `hook` = (handle length m, hook length m, angle °) fixes
-    every episode's hook (each in HookTool's range); `randomize` draws the start (above);
+    generated_tools=None, render_mode=None, meshcat=None)`: `hook` = (handle length m, hook
+    length m, angle °) fixes every episode's hook (each in HookTool's range);
+    `generated_tools` = "training" or "held_out" holds instead a hook or an arc the tool
+    generator draws from that split each episode (`robot.tool_generator.split_draw` with
+    the task's shape families), the robot believing its equivalent hook (the observation's
+    hook geometry is that hook's); `randomize` draws the start (above);
     `scenario` replaces diagrams/pull.yaml (a Scenario or a YAML file); `render_mode`
     "rgb_array" renders a scene camera framed by `render_size`, `render_camera_position` and
     `render_camera_target` (as the push env's, with the goal drawn); `meshcat` draws the
@@ -211,10 +224,10 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         )
 
     # -- the diagram ----------------------------------------------------------------------
-    def _build(self, scenario: Scenario) -> None:
+    def _build(self, scenario: Scenario, belief: RobotBelief | None = None) -> None:
         self.scenario = scenario
         builder = DiagramBuilder()
-        task = self.add_task(builder, scenario, None, {}, has_views(self.config))
+        task = self.add_task(builder, scenario, belief, {}, has_views(self.config))
         task.export(builder)
         self.task = task
         self.world, self.control = task.world, task.control
@@ -229,10 +242,17 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     def _next_hook(self, generator) -> Simulator:
         """The next episode's world: a hook drawn with the env's seeded generator (`np_random`,
-        which `reset(seed=...)` seeds before this is called; Drake's `generator` is not used)."""
-        hook = draw_hook(self.np_random)
+        which `reset(seed=...)` seeds before this is called; Drake's `generator` is not used),
+        or with `generated_tools` a generated hook or arc in the hand, the robot believing
+        its equivalent hook (`robot.tool_generator.equivalent_hook`)."""
         self._release_world()
-        self._build(with_hook(self._base_scenario, hook))
+        if self.config.generated_tools is None:
+            self._build(with_hook(self._base_scenario, draw_hook(self.np_random)))
+        else:
+            drawn = split_draw(self.config.generated_tools, self.np_random, SHAPE_FAMILIES)
+            generated = generate_tool(*drawn)
+            belief = RobotBelief(equivalent_hook(generated))
+            self._build(with_tool(self._base_scenario, generated), belief)
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------

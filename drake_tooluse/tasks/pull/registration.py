@@ -17,6 +17,10 @@ TASK = TaskDeclaration(
 )
 
 MAX_EPISODE_STEPS = 100
+# Of the generated tools, those the hook policy pulls with as their equivalent hook (corner to
+# tip): the hooks and the arcs (11 of 12 arcs in the nominal world, 12 of 12 in reality). A
+# rake's crossbar lands on the cube as it comes down (1 of 12).
+SHAPE_FAMILIES = ("hook", "arc")
 ENV_IDS = {"drake_tooluse/ToolPull-v1": {}}
 # The task the robot chooses a tool for: a hook pulls the cube; reality is the pull world with
 # reality's actuation delay, joint limits and camera noise.
@@ -32,10 +36,7 @@ TOOL_TASKS = (
         reality_world=False,
         # The demo's hook and the rack's L-hook: two geometries of the ranges it trained over.
         transfer_tools=("hook:0.25,0.05,75", "hook:0.25,0.05,90"),
-        # Of the generated tools, those the hook policy pulls with as their equivalent hook
-        # (corner to tip): the hooks and the arcs (11 of 12 arcs in the nominal world, 12 of
-        # 12 in reality). A rake's crossbar lands on the cube as it comes down (1 of 12).
-        shape_families=("hook", "arc"),
+        shape_families=SHAPE_FAMILIES,
     ),
 )
 
