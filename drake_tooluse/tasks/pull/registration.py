@@ -37,6 +37,7 @@ TOOL_TASKS = (
         # The demo's hook and the rack's L-hook: two geometries of the ranges it trained over.
         transfer_tools=("hook:0.25,0.05,75", "hook:0.25,0.05,90"),
         shape_families=SHAPE_FAMILIES,
+        shapes_policy="ppo_toolpull_shapes",
     ),
 )
 
