@@ -54,8 +54,11 @@ def test_generated_tools_serve_the_tasks_their_policies_act_for():
     policies = Policies()
     assert policies.for_task("push", generated=True).directory.name == "ppo_toolpush_shapes"
     assert policies.for_task("push").directory.name == "ppo_toolpush_tip"
-    # No far push over shapes: a generated tool pushes far with the far-push policy.
-    assert policies.for_task("push-far", generated=True) is policies.for_task("push-far")
+    far_shapes = policies.for_task("push-far", generated=True).directory.name
+    assert far_shapes == "ppo_toolpush_shapes_far"
+    assert policies.for_task("push-far").directory.name == "ppo_toolpush_tip_far"
+    pull_shapes = policies.for_task("pull", generated=True).directory.name
+    assert pull_shapes == "ppo_toolpull_shapes"
 
 
 class FamilyPolicy:

@@ -46,6 +46,7 @@ TOOL_TASKS = (
         STRAIGHT_ONLY,
         DEMO_TOOL,
         goal_extra=ENV_IDS["drake_tooluse/ToolPushFar-v1"]["goal_extra"],
+        shapes_policy="ppo_toolpush_shapes_far",
     ),
 )
 
