@@ -24,15 +24,16 @@ from drake_tooluse.learning.task_envs import episode_metrics
 
 POLICIES = Path(__file__).resolve().parents[2] / "models" / "policies"
 PUSH, PULL = "drake_tooluse/ToolPush-v1", "drake_tooluse/ToolPull-v1"
+FAR = "drake_tooluse/ToolPushFar-v1"
 SHIPPED = {  # name -> (env id, observation size, action size)
     "ppo_toolpush": (PUSH, 30, 3),
     "ppo_toolpush_tip": (PUSH, 12, 3),
     "ppo_toolpush_paper_action": (PUSH, 30, 7),
     "ppo_toolpull": (PULL, 16, 3),
-    "ppo_toolpush_tip_far": ("drake_tooluse/ToolPushFar-v1", 12, 3),
+    "ppo_toolpush_tip_far": (FAR, 12, 3),
     "ppo_toolpush_shapes": (PUSH, 12, 3),
     "ppo_toolpull_shapes": (PULL, 16, 3),
-    "ppo_toolpush_shapes_far": ("drake_tooluse/ToolPushFar-v1", 12, 3),
+    "ppo_toolpush_shapes_far": (FAR, 12, 3),
 }
 # What each claims in its own env (its headline mean at most, its success at least): the push's
 # goal of ≤ 4 cm and ≥ 80 %; over tools of six shapes, ≥ 60 % (docs/BENCHMARKS.md).
