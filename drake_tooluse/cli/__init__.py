@@ -213,7 +213,12 @@ def main(argv=None) -> int:
     if moved:
         print(moved, file=sys.stderr)
     try:
-        args = make_parser().parse_args(argv)
+        parser = make_parser()  # it lists the registered env ids
+    except ValueError as e:  # DRAKE_TOOLUSE_TASKS names a module that cannot be imported
+        print(f"drake-tooluse: error: {_one_line(e)}", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        args = parser.parse_args(argv)
         args.argv = argv  # the command line, as a command says how to go on from a stop
     except VersionShown:
         return EXIT_OK

@@ -14,7 +14,7 @@ two worlds:
 Both run in one of two modes:
 
 - `closed-loop`: the policy inside the diagram (`tasks.deploy.build_policy_diagram`), until
-  the box is at the goal or 100 control steps;
+  its env's step limit (100 control steps for the push and the pull);
 - `open-loop` (the paper's): a tool-tip trajectory averaged from the policy's episodes in the
   nominal simulation (`experiments.trajectory_extraction.extract`), replayed through a TrajectorySource
   and the IK with the measured length (`builders.trajectory_diagram`), in full, then 1 s to settle.
@@ -90,7 +90,7 @@ from drake_tooluse.robot.model import RobotBelief
 from drake_tooluse.robot.tool import HookTool, StraightTool, tool_label
 from drake_tooluse.systems.tip_trajectory import TipTrajectory
 from drake_tooluse.tasks.contract import declaration, tool_task_of
-from drake_tooluse.tasks.deploy import MAX_STEPS, deploy
+from drake_tooluse.tasks.deploy import deploy, step_limit
 from drake_tooluse.tasks.push.diagram import run_open_loop
 from drake_tooluse.tasks.rollout import Rollout
 from drake_tooluse.validation import check_int, check_one_of, check_seed
@@ -162,9 +162,10 @@ def run_worlds(nominal: Scenario, reality: Scenario, tool, seed: int):
 def run_closed_loop(
     scenario: Scenario, policy, belief: RobotBelief, recording_path=None
 ) -> Rollout:
-    """The loaded policy inside the diagram, for MAX_STEPS (`tasks.deploy.deploy`); with
-    `recording_path`, recorded in a new Meshcat and written there as a standalone HTML file."""
-    return deploy(scenario, policy, belief, MAX_STEPS, recording_path)
+    """The loaded policy inside the diagram, for its env's step limit (`tasks.deploy.deploy`,
+    `step_limit`); with `recording_path`, recorded in a new Meshcat and written there as a
+    standalone HTML file."""
+    return deploy(scenario, policy, belief, step_limit(policy.meta.env_id), recording_path)
 
 
 def _stats(runs: list[TransferRun]) -> dict:

@@ -97,7 +97,7 @@ from drake_tooluse.learning.sb3_state import (
     restore_pending_log_values,
     set_call_count,
 )
-from drake_tooluse.learning.task_envs import env_spaces, episode_metrics
+from drake_tooluse.learning.task_envs import check_env_id, env_spaces, episode_metrics
 from drake_tooluse.limits import MAX_N_ENVS, MAX_TIMESTEPS
 from drake_tooluse.provenance import code_version
 from drake_tooluse.validation import check_int, check_seed
@@ -109,8 +109,9 @@ def _make_env(env_id: str, env_kwargs: dict, worker: bool = False):
             # Ctrl-C reaches the whole process group: the training process stops the run and
             # then closes its env processes, which must still be there to answer it.
             signal.signal(signal.SIGINT, signal.SIG_IGN)
-        # "module:id": a fresh worker process imports the package and its registrations.
-        return gym.make(f"drake_tooluse:{env_id}", **env_kwargs)
+        # A fresh worker process knows the package's ids (this module imported it) and, once
+        # asked for the ids, the task modules of DRAKE_TOOLUSE_TASKS.
+        return gym.make(check_env_id(env_id), **env_kwargs)
 
     return thunk
 

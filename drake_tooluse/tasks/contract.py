@@ -30,6 +30,8 @@ class through Gymnasium's registry and imports no task (tests/test_architecture.
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import os
 from dataclasses import dataclass
 
 import gymnasium as gym
@@ -159,8 +161,35 @@ def register_task_envs(
             )
 
 
+# A task written in a module of its own, outside the package (docs/ARCHITECTURE.md's "Add a
+# task"), is known to every process of the project (the study's and the sweep's subprocesses
+# included) by naming its module here: comma-separated modules, each registering its ids when
+# imported.
+TASK_MODULES_VARIABLE = "DRAKE_TOOLUSE_TASKS"
+_imported_task_modules: set = set()
+
+
+def import_task_modules() -> None:
+    """Imports each module DRAKE_TOOLUSE_TASKS names, once; one that cannot be imported is a
+    ValueError naming it and the variable."""
+    value = os.environ.get(TASK_MODULES_VARIABLE, "")
+    for name in (n.strip() for n in value.split(",")):
+        if not name or name in _imported_task_modules:
+            continue
+        _imported_task_modules.add(name)  # a module that asks for the ids while it imports
+        try:
+            importlib.import_module(name)
+        except ImportError as e:
+            _imported_task_modules.discard(name)
+            raise ValueError(
+                f"{TASK_MODULES_VARIABLE}={value!r}: cannot import the task module {name!r} ({e})"
+            ) from None
+
+
 def task_env_ids() -> list[str]:
-    """The registered ids of the project's namespace (registered on `import drake_tooluse`)."""
+    """The registered ids of the project's namespace (registered on `import drake_tooluse`,
+    and by the task modules of DRAKE_TOOLUSE_TASKS)."""
+    import_task_modules()
     return [i for i in gym.registry if i.startswith(ENV_NAMESPACE + "/")]
 
 

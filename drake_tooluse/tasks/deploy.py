@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import gymnasium as gym
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_tooluse.builders.visualization import (
@@ -31,7 +32,13 @@ from drake_tooluse.tasks.contract import env_class
 from drake_tooluse.tasks.rollout import Rollout, roll_out
 from drake_tooluse.world.scenario import Scenario
 
-MAX_STEPS = 100  # the envs' step limit: a deployed run's protocol
+MAX_STEPS = 100  # the push and pull envs' step limit: a deployed run's protocol
+
+
+def step_limit(env_id: str) -> int:
+    """The step limit `env_id` is registered with (its episodes' protocol, which a deployed
+    run of its policy keeps); MAX_STEPS where it has none."""
+    return gym.spec(env_id).max_episode_steps or MAX_STEPS
 
 
 @dataclass

@@ -2,6 +2,10 @@
 of tests/tasks/toy_touch.py): it works, or it exits 2 before any work, saying what the task
 lacks (`tasks.contract.COMMAND_NEEDS`, the task's `TaskDeclaration`)."""
 
+import json
+import os
+from pathlib import Path
+
 import pytest
 
 from drake_tooluse.cli import main
@@ -42,10 +46,36 @@ def _refused_before_work(capsys, argv, tmp_path, command, task):
     assert not any(tmp_path.iterdir())  # no work: nothing written
 
 
-@pytest.mark.parametrize("command", ["trajectory", "transfer", "distill"])
+@pytest.mark.parametrize("command", ["trajectory", "distill"])
 def test_the_toy_task_is_refused_before_any_work(command, toy_policy, tmp_path, capsys):
     argv = _argv(command, str(toy_policy), tmp_path)
     _refused_before_work(capsys, argv, tmp_path, command, "touch")
+
+
+def test_the_toy_task_transfers_to_other_tools_with_what_its_own_file_gives(
+    toy_policy, tmp_path, capsys
+):
+    """Its one builder and its reader in tests/tasks/toy_touch.py: transfer deploys the toy
+    policy closed loop with two straight tools in the nominal world and in reality (the camera
+    measuring each), judged by the toy's own figures, to its env's step limit; open loop (a
+    box push's trajectory) is refused before any work."""
+    out = tmp_path / "out"
+    argv = ["transfer", "--policy", str(toy_policy), "--runs", "1", "--tools", "0.2", "0.3"]
+    code = main([*argv, "--out", str(out), "--json"])
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    result = json.loads((out / "transfer.json").read_text())
+    assert result["object_name"] == "tip" and result["failed_runs"] == 0
+    for tool, length in zip(result["tools"], (0.2, 0.3)):
+        assert abs(tool["measured_length_mean_m"] - length) < 0.005
+        for world in ("nominal", "reality"):
+            run = tool[world]["per_run"][0]
+            assert run["steps"] == 20 or run["success"]  # the toy env's step limit
+            assert run["final_object_to_goal_m"] < 0.15  # the tip near its target, not a box
+    empty = tmp_path / "open-loop"
+    empty.mkdir()
+    open_loop = [*argv, "--mode", "open-loop", "--out", str(empty / "out")]
+    _refused_before_work(capsys, open_loop, empty, "trajectory", "touch")
 
 
 def test_the_toy_task_records_a_video_with_what_its_own_file_gives(toy_policy, tmp_path, capsys):
@@ -225,3 +255,87 @@ def test_an_early_end_cell_is_refused_as_the_v0_envs_protocol(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "protocol early-end was the -v0 envs' (tag figures-v0)" in err
     assert not (tmp_path / "study").exists()
+
+
+@pytest.fixture
+def toy_in_every_process(monkeypatch):
+    """The toy task known to the subprocesses the study and the sweep start: its module named
+    in DRAKE_TOOLUSE_TASKS, importable from the checkout."""
+    root = str(Path(toy_touch.__file__).parents[2])
+    monkeypatch.setenv("DRAKE_TOOLUSE_TASKS", toy_touch.__name__)
+    monkeypatch.setenv(
+        "PYTHONPATH", os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))
+    )
+
+
+TINY_TOY = {
+    k: v
+    for k, v in toy_touch.TINY_PPO.items()
+    if k in ("n_steps", "batch_size", "n_epochs", "eval_freq")
+}
+
+
+@pytest.mark.slow  # ~15 s: a training and two evaluations, as subprocesses; .ci/run runs it
+def test_a_study_cell_of_the_toy_task_runs(toy_in_every_process, tmp_path, capsys):
+    cells = tmp_path / "cells.yaml"
+    cells.write_text(PULL_CELLS.replace("pull", "touch").replace("ToolPull-v1", "ToyTouch-v1"))
+    study = tmp_path / "study"
+    code = main(["study", "--cells", str(cells), "--out", str(study), "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    (run,) = json.loads(captured.out)["runs"]
+    assert run["state"].startswith("done"), run
+    entry = json.loads((study / "paper_study.json").read_text())["touch"]["seeds"]["0"]
+    assert len(entry["evaluate_best"]["per_episode"]["final_distance_m"]) == 2
+
+
+@pytest.mark.slow  # ~15 s: Ray started, one tiny trial; .ci/run runs it
+def test_a_sweep_of_the_toy_task_runs(toy_in_every_process, tmp_path, capsys):
+    argv = ["sweep", "--envs", toy_touch.ENV_ID, "--seeds", "0", "--timesteps", "128"]
+    hyperparams = json.dumps({**TINY_TOY, "n_envs": 1})
+    out = tmp_path / "sweep"
+    code = main(
+        [
+            *argv,
+            "--out",
+            str(out),
+            "--num-cpus",
+            "2",
+            "--episodes",
+            "1",
+            "--hyperparams",
+            hyperparams,
+        ]
+    )
+    printed = capsys.readouterr()
+    assert code == 0, printed.err
+    assert f"| ppo | {toy_touch.ENV_ID} | 0 | finished | 128 |" in printed.out
+    assert "final_distance_mean" in printed.out
+
+
+def test_the_toy_policy_initializes_a_training(toy_policy, tmp_path, capsys):
+    argv = ["train", "--env", toy_touch.ENV_ID, "--init-from", str(toy_policy)]
+    hyperparams = json.dumps({**TINY_TOY, "n_envs": 1})
+    code = main(
+        [*argv, "--timesteps", "64", "--out", str(tmp_path / "run"), "--hyperparams", hyperparams]
+    )
+    assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "run" / "final").is_dir()
+
+
+@pytest.mark.parametrize(
+    "argv, said",
+    [
+        (["demo", "--out", "{out}", "--policy", "{policy}"], "not of the push task"),
+        (["choose-tool", "--task", "touch"], "task='touch' is not allowed"),
+    ],
+)
+def test_the_toy_task_is_refused_by_the_tool_tasks_commands(
+    argv, said, toy_policy, tmp_path, capsys
+):
+    """`demo` and `choose-tool` serve the tasks that declare a tool task (`ToolTask`: a
+    policy, its tools, its worlds); the toy declares none, and they refuse it at once."""
+    argv = [a.format(out=tmp_path / "out", policy=toy_policy) for a in argv]
+    code = main(argv)
+    assert code == 2 and said in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())

@@ -11,11 +11,17 @@ whatever tool it holds (tests/tasks/test_add_a_tool.py gives it a toy L-shaped t
 Reward: minus the tip's distance from the target (m). Success: the tip within 2 cm of the
 target; the episode ends there (a simulator monitor, the Drake way) or after 20 steps.
 Views: `render_mode="rgb_array"` (the project's scene camera) and `meshcat` (a Meshcat to draw
-in), so it declares `record-video` and `evaluate --meshcat` (`TASK`); the other commands that
-need more of a task refuse it, saying what it lacks.
+in), so it declares `record-video` and `evaluate --meshcat` (`TASK`). Its one builder
+(`ToyTouchEnv.add_task`, what the env is made of) and its metrics reader (`TouchReader`: the
+object a touch moves is the tip itself) let a policy deploy outside its env, so it declares
+`transfer` too: closed loop, with straight tools of other lengths, in the push task's world and
+in reality. The commands that need more of a task (a box to push: `trajectory`, `distill`)
+refuse it, saying what it lacks.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -35,6 +41,34 @@ ENV_ID = "drake_tooluse/ToyTouch-v1"
 SUCCESS_DISTANCE = 0.02  # m
 
 
+@dataclass(frozen=True)
+class TouchMetrics:
+    """A touch's figures, named as a deployed rollout reads any task's (`tasks.rollout`): the
+    object the touch moves is the tip, its goal the target."""
+
+    object_to_goal: float  # m, the tip from the target
+    object_travel: float  # m, the tip from where it started
+    is_success: bool
+    tool_touches_object: bool = False  # nothing to touch: the target hangs in the air
+    gripper_touches_object: bool = False
+
+
+class TouchReader:
+    """The touch's metrics from the plant (`read`, as `tasks.rollout.roll_out` calls it). The
+    target and the tip's start are the task's own, not the scenario's goal and box start
+    (which a rollout passes and this task does not use)."""
+
+    def __init__(self, world, target, start):
+        self._tip_frame = world.tip_frame
+        self._target, self._start = np.asarray(target, float), np.asarray(start, float)
+
+    def read(self, plant_context, goal=None, start=None) -> TouchMetrics:
+        p_WT = self._tip_frame.CalcPoseInWorld(plant_context).translation()
+        distance = float(np.linalg.norm(p_WT - self._target))
+        travel = float(np.linalg.norm(p_WT - self._start))
+        return TouchMetrics(distance, travel, distance <= SUCCESS_DISTANCE)
+
+
 class TouchOutcome(LeafSystem):
     """The tip's distance from the target as the observation, the reward and the success.
 
@@ -49,8 +83,9 @@ class TouchOutcome(LeafSystem):
         - success
     """
 
-    def __init__(self, world, target):
+    def __init__(self, world, target, start):
         super().__init__()
+        self.reader = TouchReader(world, target, start)
         self._tip_body = int(world.tip_frame.body().index())
         self._X_BT = world.tip_frame.GetFixedPoseInBodyFrame()
         self._poses = self.DeclareAbstractInputPort(
@@ -77,22 +112,36 @@ class TouchOutcome(LeafSystem):
         output.SetAtIndex(0, float(self.distance(context) <= SUCCESS_DISTANCE))
 
 
-def add_touch_task(builder, scenario: Scenario, belief=None, target_offset=(0.0, 0.05, -0.03)):
+@dataclass
+class TouchParts(TaskParts):
+    """The contract's parts, with the outcome system (whose `reader` a deployed rollout reads)."""
+
+    outcome: object = None
+
+
+def add_touch_task(
+    builder,
+    scenario: Scenario,
+    belief=None,
+    target_offset=(0.0, 0.05, -0.03),
+    robot_visuals: bool = True,
+) -> TouchParts:
     """The contract's wiring: the world at home, tool-tip position control, the outcome."""
-    world, ik, q0 = add_world_at_home(builder, scenario, belief)
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, robot_visuals=robot_visuals)
     control = add_tip_control(builder, world, ik, q0, "position")
-    target = home_tip_pose(scenario).translation() + np.asarray(target_offset, float)
-    outcome = builder.AddNamedSystem("touch", TouchOutcome(world, target))
+    p_WT0 = home_tip_pose(scenario).translation()
+    target = p_WT0 + np.asarray(target_offset, float)
+    outcome = builder.AddNamedSystem("touch", TouchOutcome(world, target, p_WT0))
     builder.Connect(world.plant.get_body_poses_output_port(), outcome.get_input_port())
-    parts = TaskParts(
+    return TouchParts(
         world,
         ik,
         control,
         outcome.GetOutputPort("observation"),
         outcome.GetOutputPort("reward"),
         outcome.GetOutputPort("success"),
+        outcome=outcome,
     )
-    return parts, outcome
 
 
 class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
@@ -102,7 +151,11 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}  # 1 / its 40 ms step
     EPISODE_METRICS = (EpisodeMetric("final_distance_m", "distance"),)
-    TASK = TaskDeclaration("touch", serves=frozenset({"record-video", "evaluate --meshcat"}))
+    TASK = TaskDeclaration(
+        "touch",
+        object_name="tip",
+        serves=frozenset({"record-video", "evaluate --meshcat", "transfer"}),
+    )
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
@@ -121,11 +174,20 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
     def spaces(cls, kwargs) -> tuple[list, list]:
         return [6], [3]
 
+    @classmethod
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
+        """The touch wired into `builder` as the env these keyword arguments make wires it, in
+        `scenario` (the env's own scenario and views aside)."""
+        kwargs = cls.check_kwargs(kwargs)
+        offset = {k: v for k, v in kwargs.items() if k == "target_offset"}
+        return add_touch_task(builder, scenario, belief, robot_visuals=robot_visuals, **offset)
+
     def __init__(self, scenario=None, render_mode=None, meshcat=None, **kwargs):
         self.check_kwargs({**kwargs, "render_mode": render_mode})
         scenario = Scenario() if scenario is None else load_scenario(scenario)
         builder = DiagramBuilder()
-        parts, self._outcome = add_touch_task(builder, scenario, **kwargs)
+        parts = self.add_task(builder, scenario, None, kwargs)
+        self._outcome = parts.outcome
         parts.export(builder)
         if render_mode == "rgb_array":  # the project's scene camera: its `color_image` output
             add_scene_camera(builder, parts.world)
@@ -183,3 +245,6 @@ TINY_PPO = {
 def register() -> None:
     if ENV_ID not in task_env_ids():
         gym.register(ENV_ID, entry_point=f"{__name__}:ToyTouchEnv", max_episode_steps=20)
+
+
+register()  # on import: DRAKE_TOOLUSE_TASKS=tests.tasks.toy_touch makes every process know it
