@@ -19,11 +19,13 @@ Each family draws its parameters from its ranges (`FAMILIES`: name -> `Family`) 
 Every tool also has `push_point`, where it meets a box it pushes: every family reaches towards
 +x (the hook's side), which the push holds towards the box (`world.scene.TOOL_DOWN_RPY` turns
 H's x to W's y, the push's direction). Of the skeleton within PUSH_BAND of its lowest point as
-held pointing down (+z of H downwards), the point farthest along +x (the tip where they tie),
-brought down to that lowest point's height: a rod's, a rake's, a T-head's and a J-hook's tip
-itself; a curled arc's front at the height of its bottom; a back-bent hook's front, in the
-band, at the height of its corner. The tip policy holds its rod's tip, front and bottom in
-one, where the push point holds both.
+held pointing down (+z of H downwards), the point farthest along +x (of those that tie, the
+nearest the tip), brought down to that lowest point's height: a rod's, a T-head's, a J-hook's
+and a three-tined rake's tip itself; a two- or four-tined rake's inner tine's end (its tip, the
+middle of the tines' ends, is in the air between two tines: a box held there passes between
+them to the crossbar); a curled arc's front at the height of its bottom; a back-bent hook's
+front, in the band, at the height of its corner. The tip policy holds its rod's tip, front and
+bottom in one, where the push point holds both.
 
 Every tool keeps H's orientation in its frames (a tip target's orientation is the handle's). The
 fabrication bounds hold for every draw (`check_fabrication`): a rod's radius within what the
@@ -73,7 +75,7 @@ PUSH_POINT = "push_point"
 # m: what of a tool meets the box's 4 cm face, over the ~7 mm the tip policy keeps its tip
 # above the table.
 PUSH_BAND = 0.03
-PUSH_POINT_TIE = 0.001  # m: points this near the front are as far (the tip is taken)
+PUSH_POINT_TIE = 0.001  # m: points this near the front are as far (the nearest the tip is taken)
 
 
 @dataclass(frozen=True)
@@ -105,7 +107,7 @@ class Skeleton:
             elif a[2] >= z_band:
                 band += [a, b]
         tip = np.asarray(self.frames[TOOL_TIP], float)
-        points = np.array(band + ([tip] if tip[2] >= z_band else []))
+        points = np.array(band)  # the tool's own material: its tip may be in the air (a rake)
         front = points[points[:, 0] >= points[:, 0].max() - PUSH_POINT_TIE]
         x, y, _ = front[np.argmin(np.linalg.norm(front - tip, axis=1))]
         return (float(x), float(y), z_low)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from drake_tooluse.robot.tool_generator import PUSH_POINT
 from drake_tooluse.systems.task_outcome import BoxAndToolPointReader, TaskOutcome
 from drake_tooluse.tasks.contract import EpisodeMetric
 from drake_tooluse.validation import check_one_of
@@ -35,7 +36,7 @@ PUSH_EPISODE_METRICS = (
 @dataclass
 class PushMetrics:
     object_to_goal: float  # d(x, x*), m
-    tip_to_object: float  # d(x, y), m (true tip)
+    tip_to_object: float  # d(x, y), m (the true tool's tip or push point)
     object_travel: float  # distance of the box centre from where it started, m
     tool_touches_object: bool
     gripper_touches_object: bool
@@ -49,7 +50,13 @@ class PushMetricsReader(BoxAndToolPointReader):
     """Reads the truth from the world plant: distances and which bodies touch the box."""
 
     def __init__(self, world: World):
-        super().__init__(world, world.tip_frame)
+        # The paper's d(x, y) is from the tool's point that meets the box: its tip, or a
+        # generated tool's push point (`robot.tool_generator`), a property of the tool and not
+        # of the policy. (A rake's tip may be in the air between its tines; a curled arc's is
+        # up in its curl.)
+        plant = world.plant
+        generated = plant.HasFrameNamed(PUSH_POINT)
+        super().__init__(world, plant.GetFrameByName(PUSH_POINT) if generated else world.tip_frame)
 
     def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
         # Lists: math.dist reads them faster than arrays (the same floats, so the same result).
@@ -89,7 +96,8 @@ class PushOutcome(TaskOutcome, LeafSystem):
     Output ports:
         metrics: `PushMetrics` (distances in m, which bodies touch the box).
         reward: [r], the paper's reward of `reward_type` (see REWARD_TYPES).
-        success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0].
+        success: [1.0] when d(x, x*) + d(x, y) <= SUCCESS_DISTANCE, else [0.0] (y: the true
+            tool's tip, or a generated tool's push point: `PushMetricsReader`).
     Parameters: the goal x* (3, m) and the box's start (3, m), set per episode
     (`set_episode`).
     """
