@@ -191,3 +191,13 @@ def refused_by_library(what: str):
         raise ValueError(f"{what}: Drake refuses it ({condition})") from None
     except (RuntimeError, ValueError, TypeError, AssertionError, MemoryError) as e:
         raise ValueError(f"{what}: refused ({clipped(e) or type(e).__name__})") from None
+
+
+def check_interval(r, name: str, unit: str, check) -> list[float]:
+    """`[lo, hi]` with lo < hi, each end checked by `check(value, its name)`."""
+    if not isinstance(r, (list, tuple)) or len(r) != 2:
+        raise ValueError(f"{name}={r!r} must be [lo, hi] ({unit})")
+    lo, hi = check(r[0], f"{name}[0]"), check(r[1], f"{name}[1]")
+    if not lo < hi:
+        raise ValueError(f"{name}={[lo, hi]} must have lo < hi")
+    return [lo, hi]

@@ -46,6 +46,7 @@ from drake_tooluse.validation import (
     check_bool,
     check_finite_vector,
     check_in_range,
+    check_interval,
     check_one_of,
     check_positive,
     check_seed,
@@ -576,6 +577,28 @@ def with_tool_length(scenario: Scenario, length: float) -> Scenario:
     """A copy of `scenario` holding a tool of `length` m."""
     tool = dc.replace(scenario.tool, length=check_tool_length(length))
     return validate_scenario(dc.replace(scenario, tool=tool))
+
+
+def check_delay_range(r, name: str = "actuation_delay_range") -> list[float]:
+    """An env's `[lo, hi]` range of actuation delays (s), each in [0, MAX_ACTUATION_DELAY]."""
+
+    def check(value, where):
+        return check_in_range(value, 0.0, MAX_ACTUATION_DELAY, where, unit="s")
+
+    return check_interval(r, name, "s", check)
+
+
+def delay_choices(delay_range, time_step: float) -> list[float]:
+    """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
+    `time_step` in it (the delay is a whole number of plant steps)."""
+    lo, hi = delay_range
+    first, last = math.ceil(lo / time_step - 1e-9), math.floor(hi / time_step + 1e-9)
+    if first > last:
+        raise ValueError(
+            f"actuation_delay_range={[lo, hi]} s holds no multiple of the plant's time step "
+            f"{time_step} s"
+        )
+    return [k * time_step for k in range(first, last + 1)]
 
 
 def with_actuation_delay(scenario: Scenario, delay: float) -> Scenario:

@@ -31,7 +31,15 @@ from drake_tooluse.tasks.pull.registration import SHAPE_FAMILIES, TASK
 from drake_tooluse.tasks.rollout import step_info
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS, PhysicalSanityReader
 from drake_tooluse.validation import all_finite, check_bool, check_mapping, check_one_of
-from drake_tooluse.world.scenario import Scenario, load_scenario, validate_scenario, with_tool
+from drake_tooluse.world.scenario import (
+    Scenario,
+    check_delay_range,
+    delay_choices,
+    load_scenario,
+    validate_scenario,
+    with_actuation_delay,
+    with_tool,
+)
 
 ACTION_SIZE = ACTION_MODES["position"]
 
@@ -48,6 +56,10 @@ class PullEnvConfig(ViewOptions):
     # "training" or "held_out": each episode's tool a hook or an arc the tool generator draws
     # from that split, held as its equivalent hook (not with `hook`).
     generated_tools: str | None = None
+    # [lo, hi] s: each episode's actuation delay (joint targets reaching the motors late)
+    # drawn uniformly among the plant-step multiples in it, replacing the scenario's
+    # `control.actuation_delay`: domain randomization for a robot whose delay is not known.
+    actuation_delay_range: list | None = None
 
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
@@ -60,6 +72,8 @@ def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
         check_one_of(config.generated_tools, SPLITS, "generated_tools")
         if config.hook is not None:
             raise ValueError("give generated_tools or a hook, not both")
+    if config.actuation_delay_range is not None:
+        config.actuation_delay_range = check_delay_range(config.actuation_delay_range)
     check_views(config, (None, "rgb_array"))
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
@@ -144,12 +158,14 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     ## Arguments
 
     `gym.make("drake_tooluse/ToolPull-v1", hook=None, randomize=True, scenario=None,
-    generated_tools=None, render_mode=None, meshcat=None)`: `hook` = (handle length m, hook
+    generated_tools=None, actuation_delay_range=None, render_mode=None, meshcat=None)`: `hook` = (handle length m, hook
     length m, angle °) fixes every episode's hook (each in HookTool's range);
     `generated_tools` = "training" or "held_out" holds instead a hook or an arc the tool
     generator draws from that split each episode (`robot.tool_generator.split_draw` with
     the task's shape families), the robot believing its equivalent hook (the observation's
     hook geometry is that hook's); `randomize` draws the start (above);
+    `actuation_delay_range` = [lo, hi] s, in [0, 0.2], draws each episode's actuation delay
+    uniformly among the plant-step multiples in it (the robot is not told; as the push env's);
     `scenario` replaces diagrams/pull.yaml (a Scenario or a YAML file); `render_mode`
     "rgb_array" renders a scene camera framed by `render_size`, `render_camera_position` and
     `render_camera_target` (as the push env's, with the goal drawn); `meshcat` draws the
@@ -209,7 +225,10 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
             scenario = load_scenario(Path(config.scenario))
         self._base_scenario = scenario
         self.diagram = None
-        if config.hook is not None:
+        self._delays = None
+        if config.actuation_delay_range is not None:
+            self._delays = delay_choices(config.actuation_delay_range, scenario.plant.time_step)
+        if config.hook is not None and self._delays is None:
             self._build(with_hook(scenario, config.hook))
             simulator = self._simulator
         else:  # DrakeGymEnv makes each episode's simulator (`_next_hook`) at its reset
@@ -243,16 +262,23 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def _next_hook(self, generator) -> Simulator:
         """The next episode's world: a hook drawn with the env's seeded generator (`np_random`,
         which `reset(seed=...)` seeds before this is called; Drake's `generator` is not used),
-        or with `generated_tools` a generated hook or arc in the hand, the robot believing
-        its equivalent hook (`robot.tool_generator.equivalent_hook`)."""
+        or the env's `hook`, or with `generated_tools` a generated hook or arc in the hand,
+        the robot believing its equivalent hook (`robot.tool_generator.equivalent_hook`);
+        then, with `actuation_delay_range`, an actuation delay drawn among its choices."""
         self._release_world()
-        if self.config.generated_tools is None:
-            self._build(with_hook(self._base_scenario, draw_hook(self.np_random)))
-        else:
+        belief = None
+        if self.config.generated_tools is not None:
             drawn = split_draw(self.config.generated_tools, self.np_random, SHAPE_FAMILIES)
             generated = generate_tool(*drawn)
             belief = RobotBelief(equivalent_hook(generated))
-            self._build(with_tool(self._base_scenario, generated), belief)
+            scenario = with_tool(self._base_scenario, generated)
+        else:
+            hook = self.config.hook if self.config.hook is not None else draw_hook(self.np_random)
+            scenario = with_hook(self._base_scenario, hook)
+        if self._delays is not None:
+            delay = self._delays[int(self.np_random.integers(len(self._delays)))]
+            scenario = with_actuation_delay(scenario, delay)
+        self._build(scenario, belief)
         return self._simulator
 
     # -- Gymnasium API --------------------------------------------------------------------

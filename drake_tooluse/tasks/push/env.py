@@ -40,12 +40,14 @@ from drake_tooluse.validation import (
     all_finite,
     check_bool,
     check_in_range,
+    check_interval,
     check_mapping,
     check_one_of,
 )
 from drake_tooluse.world.scenario import (
-    MAX_ACTUATION_DELAY,
     Scenario,
+    check_delay_range,
+    delay_choices,
     load_scenario,
     with_actuation_delay,
     with_tool,
@@ -141,7 +143,7 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
         if config.tool_length is not None or config.tool_length_range is not None:
             raise ValueError("give generated_tools or a tool length (range), not both")
     if config.actuation_delay_range is not None:
-        config.actuation_delay_range = _check_delay_range(config.actuation_delay_range)
+        config.actuation_delay_range = check_delay_range(config.actuation_delay_range)
     if config.scenario is not None and not isinstance(config.scenario, (Scenario, str, Path)):
         raise ValueError(
             f"scenario={config.scenario!r} must be a Scenario, a YAML file name or None"
@@ -149,40 +151,10 @@ def _config(kwargs, name: str = "env kwargs") -> EnvConfig:
     return config
 
 
-def _check_interval(r, name: str, unit: str, check) -> list[float]:
-    """`[lo, hi]` with lo < hi, each end checked by `check(value, its name)`."""
-    if not isinstance(r, (list, tuple)) or len(r) != 2:
-        raise ValueError(f"{name}={r!r} must be [lo, hi] ({unit})")
-    lo, hi = check(r[0], f"{name}[0]"), check(r[1], f"{name}[1]")
-    if not lo < hi:
-        raise ValueError(f"{name}={[lo, hi]} must have lo < hi")
-    return [lo, hi]
-
-
 def _check_length_range(config: EnvConfig) -> list[float]:
     if config.tool_length is not None:
         raise ValueError("give tool_length or tool_length_range, not both")
-    return _check_interval(config.tool_length_range, "tool_length_range", "m", check_tool_length)
-
-
-def _check_delay_range(r) -> list[float]:
-    def check(value, name):
-        return check_in_range(value, 0.0, MAX_ACTUATION_DELAY, name, unit="s")
-
-    return _check_interval(r, "actuation_delay_range", "s", check)
-
-
-def _delay_choices(delay_range, time_step: float) -> list[float]:
-    """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
-    `time_step` in it (the delay is a whole number of plant steps)."""
-    lo, hi = delay_range
-    first, last = math.ceil(lo / time_step - 1e-9), math.floor(hi / time_step + 1e-9)
-    if first > last:
-        raise ValueError(
-            f"actuation_delay_range={[lo, hi]} s holds no multiple of the plant's time step "
-            f"{time_step} s"
-        )
-    return [k * time_step for k in range(first, last + 1)]
+    return check_interval(config.tool_length_range, "tool_length_range", "m", check_tool_length)
 
 
 def _scenario(config: EnvConfig) -> Scenario:
@@ -424,7 +396,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
         config = cls._config(kwargs, name)
         if config.actuation_delay_range is not None:  # its choices depend on the scenario's
-            _delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
+            delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
         return dict(kwargs or {})
 
     @classmethod
@@ -464,7 +436,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         self.diagram = None
         self._delays = None
         if config.actuation_delay_range is not None:
-            self._delays = _delay_choices(
+            self._delays = delay_choices(
                 config.actuation_delay_range, self.scenario.plant.time_step
             )
         if (

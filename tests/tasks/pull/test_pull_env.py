@@ -209,3 +209,33 @@ def test_rgb_array_renders_the_scene():
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     assert frame.std() > 1.0  # not a blank image
     env.close()
+
+
+def test_an_actuation_delay_range_draws_each_episodes_delay_after_its_hook():
+    """As the push env's: each episode's world is built with a delay drawn from the plant-step
+    multiples in the range, after its hook, from the env's seeded generator (the hooks are
+    those of the env without the range: the draws before it are the same); a fixed hook is
+    rebuilt per episode to take its delay. The arm then answers an action that much later."""
+    plain = gym.make("drake_tooluse/ToolPull-v1")
+    delayed = gym.make("drake_tooluse/ToolPull-v1", actuation_delay_range=[0, 0.06])
+    delays = set()
+    for seed in range(6):
+        plain.reset(seed=seed)
+        delayed.reset(seed=seed)
+        assert delayed.unwrapped.hook == plain.unwrapped.hook
+        delays.add(delayed.unwrapped.scenario.control.actuation_delay)
+    assert delays <= {0.0, 0.02, 0.04, 0.06} and len(delays) > 1
+    plain.close()
+
+    def corner_after_one_step(**kwargs):
+        env = gym.make("drake_tooluse/ToolPull-v1", hook=(0.25, 0.05, 90), **kwargs)
+        obs0, _ = env.reset(seed=0)
+        obs, *_ = env.step(np.array([0.0, 1.0, 0.0], np.float32))
+        env.close()
+        return obs[7:10] - obs0[7:10]  # the hook corner's motion in the step
+
+    prompt = corner_after_one_step()
+    late = corner_after_one_step(actuation_delay_range=[0.05, 0.07])  # 0.06 s only
+    assert np.linalg.norm(late) < 0.5 * np.linalg.norm(prompt)
+    with pytest.raises(ValueError, match=r"actuation_delay_range\[1\]=0.5 s is outside"):
+        gym.make("drake_tooluse/ToolPull-v1", actuation_delay_range=[0.0, 0.5])
