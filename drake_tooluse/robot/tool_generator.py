@@ -20,7 +20,7 @@ Every tool also has `push_point`, where it meets a box it pushes: every family r
 +x (the hook's side), which the push holds towards the box (`world.scene.TOOL_DOWN_RPY` turns
 H's x to W's y, the push's direction). Of the skeleton within PUSH_BAND of its lowest point as
 held pointing down (+z of H downwards), the point farthest along +x (of those that tie, the
-nearest the tip), brought down to that lowest point's height: a rod's, a T-head's, a J-hook's
+nearest the tip, and of those as near, the one farthest along -y), brought down to that lowest point's height: a rod's, a T-head's, a J-hook's
 and a three-tined rake's tip itself; a two- or four-tined rake's inner tine's end (its tip, the
 middle of the tines' ends, is in the air between two tines: a box held there passes between
 them to the crossbar); a curled arc's front at the height of its bottom; a back-bent hook's
@@ -109,7 +109,12 @@ class Skeleton:
         tip = np.asarray(self.frames[TOOL_TIP], float)
         points = np.array(band)  # the tool's own material: its tip may be in the air (a rake)
         front = points[points[:, 0] >= points[:, 0].max() - PUSH_POINT_TIE]
-        x, y, _ = front[np.argmin(np.linalg.norm(front - tip, axis=1))]
+        distance = np.linalg.norm(front - tip, axis=1)
+        # Of those as near the tip (a four-tined rake's two inner tines, mirrored about it:
+        # which is nearer is the rounding's), the one on the -y side, so that a measured
+        # tool's push point is on the same tine as the truth's.
+        nearest = front[distance <= distance.min() + PUSH_POINT_TIE]
+        x, y, _ = nearest[np.argmin(nearest[:, 1])]
         return (float(x), float(y), z_low)
 
     def end_points(self) -> tuple[np.ndarray, np.ndarray]:
