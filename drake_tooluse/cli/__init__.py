@@ -215,7 +215,10 @@ def main(argv=None) -> int:
     try:
         parser = make_parser()  # it lists the registered env ids
     except ValueError as e:  # DRAKE_TOOLUSE_TASKS names a module that cannot be imported
-        print(f"drake-tooluse: error: {_one_line(e)}", file=sys.stderr)
+        text = _one_line(e)
+        if "--json" in argv:
+            print(json.dumps({"error": text, "exit_code": EXIT_USAGE}))
+        print(f"drake-tooluse: error: {text}", file=sys.stderr)
         return EXIT_USAGE
     try:
         args = parser.parse_args(argv)

@@ -170,19 +170,25 @@ _imported_task_modules: set = set()
 
 
 def import_task_modules() -> None:
-    """Imports each module DRAKE_TOOLUSE_TASKS names, once; one that cannot be imported is a
-    ValueError naming it and the variable."""
+    """Imports each module DRAKE_TOOLUSE_TASKS names, once; one that is no dotted module name,
+    or whose import fails in any way, is a ValueError naming it, why and the variable."""
     value = os.environ.get(TASK_MODULES_VARIABLE, "")
     for name in (n.strip() for n in value.split(",")):
         if not name or name in _imported_task_modules:
             continue
+        if not all(part.isidentifier() for part in name.split(".")):
+            raise ValueError(
+                f"{TASK_MODULES_VARIABLE}={value!r}: {name!r} is not a module name "
+                "(dotted Python identifiers, as `import` takes)"
+            )
         _imported_task_modules.add(name)  # a module that asks for the ids while it imports
         try:
             importlib.import_module(name)
-        except ImportError as e:
+        except Exception as e:  # (a module's own error too: a task module is user code)
             _imported_task_modules.discard(name)
             raise ValueError(
-                f"{TASK_MODULES_VARIABLE}={value!r}: cannot import the task module {name!r} ({e})"
+                f"{TASK_MODULES_VARIABLE}={value!r}: cannot import the task module {name!r} "
+                f"({type(e).__name__}: {e})"
             ) from None
 
 

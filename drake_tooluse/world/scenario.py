@@ -588,15 +588,16 @@ def check_delay_range(r, name: str = "actuation_delay_range") -> list[float]:
     return check_interval(r, name, "s", check)
 
 
-def delay_choices(delay_range, time_step: float) -> list[float]:
+def delay_choices(
+    delay_range, time_step: float, name: str = "actuation_delay_range"
+) -> list[float]:
     """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
     `time_step` in it (the delay is a whole number of plant steps)."""
     lo, hi = delay_range
     first, last = math.ceil(lo / time_step - 1e-9), math.floor(hi / time_step + 1e-9)
     if first > last:
         raise ValueError(
-            f"actuation_delay_range={[lo, hi]} s holds no multiple of the plant's time step "
-            f"{time_step} s"
+            f"{name}={[lo, hi]} s holds no multiple of the plant's time step {time_step} s"
         )
     return [k * time_step for k in range(first, last + 1)]
 
@@ -605,6 +606,12 @@ def with_actuation_delay(scenario: Scenario, delay: float) -> Scenario:
     """A copy of `scenario` whose joint targets reach the motors `delay` s late."""
     control = dc.replace(scenario.control, actuation_delay=delay)
     return validate_scenario(dc.replace(scenario, control=control))
+
+
+def with_drawn_delay(scenario: Scenario, choices: list, rng) -> Scenario:
+    """`scenario` with an actuation delay drawn uniformly among `choices` (`delay_choices`)
+    by `rng` (a numpy Generator: an env's seeded `np_random`)."""
+    return with_actuation_delay(scenario, choices[int(rng.integers(len(choices)))])
 
 
 def with_tool(scenario: Scenario, tool) -> Scenario:

@@ -339,3 +339,19 @@ def test_the_toy_task_is_refused_by_the_tool_tasks_commands(
     code = main(argv)
     assert code == 2 and said in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    "value, said",
+    [
+        ("no_such_module_here", "cannot import the task module 'no_such_module_here'"),
+        (".toy", "'.toy' is not a module name"),
+        ("json.decoder, os..path", "'os..path' is not a module name"),
+    ],
+)
+def test_a_task_module_that_cannot_be_imported_is_one_line(value, said, monkeypatch, capsys):
+    monkeypatch.setenv("DRAKE_TOOLUSE_TASKS", value)
+    code = main(["evaluate", "--episodes", "1", "--json"])
+    printed = capsys.readouterr()
+    assert code == 2 and said in printed.err and "Traceback" not in printed.err
+    assert json.loads(printed.out)["exit_code"] == 2

@@ -37,7 +37,7 @@ from drake_tooluse.world.scenario import (
     delay_choices,
     load_scenario,
     validate_scenario,
-    with_actuation_delay,
+    with_drawn_delay,
     with_tool,
 )
 
@@ -60,6 +60,15 @@ class PullEnvConfig(ViewOptions):
     # drawn uniformly among the plant-step multiples in it, replacing the scenario's
     # `control.actuation_delay`: domain randomization for a robot whose delay is not known.
     actuation_delay_range: list | None = None
+
+
+def _scenario(config: PullEnvConfig) -> Scenario:
+    """The env's world before its hook: diagrams/pull.yaml, or the `scenario` given."""
+    if config.scenario is None:
+        return load_scenario(PULL_SCENARIO)
+    if isinstance(config.scenario, Scenario):
+        return validate_scenario(config.scenario)
+    return load_scenario(Path(config.scenario))
 
 
 def _config(kwargs, name: str = "env kwargs") -> PullEnvConfig:
@@ -199,7 +208,9 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
 
     @classmethod
     def check_kwargs(cls, kwargs, name: str = "env kwargs") -> dict:
-        _config(kwargs, name)
+        config = _config(kwargs, name)
+        if config.actuation_delay_range is not None:  # its choices depend on the scenario's
+            delay_choices(config.actuation_delay_range, _scenario(config).plant.time_step)
         return dict(kwargs or {})
 
     @classmethod
@@ -217,12 +228,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     def __init__(self, **kwargs):
         config = _config(kwargs)
         self.config = config
-        if config.scenario is None:
-            scenario = load_scenario(PULL_SCENARIO)
-        elif isinstance(config.scenario, Scenario):
-            scenario = validate_scenario(config.scenario)
-        else:
-            scenario = load_scenario(Path(config.scenario))
+        scenario = _scenario(config)
         self._base_scenario = scenario
         self.diagram = None
         self._delays = None
@@ -276,8 +282,7 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
             hook = self.config.hook if self.config.hook is not None else draw_hook(self.np_random)
             scenario = with_hook(self._base_scenario, hook)
         if self._delays is not None:
-            delay = self._delays[int(self.np_random.integers(len(self._delays)))]
-            scenario = with_actuation_delay(scenario, delay)
+            scenario = with_drawn_delay(scenario, self._delays, self.np_random)
         self._build(scenario, belief)
         return self._simulator
 

@@ -49,7 +49,7 @@ from drake_tooluse.world.scenario import (
     check_delay_range,
     delay_choices,
     load_scenario,
-    with_actuation_delay,
+    with_drawn_delay,
     with_tool,
     with_tool_length,
 )
@@ -185,8 +185,8 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     step is one control period of 40 ms (the plant steps at 20 ms, SAP, point contact). The
     world holds the true tool; the metrics, the reward and `info` are the truth's.
 
-    Notation: x the box centre, x* the goal, y the true tool tip, all in W (Baxter's base
-    frame, m). The tip target is kept in a box above the table
+    Notation: x the box centre, x* the goal, y the true tool tip (a generated tool's push
+    point), all in W (Baxter's base frame, m). The tip target is kept in a box above the table
     (`systems.tip_target.Workspace`): x in [0.40, 1.00] m, y in [−0.70, 0.35] m, z from
     5 mm to 0.40 m above the table's top.
 
@@ -353,7 +353,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
     | key | meaning | unit |
     | --- | --- | --- |
     | object_to_goal | d(x, x*) | m |
-    | tip_to_object | d(x, y), the true tip | m |
+    | tip_to_object | d(x, y), the true tip (a generated tool's push point) | m |
     | object_travel | the box centre's distance in the table's plane from where it started | m |
     | is_success | d(x, x*) + d(x, y) ≤ 0.05 m | bool |
     | tool_touches_object | the tool touches the box now | bool |
@@ -490,8 +490,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             drawn = split_draw(self.config.generated_tools, self.np_random)
             scenario = with_tool(scenario, generate_tool(*drawn))
         if self._delays is not None:
-            delay = self._delays[int(self.np_random.integers(len(self._delays)))]
-            scenario = with_actuation_delay(scenario, delay)
+            scenario = with_drawn_delay(scenario, self._delays, self.np_random)
         self._release_world()
         self.scenario = scenario
         self._build(self.config)

@@ -1,8 +1,8 @@
 """The push task's truth: success, distances and contacts, read from the world plant, and
 the `PushOutcome` system that exports them with the reward and success as ports.
 
-x is the box centre, x* the goal, y the true tool tip. Success is d(x, x*) + d(x, y) <= 0.05 m
-(the paper's). What the robot observes is `tasks.push.observation`.
+x is the box centre, x* the goal, y the true tool tip (a generated tool's push point: its
+front where it meets the box). Success is d(x, x*) + d(x, y) <= 0.05 m (the paper's). What the robot observes is `tasks.push.observation`.
 """
 
 from __future__ import annotations
@@ -55,8 +55,9 @@ class PushMetricsReader(BoxAndToolPointReader):
         # of the policy. (A rake's tip may be in the air between its tines; a curled arc's is
         # up in its curl.)
         plant = world.plant
-        generated = plant.HasFrameNamed(PUSH_POINT)
-        super().__init__(world, plant.GetFrameByName(PUSH_POINT) if generated else world.tip_frame)
+        has_push_point = plant.HasFrameNamed(PUSH_POINT)
+        point = plant.GetFrameByName(PUSH_POINT) if has_push_point else world.tip_frame
+        super().__init__(world, point)
 
     def _metrics(self, p_box, p_tip, contacts, goal, box_start) -> PushMetrics:
         # Lists: math.dist reads them faster than arrays (the same floats, so the same result).

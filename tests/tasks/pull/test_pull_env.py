@@ -239,3 +239,5 @@ def test_an_actuation_delay_range_draws_each_episodes_delay_after_its_hook():
     assert np.linalg.norm(late) < 0.5 * np.linalg.norm(prompt)
     with pytest.raises(ValueError, match=r"actuation_delay_range\[1\]=0.5 s is outside"):
         gym.make("drake_tooluse/ToolPull-v1", actuation_delay_range=[0.0, 0.5])
+    with pytest.raises(ValueError, match=r"holds no multiple of the plant's time step"):
+        check_env_kwargs("drake_tooluse/ToolPull-v1", {"actuation_delay_range": [0.005, 0.015]})
