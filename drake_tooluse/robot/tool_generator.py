@@ -20,11 +20,12 @@ Every tool also has `push_point`, where it meets a box it pushes: every family r
 +x (the hook's side), which the push holds towards the box (`world.scene.TOOL_DOWN_RPY` turns
 H's x to W's y, the push's direction). Of the skeleton within PUSH_BAND of its lowest point as
 held pointing down (+z of H downwards), the point farthest along +x (of those that tie, the
-nearest the tip, and of those as near, the one farthest along -y), brought down to that lowest point's height: a rod's, a T-head's, a J-hook's
-and a three-tined rake's tip itself; a two- or four-tined rake's inner tine's end (its tip, the
-middle of the tines' ends, is in the air between two tines: a box held there passes between
-them to the crossbar); a curled arc's front at the height of its bottom; a back-bent hook's
-front, in the band, at the height of its corner. The tip policy holds its rod's tip, front and
+nearest the tip, and of those as near, the one farthest along -y), brought down to that
+lowest point's height: a rod's, a T-head's, a J-hook's and a three-tined rake's tip itself; a
+two- or four-tined rake's inner tine's end (its tip, the middle of the tines' ends, is in the
+air between two tines: a box held there passes between them to the crossbar); a curled arc's
+front at the height of its bottom; a back-bent hook's front, in the band, at the height of its
+corner. The tip policy holds its rod's tip, front and
 bottom in one, where the push point holds both.
 
 Every tool keeps H's orientation in its frames (a tip target's orientation is the handle's). The

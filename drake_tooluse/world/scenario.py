@@ -579,25 +579,24 @@ def with_tool_length(scenario: Scenario, length: float) -> Scenario:
     return validate_scenario(dc.replace(scenario, tool=tool))
 
 
-def check_delay_range(r, name: str = "actuation_delay_range") -> list[float]:
-    """An env's `[lo, hi]` range of actuation delays (s), each in [0, MAX_ACTUATION_DELAY]."""
+def check_delay_range(r) -> list[float]:
+    """An env's `actuation_delay_range`: [lo, hi] s, each in [0, MAX_ACTUATION_DELAY]."""
 
-    def check(value, where):
-        return check_in_range(value, 0.0, MAX_ACTUATION_DELAY, where, unit="s")
+    def check(value, name):
+        return check_in_range(value, 0.0, MAX_ACTUATION_DELAY, name, unit="s")
 
-    return check_interval(r, name, "s", check)
+    return check_interval(r, "actuation_delay_range", "s", check)
 
 
-def delay_choices(
-    delay_range, time_step: float, name: str = "actuation_delay_range"
-) -> list[float]:
-    """The actuation delays (s) a `[lo, hi]` range allows: the multiples of the plant's
-    `time_step` in it (the delay is a whole number of plant steps)."""
+def delay_choices(delay_range, time_step: float) -> list[float]:
+    """The actuation delays (s) an env's `actuation_delay_range` allows: the multiples of the
+    plant's `time_step` in it (the delay is a whole number of plant steps)."""
     lo, hi = delay_range
     first, last = math.ceil(lo / time_step - 1e-9), math.floor(hi / time_step + 1e-9)
     if first > last:
         raise ValueError(
-            f"{name}={[lo, hi]} s holds no multiple of the plant's time step {time_step} s"
+            f"actuation_delay_range={[lo, hi]} s holds no multiple of the plant's time step "
+            f"{time_step} s"
         )
     return [k * time_step for k in range(first, last + 1)]
 

@@ -60,11 +60,14 @@ class TouchReader:
 
     def __init__(self, world, target, start):
         self._tip_frame = world.tip_frame
-        self._target, self._start = np.asarray(target, float), np.asarray(start, float)
+        self.target, self._start = np.asarray(target, float), np.asarray(start, float)
 
     def read(self, plant_context, goal=None, start=None) -> TouchMetrics:
-        p_WT = self._tip_frame.CalcPoseInWorld(plant_context).translation()
-        distance = float(np.linalg.norm(p_WT - self._target))
+        return self.at(self._tip_frame.CalcPoseInWorld(plant_context).translation())
+
+    def at(self, p_WT) -> TouchMetrics:
+        """The metrics of the tip at `p_WT` (m, W): what `read` and `TouchOutcome` give."""
+        distance = float(np.linalg.norm(p_WT - self.target))
         travel = float(np.linalg.norm(p_WT - self._start))
         return TouchMetrics(distance, travel, distance <= SUCCESS_DISTANCE)
 
@@ -91,7 +94,6 @@ class TouchOutcome(LeafSystem):
         self._poses = self.DeclareAbstractInputPort(
             "body_poses", world.plant.get_body_poses_output_port().Allocate()
         )
-        self._target = np.asarray(target, float)
         self.DeclareVectorOutputPort("observation", 6, self._observation)
         self.DeclareVectorOutputPort("reward", 1, self._reward)
         self.DeclareVectorOutputPort("success", 1, self._success)
@@ -99,17 +101,17 @@ class TouchOutcome(LeafSystem):
     def tip(self, context) -> np.ndarray:
         return self._poses.Eval(context)[self._tip_body].multiply(self._X_BT).translation()
 
-    def distance(self, context) -> float:
-        return float(np.linalg.norm(self.tip(context) - self._target))
+    def metrics(self, context) -> TouchMetrics:
+        return self.reader.at(self.tip(context))
 
     def _observation(self, context, output: BasicVector) -> None:
-        output.SetFromVector(np.concatenate([self._target, self.tip(context)]))
+        output.SetFromVector(np.concatenate([self.reader.target, self.tip(context)]))
 
     def _reward(self, context, output: BasicVector) -> None:
-        output.SetAtIndex(0, -self.distance(context))
+        output.SetAtIndex(0, -self.metrics(context).object_to_goal)
 
     def _success(self, context, output: BasicVector) -> None:
-        output.SetAtIndex(0, float(self.distance(context) <= SUCCESS_DISTANCE))
+        output.SetAtIndex(0, float(self.metrics(context).is_success))
 
 
 @dataclass
@@ -223,11 +225,11 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
 
     def _info(self, simulator) -> dict:
         context = self._outcome.GetMyContextFromRoot(simulator.get_context())
-        distance = self._outcome.distance(context)
+        metrics = self._outcome.metrics(context)
         return {
-            "is_success": distance <= SUCCESS_DISTANCE,
+            "is_success": metrics.is_success,
             "sim_error": False,
-            "distance": distance,
+            "distance": metrics.object_to_goal,
         }
 
 

@@ -167,8 +167,9 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
     ## Arguments
 
     `gym.make("drake_tooluse/ToolPull-v1", hook=None, randomize=True, scenario=None,
-    generated_tools=None, actuation_delay_range=None, render_mode=None, meshcat=None)`: `hook` = (handle length m, hook
-    length m, angle °) fixes every episode's hook (each in HookTool's range);
+    generated_tools=None, actuation_delay_range=None, render_mode=None, meshcat=None)`:
+    `hook` = (handle length m, hook length m, angle °) fixes every episode's hook (each in
+    HookTool's range);
     `generated_tools` = "training" or "held_out" holds instead a hook or an arc the tool
     generator draws from that split each episode (`robot.tool_generator.split_draw` with
     the task's shape families), the robot believing its equivalent hook (the observation's

@@ -2,7 +2,8 @@
 the `PushOutcome` system that exports them with the reward and success as ports.
 
 x is the box centre, x* the goal, y the true tool tip (a generated tool's push point: its
-front where it meets the box). Success is d(x, x*) + d(x, y) <= 0.05 m (the paper's). What the robot observes is `tasks.push.observation`.
+front where it meets the box). Success is d(x, x*) + d(x, y) <= 0.05 m (the paper's). What the
+robot observes is `tasks.push.observation`.
 """
 
 from __future__ import annotations
