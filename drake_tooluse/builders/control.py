@@ -108,14 +108,14 @@ def add_world_at_home(
     belief: RobotBelief | None = None,
     frame: str = TIP_FRAME,
     home=None,
-    robot_visuals: bool = True,
+    visuals: bool = True,
 ):
     """The world, started at the home configuration the robot computes for the tool it
     believes it holds (default: `nominal_belief`), and the IK on that belief for the tool's
     `frame` (default its tip), which the home configuration puts at `home` (X_WF; default
-    `home_tip_pose`). `robot_visuals`: as `world.scene.add_world`'s. Returns (world, ik, q0)."""
+    `home_tip_pose`). `visuals`: as `world.scene.add_world`'s. Returns (world, ik, q0)."""
     belief = nominal_belief(scenario) if belief is None else belief
-    world = add_world(builder, scenario, robot_visuals)
+    world = add_world(builder, scenario, visuals)
     ik = robot_ik(scenario, belief, frame)
     q0 = home_configuration(scenario, ik, home)
     for joint, q in zip(world.arm_joints(), q0):

@@ -51,6 +51,36 @@ def check_tool_length(length, name="tool length") -> float:
 _IDENTITY = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
 
 
+def _finite_floats(values, size: int) -> bool:
+    return (
+        type(values) is tuple
+        and len(values) == size
+        and all(isinstance(v, float) and math.isfinite(v) for v in values)
+    )
+
+
+def _plain_pose(translation, rotation):
+    """(translation, rotation) where both are tuples of finite floats (3, and 3 rows of 3),
+    else None. A tool's poses are made a few dozen times an episode: numpy's cost per call
+    on these nine numbers was most of a pull episode's tool building."""
+    if not (_finite_floats(translation, 3) and type(rotation) is tuple and len(rotation) == 3):
+        return None
+    if not all(_finite_floats(row, 3) for row in rotation):
+        return None
+    return translation, rotation
+
+
+def _is_rotation(R) -> bool:
+    """Whether the 3x3 rows R are orthonormal to 1e-9 and right-handed."""
+    for i in range(3):
+        for j in range(3):
+            dot = R[i][0] * R[j][0] + R[i][1] * R[j][1] + R[i][2] * R[j][2]
+            if abs(dot - (1.0 if i == j else 0.0)) > 1e-9:
+                return False
+    (a, b, c), (d, e, f), (g, h, k) = R
+    return a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g) >= 0.0
+
+
 @dataclass(frozen=True)
 class Pose:
     """A rigid transform X_AB as plain tuples: translation p_AB (m) and rotation R_AB (rows)."""
@@ -59,10 +89,14 @@ class Pose:
     rotation: tuple[tuple[float, float, float], ...] = _IDENTITY
 
     def __post_init__(self):
-        p = check_finite_vector(self.translation, 3, "pose translation")
-        R = check_finite_vector(self.rotation, 9, "pose rotation").reshape(3, 3)
-        if np.max(np.abs(R @ R.T - np.eye(3))) > 1e-9 or np.linalg.det(R) < 0:
-            raise ValueError(f"pose rotation {R.tolist()} is not a rotation matrix")
+        plain = _plain_pose(self.translation, self.rotation)
+        if plain is not None:  # the common case: tuples of floats, checked without numpy
+            p, R = plain
+        else:
+            p = check_finite_vector(self.translation, 3, "pose translation")
+            R = check_finite_vector(self.rotation, 9, "pose rotation").reshape(3, 3).tolist()
+        if not _is_rotation(R):
+            raise ValueError(f"pose rotation {[list(row) for row in R]} is not a rotation matrix")
         object.__setattr__(self, "translation", tuple(float(v) for v in p))
         object.__setattr__(self, "rotation", tuple(tuple(float(v) for v in row) for row in R))
 

@@ -342,13 +342,13 @@ class TaskEnv:
 
     @classmethod
     def add_task(
-        cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True
+        cls, builder, scenario, belief=None, kwargs=None, visuals: bool = True
     ) -> TaskParts:
         """The task wired into `builder` as the env these keyword arguments make wires it (its
         control, observation and outcome), in the world of `scenario`, the robot's IK holding
         `belief` (default: the scenario's tool): the task's one builder, which the env is made
         of and a deployed policy runs in (`tasks.deploy`). The tip target's `action` input is
-        left unconnected. Without `robot_visuals`, for a world nothing draws or renders, the
+        left unconnected. Without `visuals`, for a world nothing draws or renders, the
         robot has no visual geometry (`world.scene.add_world`). A task whose policies deploy
         nowhere else raises."""
         raise NotImplementedError("this task deploys no policy outside its env")

@@ -405,19 +405,27 @@ def check_position(values, size: int, name: str):
 
 def check_plant(plant: MultibodyPlantConfig) -> MultibodyPlantConfig:
     """Every field of Drake's MultibodyPlantConfig in its range (`PLANT_RANGES`, `PLANT_CHOICES`,
-    `PLANT_FLAGS`), then Drake's own preconditions, met by a plant made with it (0.1 ms; they
-    cover a field a newer Drake adds): a value Drake refuses is a ValueError naming the
-    plant's settings, never Drake's abort."""
+    `PLANT_FLAGS`), then Drake's own preconditions, met by a plant made with it (0.3 ms,
+    once per process for the same settings; they cover a field a newer Drake adds): a value
+    Drake refuses is a ValueError naming the plant's settings, never Drake's abort."""
     for name, (lo, hi, unit, low_allowed) in PLANT_RANGES.items():
         check_in_range(getattr(plant, name), lo, hi, f"plant.{name}", unit, low_allowed)
     for name, allowed in PLANT_CHOICES.items():
         check_one_of(getattr(plant, name), allowed, f"plant.{name}")
     for name in PLANT_FLAGS:
         check_bool(getattr(plant, name), f"plant.{name}")
+    key = tuple(getattr(plant, f.name) for f in plant.__fields__)
+    if key in _PLANTS_DRAKE_ACCEPTED:  # each episode's scenario is checked: once is enough
+        return plant
     settings = ", ".join(f"{f.name}={shown(getattr(plant, f.name))}" for f in plant.__fields__)
     with refused_by_library(f"plant settings ({settings})"):
         AddMultibodyPlant(plant, DiagramBuilder())
+    _PLANTS_DRAKE_ACCEPTED.add(key)
     return plant
+
+
+# The plant settings a plant was made with (their values, in `__fields__` order).
+_PLANTS_DRAKE_ACCEPTED: set[tuple] = set()
 
 
 def check_noise_sigma(sigma, name: str = "noise sigma") -> float:

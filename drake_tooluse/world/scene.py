@@ -67,11 +67,12 @@ def true_tool(scenario: Scenario) -> Tool | None:
     return load_tool_model(t.model)
 
 
-def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
+def add_tool(plant: MultibodyPlant, instance, scenario: Scenario, visuals: bool = True):
     """Welds the scenario's (true) tool (`ToolConfig.description`) to the right gripper at its
     grasp (`robot.model.add_tool_body`) and gives it its geometry (`add_tool_geometry`): for
     the straight rod, a rod from TOOL_HANDLE_DEPTH behind the grasp point to `length` in front
-    of it, with orange marker bands at the grip end and at the tip. Returns the body."""
+    of it, with orange marker bands at the grip end and at the tip (`visuals`: as
+    `add_tool_geometry`'s). Returns the body."""
     t = scenario.tool
     tool = true_tool(scenario)
     body = add_tool_body(
@@ -81,20 +82,21 @@ def add_tool(plant: MultibodyPlant, instance, scenario: Scenario):
         grasp_across=t.grasp_offset_across,
         grasp_along=t.grasp_offset_along,
     )
-    add_tool_geometry(plant, body, tool)
+    add_tool_geometry(plant, body, tool, visuals)
     return body
 
 
-def add_tool_geometry(plant: MultibodyPlant, body, tool: Tool) -> None:
+def add_tool_geometry(plant: MultibodyPlant, body, tool: Tool, visuals: bool = True) -> None:
     """Registers a tool's geometry on its body, each piece at X_HP in the body frame H: the
     solid pieces as visuals (their colour, or TOOL_RGBA), the marker bands (ORANGE, visual
-    only), then the collision pieces (Coulomb friction 0.4)."""
-    for piece in tool.pieces():
+    only), then the collision pieces (Coulomb friction 0.4). Without `visuals`, the
+    collision pieces alone."""
+    for piece in tool.pieces() if visuals else ():
         rgba = TOOL_RGBA if piece.rgba is None else np.array(piece.rgba)
         plant.RegisterVisualGeometry(
             body, rigid_transform(piece.X_HP), drake_shape(piece.shape), piece.name, rgba
         )
-    for piece in tool.marker_pieces():
+    for piece in tool.marker_pieces() if visuals else ():
         plant.RegisterVisualGeometry(
             body, rigid_transform(piece.X_HP), drake_shape(piece.shape), piece.name, ORANGE
         )
@@ -106,7 +108,9 @@ def add_tool_geometry(plant: MultibodyPlant, body, tool: Tool) -> None:
         )
 
 
-def add_table(plant: MultibodyPlant, scenario: Scenario):
+def add_table(plant: MultibodyPlant, scenario: Scenario, visuals: bool = True):
+    """The table welded to the world, and the floor under it (collision); without `visuals`,
+    no visual geometry (its top and legs)."""
     tb = scenario.table
     sx, sy = tb.size_xy
     X_WTable = RigidTransform([tb.center_xy[0], tb.center_xy[1], tb.top_z - tb.thickness / 2])
@@ -122,7 +126,6 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
     if scenario.plant.contact_model != "point":
         AddCompliantHydroelasticProperties(0.01, 1e7, props)
     plant.RegisterCollisionGeometry(table, RigidTransform(), shape, "table_collision", props)
-    plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
     # The floor Baxter's pedestal stands on: a box pushed off the table lands there.
     # (A box rather than a HalfSpace, which Drake warns about for deformable contact.)
     plant.RegisterCollisionGeometry(
@@ -132,6 +135,9 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
         "floor_collision",
         props,
     )
+    if not visuals:
+        return table
+    plant.RegisterVisualGeometry(table, RigidTransform(), shape, "table_visual", TABLE_RGBA)
     # Legs down to the floor (visual only).
     leg = tb.top_z - tb.thickness - FLOOR_Z
     for i, (cx, cy) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
@@ -142,8 +148,9 @@ def add_table(plant: MultibodyPlant, scenario: Scenario):
     return table
 
 
-def add_box(plant: MultibodyPlant, scenario: Scenario):
-    """A free wooden box. Point contact: corner spheres carry it; its sides take the pushes."""
+def add_box(plant: MultibodyPlant, scenario: Scenario, visuals: bool = True):
+    """A free wooden box. Point contact: corner spheres carry it; its sides take the pushes.
+    Without `visuals`, no visual geometry."""
     b = scenario.box
     sx, sy, sz = b.size
     box = plant.AddRigidBody(
@@ -151,7 +158,10 @@ def add_box(plant: MultibodyPlant, scenario: Scenario):
     )
     props = ProximityProperties()
     AddContactMaterial(friction=CoulombFriction(b.friction, b.friction), properties=props)
-    plant.RegisterVisualGeometry(box, RigidTransform(), Box(sx, sy, sz), "box_visual", WOOD_RGBA)
+    if visuals:
+        plant.RegisterVisualGeometry(
+            box, RigidTransform(), Box(sx, sy, sz), "box_visual", WOOD_RGBA
+        )
     if scenario.plant.contact_model == "point":
         r = BOX_CORNER_SPHERE_RADIUS
         lift = 2 * r  # keeps the side geometry clear of the table.
@@ -214,19 +224,19 @@ class World:
         return [self.plant.GetJointByName(n) for n in RIGHT_ARM_JOINTS]
 
 
-def add_world(builder, scenario: Scenario, robot_visuals: bool = True) -> World:
+def add_world(builder, scenario: Scenario, visuals: bool = True) -> World:
     """Adds the world (truth) to `builder`: plant + scene graph, finalized, defaults set.
-    Without `robot_visuals`, Baxter has no visual geometry (`robot.model.add_baxter`): for a
-    world that nothing draws or renders.
+    Without `visuals`, nothing in it has visual geometry (Baxter: `robot.model.add_baxter`):
+    for a world that nothing draws or renders (its dynamics are the same, bit for bit).
 
     Ports to connect (the plant's): `plant.get_desired_state_input_port(world.baxter)` takes
     [q_d (7), v_d (7)] of the right arm; `plant.get_actuation_input_port(world.baxter)` takes a
     feed-forward torque (7, N·m) added to the PD output (the sum is clipped to the effort limits).
     """
     plant, scene_graph = AddMultibodyPlant(scenario.plant, builder)
-    baxter = add_baxter(plant, scenario.robot.left_arm_q, visuals=robot_visuals)
+    baxter = add_baxter(plant, scenario.robot.left_arm_q, visuals=visuals)
     if scenario.tool.attached:
-        tool = add_tool(plant, baxter, scenario)
+        tool = add_tool(plant, baxter, scenario, visuals)
     else:
         tool = None
         add_tip_at_gripper(plant, baxter)
@@ -234,8 +244,8 @@ def add_world(builder, scenario: Scenario, robot_visuals: bool = True) -> World:
     # limit alone could not hold the outstretched arm): modelled as ideal, gravity off for the
     # robot and the tool it holds. The box feels gravity.
     plant.set_gravity_enabled(baxter, False)
-    add_table(plant, scenario)
-    box = add_box(plant, scenario)
+    add_table(plant, scenario, visuals)
+    box = add_box(plant, scenario, visuals)
     for name, kp, kd in zip(RIGHT_ARM_JOINTS, scenario.control.kp, scenario.control.kd):
         plant.GetJointActuatorByName(f"{name}_motor").set_controller_gains(
             PdControllerGains(p=kp, d=kd)

@@ -126,10 +126,10 @@ def add_touch_task(
     scenario: Scenario,
     belief=None,
     target_offset=(0.0, 0.05, -0.03),
-    robot_visuals: bool = True,
+    visuals: bool = True,
 ) -> TouchParts:
     """The contract's wiring: the world at home, tool-tip position control, the outcome."""
-    world, ik, q0 = add_world_at_home(builder, scenario, belief, robot_visuals=robot_visuals)
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, visuals=visuals)
     control = add_tip_control(builder, world, ik, q0, "position")
     p_WT0 = home_tip_pose(scenario).translation()
     target = p_WT0 + np.asarray(target_offset, float)
@@ -177,12 +177,12 @@ class ToyTouchEnv(TaskEnv, CountedClockGymEnv):
         return [6], [3]
 
     @classmethod
-    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, visuals: bool = True):
         """The touch wired into `builder` as the env these keyword arguments make wires it, in
         `scenario` (the env's own scenario and views aside)."""
         kwargs = cls.check_kwargs(kwargs)
         offset = {k: v for k, v in kwargs.items() if k == "target_offset"}
-        return add_touch_task(builder, scenario, belief, robot_visuals=robot_visuals, **offset)
+        return add_touch_task(builder, scenario, belief, visuals=visuals, **offset)
 
     def __init__(self, scenario=None, render_mode=None, meshcat=None, **kwargs):
         self.check_kwargs({**kwargs, "render_mode": render_mode})

@@ -74,21 +74,19 @@ def add_pull_task(
     builder,
     scenario: Scenario,
     belief: RobotBelief | None = None,
-    robot_visuals: bool = True,
+    visuals: bool = True,
 ) -> PullTask:
     """The world holding the scenario's hook, at the home pose the robot computes for `belief`
     (default: `nominal_belief`, the scenario's hook), position control of the believed hook's
     inner corner, the task's observation and outcome (goal: the scenario's). The target's
-    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s."""
+    `action` input is left unconnected. `visuals`: as `world.scene.add_world`'s."""
     belief = nominal_belief(scenario) if belief is None else belief
     if not isinstance(belief.tool, HookTool):
         raise ValueError(
             f"the pull task needs a hook in the hand; the robot believes {belief.tool}"
         )
     home = home_corner_pose(scenario)
-    world, ik, q0 = add_world_at_home(
-        builder, scenario, belief, HOOK_CORNER, home, robot_visuals=robot_visuals
-    )
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, HOOK_CORNER, home, visuals=visuals)
     control = add_tip_control(
         builder,
         world,

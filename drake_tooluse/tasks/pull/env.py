@@ -220,11 +220,11 @@ class ToolPullEnv(TaskEnv, TaskGymEnv):
         return [OBSERVATION_SIZE], [ACTION_SIZE]
 
     @classmethod
-    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, visuals: bool = True):
         """The pull task wired into `builder` as the env these keyword arguments make wires
         it, in `scenario` holding its hook (the env's own hook and scenario options aside)."""
         _config(kwargs or {})
-        return add_pull_task(builder, scenario, belief, robot_visuals=robot_visuals)
+        return add_pull_task(builder, scenario, belief, visuals=visuals)
 
     def __init__(self, **kwargs):
         config = _config(kwargs)

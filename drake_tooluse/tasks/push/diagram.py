@@ -47,13 +47,13 @@ def add_push_task(
     observation_mode: str,
     include_tool_length: bool,
     reward_type: str = "tool_and_box",
-    robot_visuals: bool = True,
+    visuals: bool = True,
     frame: str = TIP_FRAME,
 ) -> PushTask:
     """The world at the home pose the robot computes for `belief` (default: `nominal_belief`),
     tool-tip control (`action_mode`), the task's observation of the world and its outcome
     (metrics, the reward of `reward_type`, success), the goal the scenario's. The tip target's
-    `action` input is left unconnected. `robot_visuals`: as `world.scene.add_world`'s;
+    `action` input is left unconnected. `visuals`: as `world.scene.add_world`'s;
     `frame`: the believed tool's frame the IK places (the tip of the control and the
     observation)."""
     belief = nominal_belief(scenario) if belief is None else belief
@@ -62,7 +62,7 @@ def add_push_task(
             f"working frame {frame!r} is not a frame of the tool the robot holds "
             f"({', '.join(belief.tool.frame_names())})"
         )
-    world, ik, q0 = add_world_at_home(builder, scenario, belief, frame, robot_visuals=robot_visuals)
+    world, ik, q0 = add_world_at_home(builder, scenario, belief, frame, visuals=visuals)
     control = add_tip_control(builder, world, ik, q0, action_mode)
     goal = goal_position(scenario)
     return PushTask.wire(

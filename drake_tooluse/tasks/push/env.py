@@ -404,13 +404,13 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
         return _config(kwargs, name)
 
     @classmethod
-    def add_task(cls, builder, scenario, belief=None, kwargs=None, robot_visuals: bool = True):
+    def add_task(cls, builder, scenario, belief=None, kwargs=None, visuals: bool = True):
         """The push task wired into `builder` as the env these keyword arguments make wires
         it, in `scenario` (the env's own scenario options aside)."""
-        return cls._add_task(builder, scenario, belief, cls._config(kwargs), robot_visuals)
+        return cls._add_task(builder, scenario, belief, cls._config(kwargs), visuals)
 
     @classmethod
-    def _add_task(cls, builder, scenario, belief, config: EnvConfig, robot_visuals: bool = True):
+    def _add_task(cls, builder, scenario, belief, config: EnvConfig, visuals: bool = True):
         return add_push_task(
             builder,
             scenario,
@@ -419,7 +419,7 @@ class ToolPushEnv(TaskEnv, TaskGymEnv):
             config.observation_mode,
             config.include_tool_length,
             config.reward_type,
-            robot_visuals=robot_visuals,
+            visuals=visuals,
             frame=config.working_frame,
         )
 
