@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
         (["--policies", "no/such/policy"], "'no/such/policy' is not a policy directory"),
         (["--tools", "0"], "--tools=0 is outside the allowed range [1, 100000]"),
         (["--out", "x.txt"], "--out 'x.txt' must be a .json file"),
+        (["--told"], "--told goes with --reality"),
     ],
 )
 def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
@@ -98,3 +99,22 @@ def test_in_reality_each_tool_is_measured_by_the_camera(tmp_path, monkeypatch, c
         (row,) = policy["episodes"]
         assert row["measured_family"] in {*FAMILIES, OTHER}
         assert 0 <= row["object_to_goal_m"] < 1
+
+
+def test_told_in_reality_deploys_the_true_geometry_in_the_perturbed_world(tmp_path, monkeypatch):
+    """--reality --told: the reality's scenario (its actuation delay), the robot told the tool,
+    nothing measured."""
+    out_file = tmp_path / "told.json"
+    policy = str(ROOT / "models" / "policies" / "ppo_toolpull")
+    argv = ["--policies", policy, "--tools", "1", "--reality", "--told", "--out", str(out_file)]
+    monkeypatch.setattr("sys.argv", ["unseen_tools.py", *argv])
+    module = benchmark_script("unseen_tools")
+    worlds = []
+    told = module.told_worlds
+    monkeypatch.setattr(module, "told_worlds", lambda *a: worlds.append(told(*a)) or worlds[-1])
+    monkeypatch.setattr(module, "measured_realities", None)  # would raise if called
+    assert module.main() == 0
+    ((scenario, belief, figures),) = worlds[0]
+    assert scenario.control.actuation_delay > 0 and figures == {}
+    figures = json.loads(out_file.read_text())
+    assert figures["reality"] and figures["told"]
