@@ -140,6 +140,13 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
     raw.setdefault("format", 1)  # files without it are the format before this one
     meta = PolicyMeta(**raw)
     where = f"{str(path)!r}: "
+    # The scenario's name resolved first: an env's own checks may read its scenario (the
+    # pull's and the push's delay range, against its plant step).
+    if isinstance(meta.env_kwargs, dict) and meta.env_kwargs.get("scenario") is not None:
+        meta.env_kwargs = {
+            **meta.env_kwargs,
+            "scenario": resolve_scenario(meta.env_kwargs["scenario"], path.parent, where),
+        }
     try:
         check_env_id(meta.env_id)
         check_algo(meta.algo)
@@ -148,10 +155,6 @@ def parse_meta(raw, path: Path) -> PolicyMeta:
         meta.policy_kwargs = check_policy_kwargs(meta.policy_kwargs, "policy_kwargs")
     except ValueError as e:
         raise ValueError(where + str(e)) from None
-    if meta.env_kwargs.get("scenario") is not None:
-        meta.env_kwargs["scenario"] = resolve_scenario(
-            meta.env_kwargs["scenario"], path.parent, where
-        )
     _shape(meta.observation_shape, "observation_shape", path)
     _shape(meta.action_shape, "action_shape", path)
     for name in ("normalized",):

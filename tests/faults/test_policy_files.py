@@ -154,6 +154,21 @@ def test_a_scenario_by_name_is_the_directory_s_own_or_a_shipped_one(tmp_path, na
     assert load_scenario(loaded).tool.length == 0.125
 
 
+def test_an_env_check_that_reads_the_scenario_reads_the_directory_s_own(tmp_path, monkeypatch):
+    """A delay range is checked against the scenario's plant step, which the env reads from
+    its scenario: the directory's, resolved before that check (not a file of that name
+    wherever the command runs)."""
+    policy = policy_copy(
+        tmp_path, env_scenario="scenario.yaml", env_actuation_delay_range=[0.0, 0.04]
+    )
+    shutil.copy(SCENARIOS_DIR / "push_tool_125.yaml", policy / "scenario.yaml")
+    (policy / "push.yaml").write_bytes((SCENARIOS_DIR / "push.yaml").read_bytes())
+    monkeypatch.chdir(tmp_path)  # no scenario.yaml here
+    meta = load_policy(policy).meta
+    assert Path(meta.env_kwargs["scenario"]) == (policy / "scenario.yaml").resolve()
+    assert meta.env_kwargs["actuation_delay_range"] == [0.0, 0.04]
+
+
 def test_a_saved_policy_holds_its_scenario_and_names_it(tmp_path):
     """The scenario a policy was trained in (a file anywhere, layered on a base) is written
     into its directory, merged, and named there: the directory is whole without it."""
