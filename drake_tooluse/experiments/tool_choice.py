@@ -64,7 +64,6 @@ from drake_tooluse.robot.tool import HookTool, StraightTool, parse_tool, tool_la
 from drake_tooluse.robot.tool_generator import (
     FAMILIES,
     GeneratedTool,
-    at_nominal_depth,
     equivalent_hook,
     generate_tool,
     held_out_region,
@@ -293,13 +292,9 @@ def measured_belief(task: str, reality: Scenario, seed: int, family: str | None 
     """(what the robot believes for `task` of the generated tool it holds in `reality`, once
     the head camera measured it (`measure_generated`; `family` as there); the measured
     tool). A chosen tool is measured so again in the hand, its family known from the rack's
-    measurement, for the grasp it is held at. A hook is believed held at the nominal grasp
-    depth (`robot.tool_generator.at_nominal_depth`: the same corner and tip in the hand)."""
+    measurement, for the grasp it is held at."""
     measured, grasp = measure_generated(reality, seed, family)
-    tool = believed_tool(task, measured)
-    if isinstance(tool, HookTool):
-        tool, grasp = at_nominal_depth(tool, grasp)
-    return RobotBelief(tool, grasp), measured
+    return RobotBelief(believed_tool(task, measured), grasp), measured
 
 
 def measure_rack(task: str, rack, seed: int = 0) -> dict:

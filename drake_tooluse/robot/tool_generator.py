@@ -36,7 +36,6 @@ grasp, and the static moment about the grasp bounded. No Drake here.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -226,20 +225,6 @@ def equivalent_hook(generated: GeneratedTool) -> HookTool:
         float(np.clip(angle, *HOOK_ANGLE_RANGE)),
         radius=generated.params["radius"],
     )
-
-
-def at_nominal_depth(hook: HookTool, grasp) -> tuple[HookTool, tuple[float, float]]:
-    """(`hook`, `grasp` = (across, along) m) held at the nominal grasp depth (along 0) where
-    the handle's range allows, its corner and tip where they were in the gripper frame G: the
-    handle lengthened by what the grasp along it gave. The camera cannot tell a longer handle
-    held deeper from a shorter one held less deep (`robot.tool_fit`): its fit leaves the
-    split anywhere (1.3 cm either way, over 200 held-out hooks and arcs), while the grasp's
-    own draws lie within a few millimetres of nominal, the likelier split."""
-    across, along = float(grasp[0]), float(grasp[1])
-    reach = hook.handle_length + along  # the corner's depth along G's z
-    handle = float(np.clip(reach, *HOOK_HANDLE_RANGE))
-    held = dataclasses.replace(hook, handle_length=handle)
-    return held, (across, 0.0 if handle == reach else reach - handle)
 
 
 def measured_tool(family: str, params: dict) -> GeneratedTool:

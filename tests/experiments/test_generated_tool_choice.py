@@ -18,11 +18,10 @@ from drake_tooluse.experiments.tool_choice import (
     generated_rack,
     no_policy_reason,
 )
-from drake_tooluse.robot.tool import HOOK_HANDLE_RANGE, HOOK_LENGTH_RANGE, HookTool
+from drake_tooluse.robot.tool import HOOK_LENGTH_RANGE, HookTool
 from drake_tooluse.robot.tool_generator import (
     FAMILIES,
     HELD_OUT_FAMILY,
-    at_nominal_depth,
     equivalent_hook,
     generate_tool,
     in_corner,
@@ -127,20 +126,6 @@ def test_a_tool_with_a_hook_corner_pulls_as_its_equivalent_hook():
     assert equivalent_hook(generate_tool("arc", 1)).hook_length == HOOK_LENGTH_RANGE[1]
     with pytest.raises(ValueError, match="a straight tool has no hook_corner"):
         equivalent_hook(generate_tool("straight", 7))
-
-
-def test_a_measured_hook_is_believed_at_the_nominal_grasp_depth_its_corner_where_it_was():
-    """The camera cannot tell the handle's depth in the hand: the belief takes the nominal
-    one (grasp along 0) and the handle the rest, unless the handle's range forbids it; the
-    corner's and the tip's depth in G stay the same to the bit."""
-    hook = HookTool(0.30, 0.06, 95.0)
-    held, grasp = at_nominal_depth(hook, (0.004, 0.021))
-    assert grasp == (0.004, 0.0) and held.handle_length == 0.30 + 0.021
-    assert (held.hook_length, held.angle) == (hook.hook_length, hook.angle)
-    longest = HookTool(HOOK_HANDLE_RANGE[1] - 0.005, 0.06, 95.0)
-    held, (_, along) = at_nominal_depth(longest, (0.0, 0.02))
-    assert held.handle_length == HOOK_HANDLE_RANGE[1]
-    assert held.handle_length + along == pytest.approx(longest.handle_length + 0.02, abs=1e-15)
 
 
 def test_a_generated_hook_pulls_as_a_hook_and_a_bad_measurement_is_no_candidate():
