@@ -55,10 +55,11 @@ class _Timer:
     """Wraps a bound method and adds up the time spent in it."""
 
     def __init__(self, obj, name):
-        self.total, self._f = 0.0, getattr(obj, name)
+        self.total, self.calls, self._f = 0.0, 0, getattr(obj, name)
         setattr(obj, name, self)
 
     def __call__(self, *args, **kwargs):
+        self.calls += 1
         start = time.perf_counter()
         try:
             return self._f(*args, **kwargs)
@@ -71,9 +72,21 @@ def breakdown(steps: int) -> dict:
     solve), the observation, the metrics (reward, info); the world alone on the same joint
     commands (`world_on_commands_ms`); and the rest: Drake's framework around the Python
     systems (events, ports), the IK system's update beyond the solve, the env's step and
-    checks, resets, the random actions."""
+    checks, resets, the random actions. Of the IK's solve, the part in its SNOPT fallback
+    (where the fast path finds nothing: a target no start reaches) is given apart, with the
+    share of steps that reach it."""
     env = gym.make("drake_tooluse/ToolPush-v1")
     u = env.unwrapped
+    ik = u.ik_system.ik
+    snopt, found = ik.solve_with_snopt, []
+
+    def counted(*args, **kwargs):  # the fallback's answers: how often it finds one
+        result = snopt(*args, **kwargs)
+        found.append(result.success)
+        return result
+
+    ik.solve_with_snopt = counted
+    fallback = _Timer(ik, "solve_with_snopt")
     timers = {
         "tip target": _Timer(u.target_system, "_target"),
         "IK (solve)": _Timer(u.ik_system.ik, "solve"),
@@ -81,9 +94,17 @@ def breakdown(steps: int) -> dict:
         "metrics (reward, info)": _Timer(u, "_read_metrics"),
     }
     total = run_random(env, steps)
-    parts = {name: t.total / steps * 1e3 for name, t in timers.items()}
+    parts = {}
+    for name, t in timers.items():
+        parts[name] = t.total / steps * 1e3
+        if name == "IK (solve)":  # its fallback's part beside it
+            share = fallback.calls / steps * 100
+            what = f"{share:.1f} % of steps, {sum(found)} of {len(found)} found an answer"
+            parts[f"of which the SNOPT fallback ({what})"] = fallback.total / steps * 1e3
     parts["world alone, same joint commands"] = world_on_commands_ms(joint_commands(steps))
-    parts["framework, env step, rest"] = total * 1e3 - sum(parts.values())
+    parts["framework, env step, rest"] = total * 1e3 - sum(
+        v for k, v in parts.items() if not k.startswith("of which")
+    )
     return parts
 
 
