@@ -59,15 +59,16 @@ def _finite_floats(values, size: int) -> bool:
     )
 
 
-def _plain_pose(translation, rotation):
-    """(translation, rotation) where both are tuples of finite floats (3, and 3 rows of 3),
-    else None. A tool's poses are made a few dozen times an episode: numpy's cost per call
-    on these nine numbers was most of a pull episode's tool building."""
-    if not (_finite_floats(translation, 3) and type(rotation) is tuple and len(rotation) == 3):
-        return None
-    if not all(_finite_floats(row, 3) for row in rotation):
-        return None
-    return translation, rotation
+def _is_plain(translation, rotation) -> bool:
+    """Whether both are tuples of finite floats (3, and 3 rows of 3). A tool's poses are made
+    a few dozen times an episode: numpy's cost per call on these nine numbers was most of a
+    pull episode's tool building."""
+    return (
+        _finite_floats(translation, 3)
+        and type(rotation) is tuple
+        and len(rotation) == 3
+        and all(_finite_floats(row, 3) for row in rotation)
+    )
 
 
 def _is_rotation(R) -> bool:
@@ -89,9 +90,8 @@ class Pose:
     rotation: tuple[tuple[float, float, float], ...] = _IDENTITY
 
     def __post_init__(self):
-        plain = _plain_pose(self.translation, self.rotation)
-        if plain is not None:  # the common case: tuples of floats, checked without numpy
-            p, R = plain
+        if _is_plain(self.translation, self.rotation):  # the common case, without numpy
+            p, R = self.translation, self.rotation
         else:
             p = check_finite_vector(self.translation, 3, "pose translation")
             R = check_finite_vector(self.rotation, 9, "pose rotation").reshape(3, 3).tolist()
