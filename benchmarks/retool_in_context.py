@@ -41,6 +41,7 @@ from drake_tooluse.robot.model import (
 )
 from drake_tooluse.tasks.pull.env import with_hook
 from drake_tooluse.tasks.pull.hook import draw_hook
+from drake_tooluse.validation import check_int, check_seed
 from drake_tooluse.world.scenario import load_scenario
 from drake_tooluse.world.scene import add_world, true_tool
 
@@ -146,6 +147,12 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0, help="seed of the hooks' draws")
     OUTPUT.add_arguments(ap)
     args = ap.parse_args()
+    try:
+        check_int(args.pairs, 1, 100, "--pairs")
+        check_int(args.steps, 1, 10_000, "--steps")
+        check_seed(args.seed, "--seed")
+    except ValueError as e:
+        ap.error(str(e))
     out = OUTPUT.path(args)
     rng = np.random.default_rng(args.seed)
     rows = [pair(rng, args.steps) for _ in range(args.pairs)]
