@@ -26,6 +26,7 @@ from pydrake.systems.framework import DiagramBuilder, LeafSystem
 
 import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.limits import MAX_BENCHMARK_PERIODS
 from drake_tooluse.validation import check_int
 
 PERIOD, PLANT_STEP = 0.04, 0.02  # the envs' control period and plant step (s)
@@ -108,7 +109,7 @@ def main(argv=None) -> int:
     parser.add_argument("--steps", type=int, default=300, help="control steps (default 300)")
     args = parser.parse_args(argv)
     try:
-        steps = check_int(args.steps, 10, 100_000, "--steps")
+        steps = check_int(args.steps, 10, MAX_BENCHMARK_PERIODS, "--steps")
     except ValueError as e:
         parser.error(str(e))
     print(f"minimal diagram, {steps} steps of {PERIOD} s (plant {PLANT_STEP} s):")

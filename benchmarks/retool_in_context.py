@@ -31,6 +31,7 @@ import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.cli.common import run_script
 from drake_tooluse.experiments.runs import BenchmarkOutput
 from drake_tooluse.files import atomic_write_json
+from drake_tooluse.limits import MAX_BENCHMARK_PERIODS, MAX_TOOL_PAIRS
 from drake_tooluse.paths import SCENARIOS_DIR
 from drake_tooluse.robot.model import (
     GRASP_FRAME,
@@ -148,8 +149,8 @@ def main() -> None:
     OUTPUT.add_arguments(ap)
     args = ap.parse_args()
     try:
-        check_int(args.pairs, 1, 100, "--pairs")
-        check_int(args.steps, 1, 10_000, "--steps")
+        check_int(args.pairs, 1, MAX_TOOL_PAIRS, "--pairs")
+        check_int(args.steps, 1, MAX_BENCHMARK_PERIODS, "--steps")
         check_seed(args.seed, "--seed")
     except ValueError as e:
         ap.error(str(e))

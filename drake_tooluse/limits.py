@@ -25,6 +25,8 @@ MAX_FAILURES = 100  # failed runs a sweep tolerates
 MAX_CELLS = 10_000  # runs in one sweep grid: past this Tune's own bookkeeping takes minutes
 MAX_CPUS = 4096  # CPUs a sweep asks Ray for
 MAX_SMOOTHING_WINDOW = 999  # steps of the trajectory extraction's moving average
+MAX_TOOL_PAIRS = 100  # tool pairs a retooling benchmark compares
+MAX_BENCHMARK_PERIODS = 100_000  # control periods one benchmark episode simulates
 MAX_NOISE_SIGMA = 50.0  # camera noise, grey levels: past this the markers drown in the noise
 
 # The command line's count options, each with its range (lowest, highest): `cli.common.count_arg`
