@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
         (["--tools", "0"], "--tools=0 is outside the allowed range [1, 100000]"),
         (["--out", "x.txt"], "--out 'x.txt' must be a .json file"),
         (["--told"], "--told goes with --reality"),
+        (["--max-steps", "0"], "--max-steps=0 is outside the allowed range [1, 100000]"),
     ],
 )
 def test_bad_arguments_are_one_line_errors(argv, message, monkeypatch, capsys):
@@ -49,13 +50,21 @@ def test_the_pull_runs_on_the_held_out_tools_it_serves(tmp_path, monkeypatch, ca
     the families it does not serve passed over and counted."""
     out_file = tmp_path / "unseen.json"
     policy = str(ROOT / "models" / "policies" / "ppo_toolpull")
-    argv = ["--policies", policy, "--tools", "3", "--out", str(out_file)]
+    argv = ["--policies", policy, "--tools", "3", "--max-steps", "120", "--out", str(out_file)]
     monkeypatch.setattr("sys.argv", ["unseen_tools.py", *argv])
     assert benchmark_script("unseen_tools").main() == 0
-    assert "pull: the draws of families its policy does not serve" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "pull: the draws of families its policy does not serve" in out
+    assert "to 120 steps" in out and "at the step limit, 100" in out
+    assert "median first success step" in out
     figures = json.loads(out_file.read_text())
+    assert figures["max_steps"] == 120
     (result,) = figures["policies"].values()
     assert result["task"] == "pull" and len(result["episodes"]) == 3
+    for row in result["episodes"]:
+        first = row["first_success_step"]
+        assert first is None or 1 <= first <= 120
+        assert row["success"] or first is None or first < 120  # a success that did not hold
     assert {row["family"] for row in result["episodes"]} <= {"hook", "arc"}
     assert sum(figures["passed_over"]["pull"].values()) > 0
 
