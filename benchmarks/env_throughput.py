@@ -55,11 +55,10 @@ class _Timer:
     """Wraps a bound method and adds up the time spent in it."""
 
     def __init__(self, obj, name):
-        self.total, self.calls, self._f = 0.0, 0, getattr(obj, name)
+        self.total, self._f = 0.0, getattr(obj, name)
         setattr(obj, name, self)
 
     def __call__(self, *args, **kwargs):
-        self.calls += 1
         start = time.perf_counter()
         try:
             return self._f(*args, **kwargs)
@@ -98,7 +97,7 @@ def breakdown(steps: int) -> dict:
     for name, t in timers.items():
         parts[name] = t.total / steps * 1e3
         if name == "IK (solve)":  # its fallback's part beside it
-            share = fallback.calls / steps * 100
+            share = len(found) / steps * 100
             what = f"{share:.1f} % of steps, {sum(found)} of {len(found)} found an answer"
             parts[f"of which the SNOPT fallback ({what})"] = fallback.total / steps * 1e3
     parts["world alone, same joint commands"] = world_on_commands_ms(joint_commands(steps))

@@ -135,6 +135,15 @@ def measured_realities(task: str, tools, seed: int) -> list:
     return worlds
 
 
+# The outcome of a tool the camera gave no belief of: a failed run that did not run.
+NOT_RUN = {
+    "success": False,
+    "object_to_goal_m": None,
+    "sim_error": False,
+    "first_success_step": None,
+}
+
+
 def run_deployed(policy, tools, worlds, max_steps: int = MAX_STEPS) -> list[dict]:
     """One deployed run (`tasks.deploy.deploy`) of the loaded `policy` per tool in its world
     (`told_worlds`, `measured_realities`), to `max_steps`; a tool with no belief is a failed
@@ -143,15 +152,7 @@ def run_deployed(policy, tools, worlds, max_steps: int = MAX_STEPS) -> list[dict
     for generated, (scenario, belief, figures) in zip(tools, worlds):
         row = {**generated.as_dict(), **figures}
         if belief is None:
-            rows.append(
-                {
-                    **row,
-                    "success": False,
-                    "object_to_goal_m": None,
-                    "sim_error": False,
-                    "first_success_step": None,
-                }
-            )
+            rows.append({**row, **NOT_RUN})
             continue
         run = deploy(scenario, policy, belief, max_steps)
         rows.append(
@@ -166,15 +167,20 @@ def run_deployed(policy, tools, worlds, max_steps: int = MAX_STEPS) -> list[dict
     return rows
 
 
+def by_family(rows: list[dict]) -> dict:
+    """`rows` by their tool's family, the families in FAMILIES' order."""
+    grouped = defaultdict(list)
+    for row in rows:
+        grouped[row["family"]].append(row)
+    return {f: grouped[f] for f in FAMILIES if f in grouped}
+
+
 def first_success_medians(rows: list[dict]) -> str:
     """Per family, the median step the task first succeeded at over its runs that did, and how
     many did: `hook 60 (14 of 15), arc 86 (15 of 25)`."""
-    by_family = defaultdict(list)
-    for row in rows:
-        by_family[row["family"]].append(row["first_success_step"])
     parts = []
-    for family in (f for f in FAMILIES if f in by_family):
-        steps = by_family[family]
+    for family, family_rows in by_family(rows).items():
+        steps = [row["first_success_step"] for row in family_rows]
         reached = [s for s in steps if s is not None]
         median = f"{np.median(reached):.0f}" if reached else "–"
         parts.append(f"{family} {median} ({len(reached)} of {len(steps)})")
@@ -183,9 +189,6 @@ def first_success_medians(rows: list[dict]) -> str:
 
 def summary(rows: list[dict]) -> dict:
     """Success and mean final distance over `rows`, and per family."""
-    by_family = defaultdict(list)
-    for row in rows:
-        by_family[row["family"]].append(row)
 
     def figures(rs):
         return {
@@ -199,7 +202,7 @@ def summary(rows: list[dict]) -> dict:
 
     return {
         **figures(rows),
-        "families": {f: figures(by_family[f]) for f in FAMILIES if f in by_family},
+        "families": {f: figures(rs) for f, rs in by_family(rows).items()},
     }
 
 
