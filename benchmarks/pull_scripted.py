@@ -14,30 +14,33 @@ Prints a Markdown table, and each failed episode's hook.
 import argparse
 import sys
 import time
+from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 
 import drake_tooluse  # noqa: F401  (registers the envs)
 from drake_tooluse.cli.common import run_script
+from drake_tooluse.learning import evaluate
 from drake_tooluse.learning.task_envs import check_env_kwargs
 from drake_tooluse.tasks.pull.scripted import ScriptedPull
 from drake_tooluse.tasks.sanity import PHYSICAL_LIMITS
+from drake_tooluse.validation import check_seed
+from drake_tooluse.world.scenario import load_scenario
 
 ENV_ID = "drake_tooluse/ToolPull-v1"
 
 
-def run_episode(env, seed: int) -> tuple[dict, set]:
-    """One scripted episode from `reset(seed=seed)` to the step limit: its last `info`, and the
-    physical-sanity flags raised at any step."""
-    observation, info = env.reset(seed=seed)
-    policy = ScriptedPull(env.unwrapped.scenario.table.top_z)
-    terminated = truncated = False
-    flagged = set()
-    while not (terminated or truncated):
-        observation, _, terminated, truncated, info = env.step(policy(observation))
-        flagged |= {limit.flag for limit in PHYSICAL_LIMITS if info[limit.flag]}
-    return info, flagged
+def run_episode(env, seed: int) -> tuple[dict, bool]:
+    """One scripted episode from `reset(seed=seed)` to the step limit (the evaluations' own
+    loop, `learning.evaluate.run_episode`): its last `info`, and whether a physical-sanity flag
+    was raised at any step."""
+    script = ScriptedPull(env.unwrapped.scenario.table.top_z)
+    sanity = evaluate.PhysicalSanity(PHYSICAL_LIMITS)
+    info, _ = evaluate.run_episode(env, SimpleNamespace(act=script), seed, sanity.add)
+    row = sanity.row()
+    return info, any(row[limit.flag] for limit in PHYSICAL_LIMITS)
 
 
 def main(argv=None) -> None:
@@ -51,12 +54,16 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if args.episodes < 1:
         ap.error(f"--episodes={args.episodes} must be at least 1")
-    kwargs = {}
-    if args.scenario is not None:
-        kwargs["scenario"] = args.scenario
-    if args.delay_range is not None:
-        kwargs["actuation_delay_range"] = list(args.delay_range)
+    kwargs, shown = {}, {}
     try:
+        check_seed(args.seed, "--seed", args.episodes)
+        if args.scenario is not None:  # read once, here, where a missing file is an error
+            kwargs["scenario"] = load_scenario(Path(args.scenario))
+            shown["scenario"] = args.scenario
+        if args.delay_range is not None:
+            kwargs["actuation_delay_range"] = shown["actuation_delay_range"] = list(
+                args.delay_range
+            )
         check_env_kwargs(ENV_ID, kwargs)
     except (ValueError, FileNotFoundError) as error:
         ap.error(str(error))
@@ -66,11 +73,11 @@ def main(argv=None) -> None:
     seconds = time.perf_counter() - start
     env.close()
     infos = [info for info, _ in runs]
-    flagged = sum(bool(flags) for _, flags in runs)
+    flagged = sum(flags for _, flags in runs)
     success = np.array([i["is_success"] for i in infos])
     final = np.array([i["object_to_goal"] for i in infos])
     travel = np.array([i["object_travel"] for i in infos])
-    world = ", ".join(f"{k}={v}" for k, v in kwargs.items()) or "the pull world"
+    world = ", ".join(f"{k}={v}" for k, v in shown.items()) or "the pull world"
     print(
         f"ScriptedPull on ToolPull-v1 ({world}), seeds {args.seed}…"
         f"{args.seed + args.episodes - 1}\n"
